@@ -1,0 +1,526 @@
+"""TOML case file -> validated, frozen ``Scene``.
+
+Every mistake a user can make raises ``CaseError("FILE: KEY: reason")`` with the key written
+as a path (``members[2].E``), so the CLI can print one line and exit 2.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import tomllib
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from cases.schema import (
+    ANALYSIS_KINDS,
+    END_KINDS,
+    MEMBER_KINDS,
+    NODE_QUANTITIES,
+    REFERENCE_KINDS,
+    SUPPORT_TYPES,
+    UNITS,
+    Analysis,
+    Driver,
+    Load,
+    Member,
+    ModelSpec,
+    Node,
+    Output,
+    Reference,
+    Scene,
+    Support,
+    TorsionSpring,
+)
+
+CATALOG = Path(__file__).parent / "catalog"
+_NAME = re.compile(r"^[a-z0-9]+(-[a-z0-9]+)*$")
+# outputs that are not node quantities but may carry references
+EXTRA_OUTPUTS = ("factor", "energy", "driver.force", "driver.torque", "max_stress")
+
+
+class CaseError(ValueError):
+    """A case file that cannot be used; the message is ``FILE: KEY: reason``."""
+
+
+def catalog_names() -> list[str]:
+    """Names of the catalog cases, sorted."""
+    return sorted(p.stem for p in CATALOG.glob("*.toml"))
+
+
+def resolve(name_or_path: str | Path) -> Path:
+    """Catalog name or path -> path of the TOML file (CaseError if neither exists)."""
+    p = Path(name_or_path)
+    if p.suffix == ".toml" or p.exists():
+        if not p.is_file():
+            raise CaseError(f"{p}: (file): no such case file")
+        return p
+    cand = CATALOG / f"{name_or_path}.toml"
+    if cand.is_file():
+        return cand
+    raise CaseError(
+        f"{name_or_path}: (case): not a catalog case or a file (see `flexbench cases`)"
+    )
+
+
+def load(name_or_path: str | Path) -> Scene:
+    """Load and validate a case from the catalog (by name) or from a path."""
+    path = resolve(name_or_path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise CaseError(f"{path}: (file): cannot read: {exc}") from None
+    return loads(text, source=str(path))
+
+
+def loads(text: str, source: str = "<string>") -> Scene:
+    """Parse and validate case TOML text; ``source`` names the file in errors."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise CaseError(f"{source}: (toml): {exc}") from None
+    return _Builder(data, source).scene()
+
+
+class _Builder:
+    """Walks the TOML tree once, checking every key, and builds the Scene."""
+
+    TOP = (
+        "case",
+        "nodes",
+        "members",
+        "supports",
+        "torsion_springs",
+        "loads",
+        "analysis",
+        "outputs",
+        "references",
+        "models",
+    )
+
+    def __init__(self, data: dict[str, Any], source: str) -> None:
+        self.data = data
+        self.src = source
+
+    # -- primitive checks ------------------------------------------------------------------
+    def fail(self, key: str, reason: str) -> CaseError:
+        return CaseError(f"{self.src}: {key}: {reason}")
+
+    def keys(self, table: Any, key: str, allowed: tuple[str, ...], required: tuple[str, ...]):
+        if not isinstance(table, dict):
+            raise self.fail(key, "must be a table")
+        for k in table:
+            if k not in allowed:
+                raise self.fail(f"{key}.{k}", f"unknown key (allowed: {', '.join(allowed)})")
+        for k in required:
+            if k not in table:
+                raise self.fail(f"{key}.{k}", "missing required key")
+        return table
+
+    def array(self, name: str, required: bool = True) -> list[dict[str, Any]]:
+        items = self.data.get(name, [])
+        if not isinstance(items, list) or not all(isinstance(i, dict) for i in items):
+            raise self.fail(name, "must be an array of tables ([[" + name + "]])")
+        if required and not items:
+            raise self.fail(name, "missing: at least one entry is required")
+        return items
+
+    def num(self, table: dict, key: str, path: str, default: float | None = None, *,
+            positive: bool = False, nonneg: bool = False) -> float | None:
+        if key not in table:
+            return default
+        v = table[key]
+        if isinstance(v, bool) or not isinstance(v, int | float):
+            raise self.fail(f"{path}.{key}", f"must be a number, got {type(v).__name__}")
+        v = float(v)
+        if not math.isfinite(v):
+            raise self.fail(f"{path}.{key}", "must be finite (NaN/inf not allowed)")
+        if positive and v <= 0:
+            raise self.fail(f"{path}.{key}", f"must be > 0, got {v:g}")
+        if nonneg and v < 0:
+            raise self.fail(f"{path}.{key}", f"must be >= 0, got {v:g}")
+        return v
+
+    def int_(self, table: dict, key: str, path: str, default: int, lo: int = 1) -> int:
+        if key not in table:
+            return default
+        v = table[key]
+        if isinstance(v, bool) or not isinstance(v, int):
+            raise self.fail(f"{path}.{key}", "must be an integer")
+        if v < lo:
+            raise self.fail(f"{path}.{key}", f"must be >= {lo}, got {v}")
+        return v
+
+    def str_(self, table: dict, key: str, path: str, default: str | None = None,
+             choices: tuple[str, ...] | None = None) -> str | None:
+        if key not in table:
+            return default
+        v = table[key]
+        if not isinstance(v, str) or not v.strip():
+            raise self.fail(f"{path}.{key}", "must be a non-empty string")
+        if choices is not None and v not in choices:
+            raise self.fail(f"{path}.{key}", f"unknown value {v!r} (one of: {', '.join(choices)})")
+        return v
+
+    def bool_(self, table: dict, key: str, path: str, default: bool = False) -> bool:
+        v = table.get(key, default)
+        if not isinstance(v, bool):
+            raise self.fail(f"{path}.{key}", "must be true or false")
+        return v
+
+    def unique(self, ids: list[str], path: str) -> None:
+        seen: set[str] = set()
+        for i, x in enumerate(ids):
+            if x in seen:
+                raise self.fail(f"{path}[{i}].id", f"duplicate id {x!r}")
+            seen.add(x)
+
+    # -- tables ----------------------------------------------------------------------------
+    def scene(self) -> Scene:
+        for k in self.data:
+            if k not in self.TOP:
+                raise self.fail(k, f"unknown table (allowed: {', '.join(self.TOP)})")
+        case = self.keys(
+            self.data.get("case"),
+            "case",
+            ("name", "title", "units", "tags", "description", "reference_model"),
+            ("name", "title", "units"),
+        ) if "case" in self.data else None
+        if case is None:
+            raise self.fail("case", "missing required table [case]")
+        name = self.str_(case, "name", "case")
+        if not _NAME.match(name):
+            raise self.fail("case.name", f"{name!r} is not kebab-case (a-z, 0-9, '-')")
+        units = self.str_(case, "units", "case", choices=tuple(UNITS))
+        tags = case.get("tags", [])
+        if not isinstance(tags, list) or not all(isinstance(t, str) for t in tags):
+            raise self.fail("case.tags", "must be an array of strings")
+        nodes = self.nodes()
+        node_ids = {n.id for n in nodes}
+        members = self.members(nodes)
+        supports = self.supports(node_ids)
+        springs = self.torsion_springs(node_ids, members)
+        loads = self.loads(node_ids, members)
+        outputs = self.outputs(node_ids)
+        analysis = self.analysis(node_ids, {m.id for m in members}, outputs)
+        references = self.references(outputs)
+        models = self.models()
+        scene = Scene(
+            name=name,
+            title=self.str_(case, "title", "case"),
+            units=units,
+            nodes=nodes,
+            members=members,
+            supports=supports,
+            loads=loads,
+            analysis=analysis,
+            outputs=outputs,
+            torsion_springs=springs,
+            references=references,
+            models=models,
+            tags=tuple(tags),
+            description=self.str_(case, "description", "case", default="") or "",
+            reference_model=self.str_(case, "reference_model", "case"),
+            path=self.src,
+        )
+        self.check_connected(scene)
+        self.check_restrained(scene)
+        return scene
+
+    def nodes(self) -> tuple[Node, ...]:
+        out = []
+        for i, t in enumerate(self.array("nodes")):
+            p = f"nodes[{i}]"
+            self.keys(t, p, ("id", "x", "y"), ("id", "x", "y"))
+            out.append(Node(self.str_(t, "id", p), self.num(t, "x", p), self.num(t, "y", p)))
+        self.unique([n.id for n in out], "nodes")
+        return tuple(out)
+
+    def members(self, nodes: tuple[Node, ...]) -> tuple[Member, ...]:
+        where = {n.id: n for n in nodes}
+        out = []
+        allowed = ("id", "from", "to", "kind", "E", "I", "A", "width", "thickness", "end_a",
+                   "end_b", "k", "free_length", "density")
+        for i, t in enumerate(self.array("members")):
+            p = f"members[{i}]"
+            self.keys(t, p, allowed, ("id", "from", "to"))
+            a, b = self.str_(t, "from", p), self.str_(t, "to", p)
+            for key, nid in (("from", a), ("to", b)):
+                if nid not in where:
+                    raise self.fail(f"{p}.{key}", f"unknown node {nid!r}")
+            if a == b:
+                raise self.fail(f"{p}.to", "a member must join two different nodes")
+            na, nb = where[a], where[b]
+            length = math.hypot(nb.x - na.x, nb.y - na.y)
+            if length <= 1e-12 * max(1.0, abs(na.x), abs(na.y)):
+                raise self.fail(f"{p}.to", f"zero-length member ({a} and {b} coincide)")
+            kind = self.str_(t, "kind", p, default="flexible", choices=MEMBER_KINDS)
+            E = self.num(t, "E", p, positive=True)
+            I = self.num(t, "I", p, positive=True)
+            A = self.num(t, "A", p, positive=True)
+            width = self.num(t, "width", p, positive=True)
+            thick = self.num(t, "thickness", p, positive=True)
+            if width is not None and thick is not None:
+                I = width * thick**3 / 12.0 if I is None else I
+                A = width * thick if A is None else A
+            k = self.num(t, "k", p, positive=True)
+            if kind == "flexible":
+                if E is None:
+                    raise self.fail(f"{p}.E", "missing: a flexible member needs E")
+                if I is None:
+                    raise self.fail(f"{p}.I", "missing: give I (and A) or width and thickness")
+                if A is None:
+                    raise self.fail(f"{p}.A", "missing: give A or width and thickness")
+            if kind == "spring" and k is None:
+                raise self.fail(f"{p}.k", "missing: a spring member needs stiffness k > 0")
+            if kind != "spring" and k is not None:
+                raise self.fail(f"{p}.k", f"only spring members take k (kind is {kind!r})")
+            out.append(
+                Member(
+                    id=self.str_(t, "id", p),
+                    a=a,
+                    b=b,
+                    kind=kind,
+                    E=E,
+                    I=I,
+                    A=A,
+                    thickness=thick,
+                    width=width,
+                    end_a=self.str_(t, "end_a", p, default="weld", choices=END_KINDS),
+                    end_b=self.str_(t, "end_b", p, default="weld", choices=END_KINDS),
+                    k=k,
+                    free_length=self.num(t, "free_length", p, nonneg=True),
+                    density=self.num(t, "density", p, positive=True),
+                )
+            )
+        self.unique([m.id for m in out], "members")
+        return tuple(out)
+
+    def supports(self, node_ids: set[str]) -> tuple[Support, ...]:
+        out = []
+        for i, t in enumerate(self.array("supports", required=False)):
+            p = f"supports[{i}]"
+            self.keys(t, p, ("node", "type", "angle_deg"), ("node", "type"))
+            node = self.str_(t, "node", p)
+            if node not in node_ids:
+                raise self.fail(f"{p}.node", f"unknown node {node!r}")
+            if any(s.node == node for s in out):
+                raise self.fail(f"{p}.node", f"node {node!r} already has a support")
+            typ = self.str_(t, "type", p, choices=SUPPORT_TYPES)
+            if "angle_deg" in t and typ not in ("slider",):
+                raise self.fail(f"{p}.angle_deg", "only a slider takes angle_deg")
+            out.append(Support(node, typ, self.num(t, "angle_deg", p, default=0.0)))
+        if not out:
+            raise self.fail("supports", "missing: the structure needs supports (rigid-body motion)")
+        return tuple(out)
+
+    def torsion_springs(self, node_ids: set[str], members: tuple[Member, ...]):
+        by_id = {m.id: m for m in members}
+        out = []
+        for i, t in enumerate(self.array("torsion_springs", required=False)):
+            p = f"torsion_springs[{i}]"
+            self.keys(t, p, ("id", "node", "member_a", "member_b", "stiffness", "free_angle_deg"),
+                      ("id", "node", "member_a", "stiffness"))
+            node = self.str_(t, "node", p)
+            if node not in node_ids:
+                raise self.fail(f"{p}.node", f"unknown node {node!r}")
+            names = [self.str_(t, "member_a", p), self.str_(t, "member_b", p)]
+            for key, mid in zip(("member_a", "member_b"), names):
+                if mid is None:
+                    continue
+                if mid not in by_id:
+                    raise self.fail(f"{p}.{key}", f"unknown member {mid!r}")
+                if node not in (by_id[mid].a, by_id[mid].b):
+                    raise self.fail(f"{p}.{key}", f"member {mid!r} does not end at node {node!r}")
+            if names[0] == names[1]:
+                raise self.fail(f"{p}.member_b", "a torsion spring joins two different members")
+            out.append(TorsionSpring(
+                id=self.str_(t, "id", p), node=node, member_a=names[0], member_b=names[1],
+                stiffness=self.num(t, "stiffness", p, positive=True),
+                free_angle_deg=self.num(t, "free_angle_deg", p, default=0.0)))
+        self.unique([s.id for s in out], "torsion_springs")
+        return tuple(out)
+
+    def loads(self, node_ids: set[str], members: tuple[Member, ...]) -> tuple[Load, ...]:
+        mids = {m.id for m in members}
+        out = []
+        allowed = ("id", "node", "member", "fraction", "fx", "fy", "moment", "follower")
+        for i, t in enumerate(self.array("loads", required=False)):
+            p = f"loads[{i}]"
+            self.keys(t, p, allowed, ())
+            node, member = self.str_(t, "node", p), self.str_(t, "member", p)
+            if (node is None) == (member is None):
+                raise self.fail(f"{p}.node", "give exactly one of node or member (+ fraction)")
+            if node is not None and node not in node_ids:
+                raise self.fail(f"{p}.node", f"unknown node {node!r}")
+            frac = self.num(t, "fraction", p)
+            if member is not None:
+                if member not in mids:
+                    raise self.fail(f"{p}.member", f"unknown member {member!r}")
+                if frac is None:
+                    raise self.fail(f"{p}.fraction", "missing: a member load needs fraction")
+                if not 0.0 <= frac <= 1.0:
+                    raise self.fail(f"{p}.fraction", f"must be in [0, 1], got {frac:g}")
+            elif frac is not None:
+                raise self.fail(f"{p}.fraction", "fraction only goes with member")
+            out.append(Load(
+                id=self.str_(t, "id", p, default=f"load{i}"),
+                fx=self.num(t, "fx", p, default=0.0), fy=self.num(t, "fy", p, default=0.0),
+                moment=self.num(t, "moment", p, default=0.0), node=node, member=member,
+                fraction=frac, follower=self.bool_(t, "follower", p)))
+        self.unique([ld.id for ld in out], "loads")
+        return tuple(out)
+
+    def outputs(self, node_ids: set[str]) -> tuple[Output, ...]:
+        out = []
+        for i, t in enumerate(self.array("outputs")):
+            p = f"outputs[{i}]"
+            self.keys(t, p, ("name", "node"), ("name", "node"))
+            name, node = self.str_(t, "name", p), self.str_(t, "node", p)
+            if node not in node_ids:
+                raise self.fail(f"{p}.node", f"unknown node {node!r}")
+            if not re.match(r"^[A-Za-z_][A-Za-z0-9_-]*$", name):
+                raise self.fail(f"{p}.name", f"{name!r}: letters, digits, '_' or '-' only")
+            if any(o.name == name for o in out):
+                raise self.fail(f"{p}.name", f"duplicate output name {name!r}")
+            out.append(Output(name, node))
+        return tuple(out)
+
+    def analysis(self, node_ids: set[str], member_ids: set[str], outputs: tuple[Output, ...]):
+        p = "analysis"
+        t = self.keys(self.data.get("analysis", {"kind": "load"}), p,
+                      ("kind", "steps", "factor_end", "stop_output", "stop_value", "max_steps",
+                       "driver", "sweep_key", "sweep_values"), ("kind",))
+        kind = self.str_(t, "kind", p, choices=ANALYSIS_KINDS)
+        keys = {f"{o.name}.{q}" for o in outputs for q in NODE_QUANTITIES}
+        stop_output = self.str_(t, "stop_output", p)
+        if stop_output is not None and stop_output not in keys:
+            raise self.fail(f"{p}.stop_output", f"{stop_output!r} is not an output key")
+        stop_value = self.num(t, "stop_value", p)
+        if (stop_output is None) != (stop_value is None):
+            raise self.fail(f"{p}.stop_value", "stop_output and stop_value go together")
+        driver = None
+        if "driver" in t:
+            d = self.keys(t["driver"], f"{p}.driver",
+                          ("kind", "node", "direction", "member", "start", "stop"),
+                          ("kind", "start", "stop"))
+            dk = self.str_(d, "kind", f"{p}.driver", choices=("displacement", "rotation"))
+            node, member = self.str_(d, "node", f"{p}.driver"), self.str_(d, "member", f"{p}.driver")
+            direction = self.str_(d, "direction", f"{p}.driver", choices=("x", "y"))
+            if dk == "displacement" and (node not in node_ids or direction is None):
+                raise self.fail(f"{p}.driver.node", "a displacement driver needs a known node "
+                                "and direction x|y")
+            if dk == "rotation" and member not in member_ids:
+                raise self.fail(f"{p}.driver.member", "a rotation driver needs a known member")
+            driver = Driver(dk, self.num(d, "start", f"{p}.driver"),
+                            self.num(d, "stop", f"{p}.driver"), node, direction, member)
+        if kind in ("distance", "energy") and driver is None:
+            raise self.fail(f"{p}.driver", f"missing: a {kind!r} analysis needs a driver")
+        sweep_values = t.get("sweep_values", [])
+        if not isinstance(sweep_values, list) or not all(
+            isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+            for v in sweep_values
+        ):
+            raise self.fail(f"{p}.sweep_values", "must be an array of finite numbers")
+        if kind == "sweep" and (not sweep_values or "sweep_key" not in t):
+            raise self.fail(f"{p}.sweep_key", "a sweep needs sweep_key and sweep_values")
+        return Analysis(
+            kind=kind,
+            steps=self.int_(t, "steps", p, 20),
+            factor_end=self.num(t, "factor_end", p, default=1.0),
+            stop_output=stop_output,
+            stop_value=stop_value,
+            max_steps=self.int_(t, "max_steps", p, 400),
+            driver=driver,
+            sweep_key=self.str_(t, "sweep_key", p),
+            sweep_values=tuple(float(v) for v in sweep_values),
+        )
+
+    def references(self, outputs: tuple[Output, ...]) -> tuple[Reference, ...]:
+        keys = {f"{o.name}.{q}" for o in outputs for q in NODE_QUANTITIES} | set(EXTRA_OUTPUTS)
+        out = []
+        allowed = ("output", "value", "kind", "source", "rationale", "tolerance", "at_factor",
+                   "abs_tolerance")
+        for i, t in enumerate(self.array("references", required=False)):
+            p = f"references[{i}]"
+            self.keys(t, p, allowed, ("output", "value", "kind", "source", "rationale",
+                                      "tolerance"))
+            key = self.str_(t, "output", p)
+            if key not in keys:
+                raise self.fail(f"{p}.output", f"{key!r} is not an output key of this case")
+            out.append(Reference(
+                output=key, value=self.num(t, "value", p), kind=self.str_(t, "kind", p,
+                                                                          choices=REFERENCE_KINDS),
+                source=self.str_(t, "source", p), rationale=self.str_(t, "rationale", p),
+                tolerance=self.num(t, "tolerance", p, positive=True),
+                at_factor=self.num(t, "at_factor", p),
+                abs_tolerance=self.bool_(t, "abs_tolerance", p)))
+        return tuple(out)
+
+    def models(self) -> tuple[ModelSpec, ...]:
+        out = []
+        for i, t in enumerate(self.array("models", required=False)):
+            p = f"models[{i}]"
+            self.keys(t, p, ("name", "options"), ("name",))
+            opts = t.get("options", {})
+            if not isinstance(opts, dict):
+                raise self.fail(f"{p}.options", "must be a table")
+            _check_finite(opts, f"{p}.options", self.fail)
+            out.append(ModelSpec(self.str_(t, "name", p), dict(opts)))
+        return tuple(out)
+
+    # -- whole-structure checks --------------------------------------------------------------
+    def check_connected(self, scene: Scene) -> None:
+        """Every node must be reachable from the first through members (one structure)."""
+        adj: dict[str, set[str]] = {n.id: set() for n in scene.nodes}
+        for m in scene.members:
+            adj[m.a].add(m.b)
+            adj[m.b].add(m.a)
+        seen, todo = {scene.nodes[0].id}, [scene.nodes[0].id]
+        while todo:
+            for nb in adj[todo.pop()] - seen:
+                seen.add(nb)
+                todo.append(nb)
+        lost = [n.id for n in scene.nodes if n.id not in seen]
+        if lost:
+            i = [n.id for n in scene.nodes].index(lost[0])
+            raise self.fail(f"nodes[{i}]", f"node {lost[0]!r} is not connected to the rest "
+                            "(disconnected parts)")
+
+    def check_restrained(self, scene: Scene) -> None:
+        """The supports must stop the three rigid-body motions of the whole structure.
+
+        Rigid motion: u(x, y) = (tx - w y, ty + w x), rotation w.  Each support contributes
+        linear constraints on (tx, ty, w); they must have rank 3.
+        """
+        rows = []
+        for s in scene.supports:
+            n = scene.node(s.node)
+            ux, uy = np.array([1.0, 0.0, -n.y]), np.array([0.0, 1.0, n.x])
+            if s.type in ("clamp", "pin"):
+                rows += [ux, uy]
+            elif s.type == "slider":
+                a = math.radians(s.angle_deg)
+                rows.append(-math.sin(a) * ux + math.cos(a) * uy)
+            if s.type in ("clamp", "guided"):
+                rows.append(np.array([0.0, 0.0, 1.0]))
+        rank = np.linalg.matrix_rank(np.array(rows)) if rows else 0
+        if rank < 3:
+            free = 3 - rank
+            raise self.fail("supports", f"too few supports: the structure keeps {free} "
+                            "rigid-body freedom(s)")
+
+
+def _check_finite(obj: Any, path: str, fail: Callable[[str, str], CaseError]) -> None:
+    """No NaN/inf hidden in nested model options."""
+    if isinstance(obj, float) and not math.isfinite(obj) and obj != math.inf:
+        raise fail(path, "NaN is not allowed")
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            _check_finite(v, f"{path}.{k}", fail)
+    elif isinstance(obj, list):
+        for i, v in enumerate(obj):
+            _check_finite(v, f"{path}[{i}]", fail)

@@ -1,0 +1,264 @@
+"""Frozen dataclasses describing a scene (one case file).
+
+The scene is pure data: geometry, stiffness, supports, springs, loads, the analysis to run,
+the outputs to report and the reference values to check against.  Nothing here solves.
+
+Sign conventions (used by every model and by the FE reference)
+-------------------------------------------------------------
+* Global frame x to the right, y up, angles counter-clockwise positive, radians internally
+  (case files give angles in degrees where the key ends in ``_deg``).
+* Loads are given at load factor 1; a step with factor ``lam`` applies ``lam`` times them.
+* A *follower* force keeps its angle relative to the tangent of the member end (or the body)
+  it acts on; a dead force keeps its global direction.
+* Output ``<name>.rot`` is the rotation (rad) of the material cross-section at the node
+  (for a node with only pinned member ends: the rotation of the first member end listed).
+* ``Step.energy`` is the elastic strain energy stored (beams + springs) in the scene's units.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+UNITS: dict[str, str] = {
+    "m-N-Pa": "lengths in m, forces in N, moduli in Pa",
+    "mm-N-MPa": "lengths in mm, forces in N, moduli in MPa (N/mm^2)",
+    "nondim": "dimensionless (L = 1, EI = 1 typically)",
+}
+MEMBER_KINDS = ("flexible", "rigid", "spring")
+END_KINDS = ("weld", "pin")
+SUPPORT_TYPES = ("clamp", "pin", "slider", "guided")
+ANALYSIS_KINDS = ("load", "path", "distance", "energy", "sweep")
+REFERENCE_KINDS = ("closed-form", "published", "fe", "model")
+NODE_QUANTITIES = ("x", "y", "ux", "uy", "rot")
+
+
+@dataclass(frozen=True)
+class Node:
+    """A point of the drawing: id and undeformed coordinates (length units)."""
+
+    id: str
+    x: float
+    y: float
+
+
+@dataclass(frozen=True)
+class Member:
+    """A link between two nodes.
+
+    ``kind`` is ``flexible`` (a beam: E, I, A), ``rigid`` (a rigid link; E/I/A optional and
+    only used by models that replace it by a stiff beam) or ``spring`` (a linear axial spring
+    with stiffness ``k`` [force/length] and free length ``free_length`` [length]).
+    ``thickness`` is the in-plane thickness (used for bending stress sigma = M t / (2 I)).
+    """
+
+    id: str
+    a: str
+    b: str
+    kind: str
+    E: float | None = None
+    I: float | None = None
+    A: float | None = None
+    thickness: float | None = None
+    width: float | None = None
+    end_a: str = "weld"
+    end_b: str = "weld"
+    k: float | None = None
+    free_length: float | None = None
+    density: float | None = None
+
+    @property
+    def EI(self) -> float:
+        """Flexural rigidity E*I (force * length^2); NaN when not given."""
+        return float(self.E * self.I) if self.E is not None and self.I is not None else math.nan
+
+    @property
+    def EA(self) -> float:
+        """Axial rigidity E*A (force); NaN when not given."""
+        return float(self.E * self.A) if self.E is not None and self.A is not None else math.nan
+
+
+@dataclass(frozen=True)
+class Support:
+    """Ground connection of a node: ``clamp`` (x, y, rotation fixed), ``pin`` (x, y fixed),
+    ``slider`` (moves along the direction ``angle_deg`` from the x axis, rotation free) or
+    ``guided`` (rotation fixed, both translations free: the parallel-guided end)."""
+
+    node: str
+    type: str
+    angle_deg: float = 0.0
+
+
+@dataclass(frozen=True)
+class TorsionSpring:
+    """Rotational spring at ``node`` between member ``member_a`` and ``member_b`` (or ground
+    when ``member_b`` is None).
+
+    Torque = stiffness * (rot_a - rot_b - free_angle), where rot_* are the rotations of the
+    member ends at the node from the drawn configuration (ground: 0).  A non-zero
+    ``free_angle_deg`` is a preload: the spring is unloaded when the relative rotation equals it.
+    """
+
+    id: str
+    node: str
+    member_a: str
+    member_b: str | None
+    stiffness: float
+    free_angle_deg: float = 0.0
+
+
+@dataclass(frozen=True)
+class Load:
+    """A force/moment at load factor 1, at a node or at ``fraction`` along a member (from its
+    node ``a``).  ``follower`` forces turn with the body they act on."""
+
+    id: str
+    fx: float = 0.0
+    fy: float = 0.0
+    moment: float = 0.0
+    node: str | None = None
+    member: str | None = None
+    fraction: float | None = None
+    follower: bool = False
+
+
+@dataclass(frozen=True)
+class Driver:
+    """A prescribed coordinate for ``distance`` / ``energy`` analyses.
+
+    ``kind = "displacement"``: node ``node`` moves in ``direction`` ("x" or "y") from
+    ``start`` to ``stop`` (length).  ``kind = "rotation"``: member ``member`` rotates from
+    ``start`` to ``stop`` (degrees).  In a ``distance`` analysis the unknown is the load
+    factor; in an ``energy`` analysis the driver is a constraint and its reaction is reported
+    as output ``driver.force`` (or ``driver.torque``).
+    """
+
+    kind: str
+    start: float
+    stop: float
+    node: str | None = None
+    direction: str | None = None
+    member: str | None = None
+
+
+@dataclass(frozen=True)
+class Analysis:
+    """What to compute.
+
+    ``load``: factor 0 -> ``factor_end`` in ``steps`` equal increments (solvers may cut steps
+    internally; they report these steps).  ``path``: arc-length continuation until
+    ``stop_output`` reaches ``stop_value`` or the factor reaches ``factor_end``, at most
+    ``max_steps`` steps.  ``distance``/``energy``: the ``driver`` goes from start to stop in
+    ``steps``.  ``sweep``: ``load`` repeated for each value of ``sweep_values`` of the scene
+    parameter ``sweep_key``.
+    """
+
+    kind: str = "load"
+    steps: int = 20
+    factor_end: float = 1.0
+    stop_output: str | None = None
+    stop_value: float | None = None
+    max_steps: int = 400
+    driver: Driver | None = None
+    sweep_key: str | None = None
+    sweep_values: tuple[float, ...] = ()
+
+
+@dataclass(frozen=True)
+class Output:
+    """A reported point: node outputs are ``name.x``, ``name.y``, ``name.ux``, ``name.uy``,
+    ``name.rot``."""
+
+    name: str
+    node: str
+
+
+@dataclass(frozen=True)
+class Reference:
+    """A reference value with provenance.
+
+    ``output`` is an output key (``tip.uy``) or ``factor``; ``at_factor`` the load factor the
+    value belongs to (None: the last step).  ``kind`` is ``closed-form``, ``published``, ``fe``
+    or ``model`` (an exact model named in ``source``).  ``tolerance`` is the relative (or, with
+    ``abs_tolerance``, absolute) error a model must stay within to be called accurate here;
+    ``rationale`` says why the tolerance is what it is.
+    """
+
+    output: str
+    value: float
+    kind: str
+    source: str
+    rationale: str
+    tolerance: float
+    at_factor: float | None = None
+    abs_tolerance: bool = False
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    """A model the case recommends, with options (``prb-custom`` matrix, segment counts)."""
+
+    name: str
+    options: dict[str, Any] = field(default_factory=dict, hash=False, compare=False)
+
+
+@dataclass(frozen=True)
+class Scene:
+    """One validated case file."""
+
+    name: str
+    title: str
+    units: str
+    nodes: tuple[Node, ...]
+    members: tuple[Member, ...]
+    supports: tuple[Support, ...]
+    loads: tuple[Load, ...]
+    analysis: Analysis
+    outputs: tuple[Output, ...]
+    torsion_springs: tuple[TorsionSpring, ...] = ()
+    references: tuple[Reference, ...] = ()
+    models: tuple[ModelSpec, ...] = ()
+    tags: tuple[str, ...] = ()
+    description: str = ""
+    reference_model: str | None = None
+    path: str = ""
+
+    # -- convenience lookups (cheap; scenes are small) ---------------------------------------
+    def node(self, node_id: str) -> Node:
+        """The node with this id (KeyError if absent)."""
+        for n in self.nodes:
+            if n.id == node_id:
+                return n
+        raise KeyError(node_id)
+
+    def member(self, member_id: str) -> Member:
+        """The member with this id (KeyError if absent)."""
+        for m in self.members:
+            if m.id == member_id:
+                return m
+        raise KeyError(member_id)
+
+    def support_at(self, node_id: str) -> Support | None:
+        """The support at a node, or None."""
+        for s in self.supports:
+            if s.node == node_id:
+                return s
+        return None
+
+    def member_length(self, member_id: str) -> float:
+        """Undeformed length of a member (length units)."""
+        m = self.member(member_id)
+        a, b = self.node(m.a), self.node(m.b)
+        return math.hypot(b.x - a.x, b.y - a.y)
+
+    def output_keys(self) -> list[str]:
+        """All scalar output keys this scene reports, in order."""
+        return [f"{o.name}.{q}" for o in self.outputs for q in NODE_QUANTITIES]
+
+    def model_options(self, name: str) -> dict[str, Any]:
+        """Options the case gives for a model name (empty dict if none)."""
+        for spec in self.models:
+            if spec.name == name:
+                return dict(spec.options)
+        return {}

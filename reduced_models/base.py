@@ -1,0 +1,134 @@
+"""The shared model interface: ``Model`` protocol, ``ModelCard``, ``Step`` and ``Solution``.
+
+Every model (reduced or reference) answers two questions about a scene:
+
+* ``applies_to(scene)`` -> ``None`` if it can solve the scene, else a one-line reason;
+* ``solve(scene)`` -> ``Solution`` with one ``Step`` per reported load factor.
+
+Models never read files, print, or time themselves (the runner measures wall time).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from cases.schema import Scene
+
+STATUSES = ("converged", "failed", "not-applicable")
+
+
+@dataclass(frozen=True)
+class ModelCard:
+    """Metadata shown next to every result: what the model assumes and where it is valid.
+
+    Attributes
+    ----------
+    name : registry name (``prb-3r``, ``cbcm-4``).
+    family : ``elastica`` | ``linear`` | ``prb`` | ``bcm`` | ``fem`` | ``replay`` | ...
+    summary : one line.
+    assumptions : tuple of short statements.
+    validity : the range in which the authors claim accuracy.
+    references : citations with DOI or table number.
+    """
+
+    name: str
+    family: str
+    summary: str
+    assumptions: tuple[str, ...] = ()
+    validity: str = ""
+    references: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class Step:
+    """One equilibrium state.
+
+    Attributes
+    ----------
+    factor : load factor (``distance`` analyses: the solved load factor; ``energy``: driver
+        coordinate).
+    outputs : output key -> value (``tip.uy`` in length units, ``tip.rot`` in rad).
+    energy : elastic strain energy stored (force * length).
+    iterations : Newton (or equivalent) iterations spent on this step.
+    stable : True/False from a stability test (lowest tangent eigenvalue, probe), None if
+        not assessed.
+    shapes : member id -> (n, 2) array of deformed centre-line points (length units), from
+        node a to node b.
+    max_stress : largest bending stress magnitude |M| t / (2 I) over all flexible members
+        (stress units), None when thickness is unknown or the model cannot recover it.
+    info : free-form extra per-step numbers (residual norm, step cuts, eigenvalue, ...).
+    """
+
+    factor: float
+    outputs: Mapping[str, float]
+    energy: float = float("nan")
+    iterations: int = 0
+    stable: bool | None = None
+    shapes: Mapping[str, np.ndarray] = field(default_factory=dict, compare=False)
+    max_stress: float | None = None
+    info: Mapping[str, float] = field(default_factory=dict, compare=False)
+
+
+@dataclass(frozen=True)
+class Solution:
+    """The answer of one model on one scene.
+
+    ``status`` is ``converged`` (every step satisfies the model's equations to its stated
+    tolerance), ``failed`` (``message`` says why; ``steps`` holds the converged steps before
+    the failure) or ``not-applicable`` (``message`` says why, no steps).
+    """
+
+    case: str
+    model: str
+    status: str
+    message: str
+    steps: tuple[Step, ...] = ()
+    extras: Mapping[str, object] = field(default_factory=dict, compare=False)
+
+    def __post_init__(self) -> None:
+        if self.status not in STATUSES:
+            raise ValueError(f"status must be one of {STATUSES}, got {self.status!r}")
+
+    @property
+    def ok(self) -> bool:
+        """True when the model converged on every step."""
+        return self.status == "converged"
+
+    def path(self, key: str) -> np.ndarray:
+        """Values of one output (or ``factor``/``energy``) over the steps, shape (n_steps,)."""
+        if key == "factor":
+            return np.array([s.factor for s in self.steps])
+        if key == "energy":
+            return np.array([s.energy for s in self.steps])
+        return np.array([s.outputs.get(key, np.nan) for s in self.steps])
+
+
+@runtime_checkable
+class Model(Protocol):
+    """What the registry hands out."""
+
+    name: str
+    card: ModelCard
+
+    def applies_to(self, scene: Scene) -> str | None:
+        """None if the model can solve ``scene``, else a one-line reason why not."""
+        ...
+
+    def solve(self, scene: Scene) -> Solution:
+        """Equilibrium path of ``scene`` (never raises for a numerical failure)."""
+        ...
+
+
+def not_applicable(scene: Scene, model: str, reason: str) -> Solution:
+    """A ``not-applicable`` solution with its reason."""
+    return Solution(case=scene.name, model=model, status="not-applicable", message=reason)
+
+
+def load_factors(scene: Scene) -> np.ndarray:
+    """Reported load factors of a ``load`` analysis, shape (steps + 1,), starting at 0."""
+    a = scene.analysis
+    return np.linspace(0.0, a.factor_end, a.steps + 1)

@@ -1,0 +1,73 @@
+"""The explicit registry of reduced models and name parsing.
+
+``MODELS`` maps a family name to a factory.  Parametrised names carry an integer suffix:
+``linear-8`` -> ``MODELS["linear-N"](8)``, ``cbcm-4`` -> ``MODELS["cbcm-N"](4)``,
+``prb-fsm-12`` -> ``MODELS["prb-fsm-N"](12)``.  Plain names map to a factory called with no
+argument.  ``DEFAULT_NAMES`` is the set a default benchmark run uses.
+
+Modules register themselves here by name only: the dict below is the single place that says
+which models exist (other registries, like the FE reference's, are merged by ``reports``).
+"""
+
+from __future__ import annotations
+
+import importlib
+import re
+from collections.abc import Callable
+
+from reduced_models.base import Model
+
+# name (with "-N" for parametrised families) -> "module:factory"
+_ENTRIES: dict[str, str] = {
+    "elastica": "reduced_models.elastica:Elastica",
+    "linear-N": "reduced_models.linear:LinearChain",
+}
+
+# concrete names a default benchmark run tries on every case
+DEFAULT_NAMES: tuple[str, ...] = ("elastica", "linear-1", "linear-8")
+
+
+def _factory(target: str) -> Callable[..., Model]:
+    module, attr = target.split(":")
+    return getattr(importlib.import_module(module), attr)
+
+
+MODELS: dict[str, str] = dict(_ENTRIES)
+
+_PARAM = re.compile(r"^(?P<family>[a-z0-9-]+?)-(?P<n>\d+)$")
+
+
+class UnknownModelError(ValueError):
+    """A model name the registry does not know (message names it and lists valid names)."""
+
+
+def register(name: str, target: str, default_names: tuple[str, ...] = ()) -> None:
+    """Add an entry (used by sibling packages' registries and by tests)."""
+    MODELS[name] = target
+    global DEFAULT_NAMES
+    DEFAULT_NAMES = tuple(dict.fromkeys(DEFAULT_NAMES + default_names))
+
+
+def parse(name: str) -> tuple[str, int | None]:
+    """Split ``"cbcm-4"`` into ``("cbcm-N", 4)``; plain names give ``(name, None)``."""
+    if name in MODELS:
+        return name, None
+    m = _PARAM.match(name)
+    if m and f"{m['family']}-N" in MODELS:
+        n = int(m["n"])
+        if n < 1:
+            raise UnknownModelError(f"model {name!r}: segment count must be >= 1")
+        return f"{m['family']}-N", n
+    raise UnknownModelError(
+        f"unknown model {name!r}; known: {', '.join(sorted(MODELS))} (N = positive integer)"
+    )
+
+
+def make(name: str, options: dict | None = None) -> Model:
+    """Build a model from its registry name (``options`` from the case, e.g. a PRB matrix)."""
+    family, n = parse(name)
+    factory = _factory(MODELS[family])
+    kwargs = dict(options or {})
+    model = factory(n, **kwargs) if n is not None else factory(**kwargs)
+    model.name = name
+    return model

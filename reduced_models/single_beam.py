@@ -1,0 +1,132 @@
+"""Recognise single-beam scenes and move between the global frame and the beam frame.
+
+Most reduced models (elastica, linear, PRB, BCM) describe one initially straight beam of
+length L clamped at its root and loaded at its tip.  ``cantilever_of(scene)`` extracts that
+problem in the beam's own frame (x along the undeformed beam, y to its left) or returns the
+reason it cannot; ``tip_outputs`` maps a beam-frame solution back to the scene's outputs.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from cases.schema import Scene
+
+
+@dataclass(frozen=True)
+class Cantilever:
+    """A clamped-free (or clamped-guided) straight beam in its own frame.
+
+    Attributes
+    ----------
+    L, EI, EA : length, flexural and axial rigidity (scene units); EA may be inf.
+    thickness : in-plane thickness for stress (None if unknown).
+    fx, fy, m : tip loads at factor 1 in the beam frame (fx along the beam, tension +).
+    follower : True if the tip force is a follower force (turns with the tip tangent).
+    guided : True if the tip rotation is held at zero (fixed-guided beam, translations free).
+    root, tip : node ids; angle : direction of the undeformed beam (rad, global).
+    origin : root coordinates (global).
+    member : member id.
+    """
+
+    L: float
+    EI: float
+    EA: float
+    thickness: float | None
+    fx: float
+    fy: float
+    m: float
+    follower: bool
+    guided: bool
+    root: str
+    tip: str
+    angle: float
+    origin: tuple[float, float]
+    member: str
+
+    def rotate_to_global(self, xy: np.ndarray) -> np.ndarray:
+        """Beam-frame points (n, 2) -> global points (n, 2)."""
+        c, s = math.cos(self.angle), math.sin(self.angle)
+        R = np.array([[c, -s], [s, c]])
+        return np.asarray(xy) @ R.T + np.asarray(self.origin)
+
+
+def cantilever_of(scene: Scene) -> Cantilever | str:
+    """The single-beam problem of ``scene``, or a one-line reason it is not one."""
+    flex = [m for m in scene.members if m.kind == "flexible"]
+    if len(scene.members) != 1 or len(flex) != 1:
+        return "not a single flexible member (mechanism scenes need the mechanism assembler)"
+    mem = flex[0]
+    if scene.torsion_springs:
+        return "torsion springs are not part of a single-beam model"
+    clamps = [s for s in scene.supports if s.type == "clamp"]
+    if len(clamps) != 1:
+        return "single-beam models need exactly one clamped end"
+    root = clamps[0].node
+    tip = mem.b if root == mem.a else mem.a
+    others = [s for s in scene.supports if s.node != root]
+    guided = False
+    if others:
+        if len(others) == 1 and others[0].type == "guided" and others[0].node == tip:
+            guided = True
+        else:
+            return "the free end is supported (only a 'guided' tip is modelled)"
+    if any(ld.node != tip or ld.member is not None for ld in scene.loads):
+        return "loads must act at the free end of the beam"
+    follower = {ld.follower for ld in scene.loads if ld.fx or ld.fy}
+    if len(follower) > 1:
+        return "mixed dead and follower tip forces"
+    if scene.analysis.kind not in ("load", "path"):
+        return f"analysis kind {scene.analysis.kind!r} is not a load ramp"
+    r, t = scene.node(root), scene.node(tip)
+    angle = math.atan2(t.y - r.y, t.x - r.x)
+    c, s = math.cos(angle), math.sin(angle)
+    fxg = sum(ld.fx for ld in scene.loads)
+    fyg = sum(ld.fy for ld in scene.loads)
+    fx, fy = c * fxg + s * fyg, -s * fxg + c * fyg
+    return Cantilever(
+        L=math.hypot(t.x - r.x, t.y - r.y),
+        EI=mem.EI,
+        EA=mem.EA if math.isfinite(mem.EA) else math.inf,
+        thickness=mem.thickness,
+        fx=fx,
+        fy=fy,
+        m=sum(ld.moment for ld in scene.loads),
+        follower=bool(follower and follower.pop()),
+        guided=guided,
+        root=root,
+        tip=tip,
+        angle=angle,
+        origin=(r.x, r.y),
+        member=mem.id,
+    )
+
+
+def tip_outputs(scene: Scene, beam: Cantilever, x: float, y: float, rot: float) -> dict:
+    """Scene outputs for a beam-frame tip state (x, y position; rot = tip rotation, rad)."""
+    gx, gy = beam.rotate_to_global(np.array([[x, y]]))[0]
+    states = {
+        beam.root: (beam.origin[0], beam.origin[1], 0.0),
+        beam.tip: (gx, gy, rot),
+    }
+    out: dict[str, float] = {}
+    for o in scene.outputs:
+        n = scene.node(o.node)
+        px, py, pr = states[o.node]
+        out[f"{o.name}.x"] = float(px)
+        out[f"{o.name}.y"] = float(py)
+        out[f"{o.name}.ux"] = float(px - n.x)
+        out[f"{o.name}.uy"] = float(py - n.y)
+        out[f"{o.name}.rot"] = float(pr)
+    return out
+
+
+def stress_from_curvature(scene: Scene, beam: Cantilever, kappa: np.ndarray) -> float | None:
+    """Largest |sigma| = E t |kappa| / 2 over the sampled curvatures kappa (1/length)."""
+    mem = scene.member(beam.member)
+    if mem.thickness is None or mem.E is None:
+        return None
+    return float(mem.E * mem.thickness * np.max(np.abs(kappa)) / 2.0)
