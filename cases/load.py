@@ -61,9 +61,7 @@ def resolve(name_or_path: str | Path) -> Path:
     cand = CATALOG / f"{name_or_path}.toml"
     if cand.is_file():
         return cand
-    raise CaseError(
-        f"{name_or_path}: (case): not a catalog case or a file (see `flexbench cases`)"
-    )
+    raise CaseError(f"{name_or_path}: (case): not a catalog case or a file (see `flexbench cases`)")
 
 
 def load(name_or_path: str | Path) -> Scene:
@@ -128,8 +126,16 @@ class _Builder:
             raise self.fail(name, "missing: at least one entry is required")
         return items
 
-    def num(self, table: dict, key: str, path: str, default: float | None = None, *,
-            positive: bool = False, nonneg: bool = False) -> float | None:
+    def num(
+        self,
+        table: dict,
+        key: str,
+        path: str,
+        default: float | None = None,
+        *,
+        positive: bool = False,
+        nonneg: bool = False,
+    ) -> float | None:
         if key not in table:
             return default
         v = table[key]
@@ -154,8 +160,14 @@ class _Builder:
             raise self.fail(f"{path}.{key}", f"must be >= {lo}, got {v}")
         return v
 
-    def str_(self, table: dict, key: str, path: str, default: str | None = None,
-             choices: tuple[str, ...] | None = None) -> str | None:
+    def str_(
+        self,
+        table: dict,
+        key: str,
+        path: str,
+        default: str | None = None,
+        choices: tuple[str, ...] | None = None,
+    ) -> str | None:
         if key not in table:
             return default
         v = table[key]
@@ -183,12 +195,16 @@ class _Builder:
         for k in self.data:
             if k not in self.TOP:
                 raise self.fail(k, f"unknown table (allowed: {', '.join(self.TOP)})")
-        case = self.keys(
-            self.data.get("case"),
-            "case",
-            ("name", "title", "units", "tags", "description", "reference_model"),
-            ("name", "title", "units"),
-        ) if "case" in self.data else None
+        case = (
+            self.keys(
+                self.data.get("case"),
+                "case",
+                ("name", "title", "units", "tags", "description", "reference_model"),
+                ("name", "title", "units"),
+            )
+            if "case" in self.data
+            else None
+        )
         if case is None:
             raise self.fail("case", "missing required table [case]")
         name = self.str_(case, "name", "case")
@@ -242,8 +258,22 @@ class _Builder:
     def members(self, nodes: tuple[Node, ...]) -> tuple[Member, ...]:
         where = {n.id: n for n in nodes}
         out = []
-        allowed = ("id", "from", "to", "kind", "E", "I", "A", "width", "thickness", "end_a",
-                   "end_b", "k", "free_length", "density")
+        allowed = (
+            "id",
+            "from",
+            "to",
+            "kind",
+            "E",
+            "I",
+            "A",
+            "width",
+            "thickness",
+            "end_a",
+            "end_b",
+            "k",
+            "free_length",
+            "density",
+        )
         for i, t in enumerate(self.array("members")):
             p = f"members[{i}]"
             self.keys(t, p, allowed, ("id", "from", "to"))
@@ -322,8 +352,12 @@ class _Builder:
         out = []
         for i, t in enumerate(self.array("torsion_springs", required=False)):
             p = f"torsion_springs[{i}]"
-            self.keys(t, p, ("id", "node", "member_a", "member_b", "stiffness", "free_angle_deg"),
-                      ("id", "node", "member_a", "stiffness"))
+            self.keys(
+                t,
+                p,
+                ("id", "node", "member_a", "member_b", "stiffness", "free_angle_deg"),
+                ("id", "node", "member_a", "stiffness"),
+            )
             node = self.str_(t, "node", p)
             if node not in node_ids:
                 raise self.fail(f"{p}.node", f"unknown node {node!r}")
@@ -337,10 +371,16 @@ class _Builder:
                     raise self.fail(f"{p}.{key}", f"member {mid!r} does not end at node {node!r}")
             if names[0] == names[1]:
                 raise self.fail(f"{p}.member_b", "a torsion spring joins two different members")
-            out.append(TorsionSpring(
-                id=self.str_(t, "id", p), node=node, member_a=names[0], member_b=names[1],
-                stiffness=self.num(t, "stiffness", p, positive=True),
-                free_angle_deg=self.num(t, "free_angle_deg", p, default=0.0)))
+            out.append(
+                TorsionSpring(
+                    id=self.str_(t, "id", p),
+                    node=node,
+                    member_a=names[0],
+                    member_b=names[1],
+                    stiffness=self.num(t, "stiffness", p, positive=True),
+                    free_angle_deg=self.num(t, "free_angle_deg", p, default=0.0),
+                )
+            )
         self.unique([s.id for s in out], "torsion_springs")
         return tuple(out)
 
@@ -366,11 +406,18 @@ class _Builder:
                     raise self.fail(f"{p}.fraction", f"must be in [0, 1], got {frac:g}")
             elif frac is not None:
                 raise self.fail(f"{p}.fraction", "fraction only goes with member")
-            out.append(Load(
-                id=self.str_(t, "id", p, default=f"load{i}"),
-                fx=self.num(t, "fx", p, default=0.0), fy=self.num(t, "fy", p, default=0.0),
-                moment=self.num(t, "moment", p, default=0.0), node=node, member=member,
-                fraction=frac, follower=self.bool_(t, "follower", p)))
+            out.append(
+                Load(
+                    id=self.str_(t, "id", p, default=f"load{i}"),
+                    fx=self.num(t, "fx", p, default=0.0),
+                    fy=self.num(t, "fy", p, default=0.0),
+                    moment=self.num(t, "moment", p, default=0.0),
+                    node=node,
+                    member=member,
+                    fraction=frac,
+                    follower=self.bool_(t, "follower", p),
+                )
+            )
         self.unique([ld.id for ld in out], "loads")
         return tuple(out)
 
@@ -391,9 +438,22 @@ class _Builder:
 
     def analysis(self, node_ids: set[str], member_ids: set[str], outputs: tuple[Output, ...]):
         p = "analysis"
-        t = self.keys(self.data.get("analysis", {"kind": "load"}), p,
-                      ("kind", "steps", "factor_end", "stop_output", "stop_value", "max_steps",
-                       "driver", "sweep_key", "sweep_values"), ("kind",))
+        t = self.keys(
+            self.data.get("analysis", {"kind": "load"}),
+            p,
+            (
+                "kind",
+                "steps",
+                "factor_end",
+                "stop_output",
+                "stop_value",
+                "max_steps",
+                "driver",
+                "sweep_key",
+                "sweep_values",
+            ),
+            ("kind",),
+        )
         kind = self.str_(t, "kind", p, choices=ANALYSIS_KINDS)
         keys = {f"{o.name}.{q}" for o in outputs for q in NODE_QUANTITIES}
         stop_output = self.str_(t, "stop_output", p)
@@ -404,19 +464,32 @@ class _Builder:
             raise self.fail(f"{p}.stop_value", "stop_output and stop_value go together")
         driver = None
         if "driver" in t:
-            d = self.keys(t["driver"], f"{p}.driver",
-                          ("kind", "node", "direction", "member", "start", "stop"),
-                          ("kind", "start", "stop"))
+            d = self.keys(
+                t["driver"],
+                f"{p}.driver",
+                ("kind", "node", "direction", "member", "start", "stop"),
+                ("kind", "start", "stop"),
+            )
             dk = self.str_(d, "kind", f"{p}.driver", choices=("displacement", "rotation"))
-            node, member = self.str_(d, "node", f"{p}.driver"), self.str_(d, "member", f"{p}.driver")
+            node, member = (
+                self.str_(d, "node", f"{p}.driver"),
+                self.str_(d, "member", f"{p}.driver"),
+            )
             direction = self.str_(d, "direction", f"{p}.driver", choices=("x", "y"))
             if dk == "displacement" and (node not in node_ids or direction is None):
-                raise self.fail(f"{p}.driver.node", "a displacement driver needs a known node "
-                                "and direction x|y")
+                raise self.fail(
+                    f"{p}.driver.node", "a displacement driver needs a known node and direction x|y"
+                )
             if dk == "rotation" and member not in member_ids:
                 raise self.fail(f"{p}.driver.member", "a rotation driver needs a known member")
-            driver = Driver(dk, self.num(d, "start", f"{p}.driver"),
-                            self.num(d, "stop", f"{p}.driver"), node, direction, member)
+            driver = Driver(
+                dk,
+                self.num(d, "start", f"{p}.driver"),
+                self.num(d, "stop", f"{p}.driver"),
+                node,
+                direction,
+                member,
+            )
         if kind in ("distance", "energy") and driver is None:
             raise self.fail(f"{p}.driver", f"missing: a {kind!r} analysis needs a driver")
         sweep_values = t.get("sweep_values", [])
@@ -442,22 +515,36 @@ class _Builder:
     def references(self, outputs: tuple[Output, ...]) -> tuple[Reference, ...]:
         keys = {f"{o.name}.{q}" for o in outputs for q in NODE_QUANTITIES} | set(EXTRA_OUTPUTS)
         out = []
-        allowed = ("output", "value", "kind", "source", "rationale", "tolerance", "at_factor",
-                   "abs_tolerance")
+        allowed = (
+            "output",
+            "value",
+            "kind",
+            "source",
+            "rationale",
+            "tolerance",
+            "at_factor",
+            "abs_tolerance",
+        )
         for i, t in enumerate(self.array("references", required=False)):
             p = f"references[{i}]"
-            self.keys(t, p, allowed, ("output", "value", "kind", "source", "rationale",
-                                      "tolerance"))
+            self.keys(
+                t, p, allowed, ("output", "value", "kind", "source", "rationale", "tolerance")
+            )
             key = self.str_(t, "output", p)
             if key not in keys:
                 raise self.fail(f"{p}.output", f"{key!r} is not an output key of this case")
-            out.append(Reference(
-                output=key, value=self.num(t, "value", p), kind=self.str_(t, "kind", p,
-                                                                          choices=REFERENCE_KINDS),
-                source=self.str_(t, "source", p), rationale=self.str_(t, "rationale", p),
-                tolerance=self.num(t, "tolerance", p, positive=True),
-                at_factor=self.num(t, "at_factor", p),
-                abs_tolerance=self.bool_(t, "abs_tolerance", p)))
+            out.append(
+                Reference(
+                    output=key,
+                    value=self.num(t, "value", p),
+                    kind=self.str_(t, "kind", p, choices=REFERENCE_KINDS),
+                    source=self.str_(t, "source", p),
+                    rationale=self.str_(t, "rationale", p),
+                    tolerance=self.num(t, "tolerance", p, positive=True),
+                    at_factor=self.num(t, "at_factor", p),
+                    abs_tolerance=self.bool_(t, "abs_tolerance", p),
+                )
+            )
         return tuple(out)
 
     def models(self) -> tuple[ModelSpec, ...]:
@@ -487,8 +574,9 @@ class _Builder:
         lost = [n.id for n in scene.nodes if n.id not in seen]
         if lost:
             i = [n.id for n in scene.nodes].index(lost[0])
-            raise self.fail(f"nodes[{i}]", f"node {lost[0]!r} is not connected to the rest "
-                            "(disconnected parts)")
+            raise self.fail(
+                f"nodes[{i}]", f"node {lost[0]!r} is not connected to the rest (disconnected parts)"
+            )
 
     def check_restrained(self, scene: Scene) -> None:
         """The supports must stop the three rigid-body motions of the whole structure.
@@ -510,8 +598,9 @@ class _Builder:
         rank = np.linalg.matrix_rank(np.array(rows)) if rows else 0
         if rank < 3:
             free = 3 - rank
-            raise self.fail("supports", f"too few supports: the structure keeps {free} "
-                            "rigid-body freedom(s)")
+            raise self.fail(
+                "supports", f"too few supports: the structure keeps {free} rigid-body freedom(s)"
+            )
 
 
 def _check_finite(obj: Any, path: str, fail: Callable[[str, str], CaseError]) -> None:

@@ -130,8 +130,11 @@ class Driver:
     ``kind = "displacement"``: node ``node`` moves in ``direction`` ("x" or "y") from
     ``start`` to ``stop`` (length).  ``kind = "rotation"``: member ``member`` rotates from
     ``start`` to ``stop`` (degrees).  In a ``distance`` analysis the unknown is the load
-    factor; in an ``energy`` analysis the driver is a constraint and its reaction is reported
-    as output ``driver.force`` (or ``driver.torque``).
+    factor; in an ``energy`` analysis the driver is a constraint and ``Step.factor`` is the
+    driver coordinate (length, or degrees for a rotation).  Its reaction is reported as output
+    ``driver.force`` (``driver.torque``): the force (moment) the driver exerts on the node
+    (member) along the +direction (counter-clockwise), so pushing a slider towards -x gives a
+    negative ``driver.force``.
     """
 
     kind: str
