@@ -21,10 +21,30 @@ from reduced_models.base import Model
 _ENTRIES: dict[str, str] = {
     "elastica": "reduced_models.elastica:Elastica",
     "linear-N": "reduced_models.linear:LinearChain",
+    "prb-short": "reduced_models.prb:PRBShort",
+    "prb-1r": "reduced_models.prb:PRB1R",
+    "prb-2r": "reduced_models.prb:PRB2R",
+    "prb-3r": "reduced_models.prb:PRB3R",
+    "prb-3r-force": "reduced_models.prb:PRB3RForce",
+    "prb-3r-moment": "reduced_models.prb:PRB3RMoment",
+    "prb-2rpr": "reduced_models.prb:PRB2RPR",
+    "prb-fsm-N": "reduced_models.prb:PRBFSM",
+    "prb-custom": "reduced_models.prb:PRBCustom",
 }
 
 # concrete names a default benchmark run tries on every case
-DEFAULT_NAMES: tuple[str, ...] = ("elastica", "linear-1", "linear-8")
+DEFAULT_NAMES: tuple[str, ...] = (
+    "elastica",
+    "linear-1",
+    "linear-8",
+    "prb-short",
+    "prb-1r",
+    "prb-2r",
+    "prb-3r",
+    "prb-2rpr",
+    "prb-fsm-4",
+    "prb-fsm-16",
+)
 
 
 def _factory(target: str) -> Callable[..., Model]:

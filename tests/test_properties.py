@@ -93,8 +93,18 @@ def test_small_load_matches_linear_beam(model):
     assert sol.status == "converged", sol.message
     y = sol.steps[-1].outputs["tip.uy"]
     y_lin = -p / 3.0
-    # the PRB family trades small-load accuracy for large deflections (Howell's K_Theta is a
-    # large-deflection average): 6 % covers the documented bias; every other model is a
-    # consistent discretisation of the beam and must match to 2e-3.
-    tol = 0.06 if model.startswith("prb") else 2e-3
-    assert y == pytest.approx(y_lin, rel=tol)
+    # The PRB family trades small-load accuracy for large deflections.  Its small-load
+    # compliance follows from the model's geometry, derived by hand here (not taken from the
+    # model): a rigid link of length gamma L on a spring K gives y = gamma^2 L^2 P / K.
+    #   prb-short: pivot at L/2, K = EI/L, rigid link L/2 (Howell 2001 Sec. 5.2) -> 0.75 y_lin
+    #   prb-1r: gamma = 0.852144, K_Theta = 2.654855 (Howell curve fit at n = 0) -> 3 gamma/K
+    #   prb-fsm-N: N springs N EI/L at element midpoints -> (1 - 1/(4 N^2)) y_lin
+    expected = {"prb-short": 0.75, "prb-1r": 3 * 0.852144 / 2.654855}
+    if model.startswith("prb-fsm-"):
+        n = int(model.rsplit("-", 1)[1])
+        expected[model] = 1.0 - 1.0 / (4 * n * n)
+    ratio = expected.get(model, 1.0)
+    # every other PRB model: optimised for large deflection, within 5 % at small loads;
+    # every non-PRB model is a consistent discretisation of the beam and must match to 2e-3.
+    tol = 2e-3 if (model in expected or not model.startswith("prb")) else 0.05
+    assert y / y_lin == pytest.approx(ratio, rel=tol)
