@@ -20,6 +20,7 @@ from reduced_models.base import Model
 # name (with "-N" for parametrised families) -> "module:factory"
 _ENTRIES: dict[str, str] = {
     "elastica": "reduced_models.elastica:Elastica",
+    "elastica-bvp": "reduced_models.elastica_bvp:ElasticaBVP",
     "linear-N": "reduced_models.linear:LinearChain",
     "prb-short": "reduced_models.prb:PRBShort",
     "prb-1r": "reduced_models.prb:PRB1R",
@@ -35,6 +36,7 @@ _ENTRIES: dict[str, str] = {
 # concrete names a default benchmark run tries on every case
 DEFAULT_NAMES: tuple[str, ...] = (
     "elastica",
+    "elastica-bvp",
     "linear-1",
     "linear-8",
     "prb-short",
