@@ -581,8 +581,9 @@ class _Builder:
     def check_restrained(self, scene: Scene) -> None:
         """The supports must stop the three rigid-body motions of the whole structure.
 
-        Rigid motion: u(x, y) = (tx - w y, ty + w x), rotation w.  Each support contributes
-        linear constraints on (tx, ty, w); they must have rank 3.
+        Rigid motion: u(x, y) = (tx - w y, ty + w x), rotation w.  Each support (and each
+        torsion spring to ground) contributes linear constraints on (tx, ty, w); they must have
+        rank 3.
         """
         rows = []
         for s in scene.supports:
@@ -595,6 +596,9 @@ class _Builder:
                 rows.append(-math.sin(a) * ux + math.cos(a) * uy)
             if s.type in ("clamp", "guided"):
                 rows.append(np.array([0.0, 0.0, 1.0]))
+        # a torsion spring to ground resists rigid rotation just like a clamp's moment
+        if any(t.member_b is None for t in scene.torsion_springs):
+            rows.append(np.array([0.0, 0.0, 1.0]))
         rank = np.linalg.matrix_rank(np.array(rows)) if rows else 0
         if rank < 3:
             free = 3 - rank

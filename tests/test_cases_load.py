@@ -321,3 +321,13 @@ def test_scene_is_frozen():
     scene = cases.loads(GOOD)
     with pytest.raises(AttributeError):
         scene.name = "x"  # type: ignore[misc]
+
+
+def test_ground_torsion_spring_restrains_rotation():
+    pinned = edit('type = "clamp"', 'type = "pin"')
+    with pytest.raises(cases.CaseError, match="rigid-body"):
+        cases.loads(pinned)
+    held = pinned + (
+        '\n[[torsion_springs]]\nid = "t"\nnode = "A"\nmember_a = "beam"\nstiffness = 5.0\n'
+    )
+    assert cases.loads(held).torsion_springs[0].member_b is None
