@@ -1,0 +1,560 @@
+"""Speed benchmark of the FE reference ``fem-N`` against OpenSeesPy (issue 3, "Speed").
+
+Both codes solve the *same* problem: a cantilever meshed with N two-node corotational
+Euler-Bernoulli elements, clamped at the root, a dead vertical tip force ramped to its full
+value in ``steps`` equal load increments (default 20), Newton at every increment.
+
+* FlexBench: ``fem_reference.models.Runner`` (what ``fem-N`` runs) on the same scene; its load
+  control may cut an increment internally, the reported steps are the same 20 factors.
+* OpenSeesPy: ``model('basic', '-ndm', 2, '-ndf', 3)``, ``geomTransf('Corotational', 1)``,
+  ``element('elasticBeamColumn', ...)`` (same E A, E I, element lengths), ``numberer('RCM')``,
+  ``integrator('LoadControl', 1/steps)``, ``algorithm('Newton')``,
+  ``test('EnergyIncr', 1e-16 * P * L, 50)``, ``analysis('Static')``, one ``analyze(1)`` per
+  increment (the tip displacement is read after each, as FlexBench records each step).
+  ``system`` is chosen per mesh as the fastest general solver (``BandGen``, ``UmfPack``,
+  ``SparseGeneral``) measured per Newton iteration at 1/10 of the load; FlexBench factorises
+  with LAPACK ``dgbtrf`` (the same banded LU that ``BandGen`` calls).
+
+Two timings (both median of ``--repeats`` interleaved runs, after one untimed warm-up):
+
+``solve``  model building excluded for both: FlexBench ``Runner(...)`` is constructed before
+           the clock starts (stability checks off: OpenSees computes no eigenvalues) and
+           ``Runner.run()`` is timed; OpenSees nodes, elements and analysis objects are
+           created before the clock starts and the ``analyze`` loop is timed.
+``e2e``    building included for both: ``reports.solve(scene, "fem-N")`` with default
+           options (it also checks stability at every step and records shapes) against
+           ``wipe`` + model building + the ``analyze`` loop.
+
+If OpenSees' plain Newton does not converge with the requested equal steps (it diverges on
+slender meshes with a large EA L^2/EI), that is reported as such and three extra comparisons
+are made: OpenSees with ``NewtonLineSearch`` and the same steps; OpenSees Newton with the step
+count doubled until it converges; and both codes at the largest lower load (PL^2/EI = 5, 4, 3,
+2, 1 times L^2/EI) at which OpenSees Newton converges with the requested steps.
+
+Run (OpenSeesPy is not a FlexBench dependency; install it in a separate environment, it needs
+Debian's ``libblas3 liblapack3``)::
+
+    python3 -m venv --system-site-packages /tmp/benchenv
+    /tmp/benchenv/bin/pip install openseespy
+    /tmp/benchenv/bin/python -m reports.bench_fem --elements 64 1000 --steps 20 --repeats 5
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import math
+import os
+import platform
+import statistics
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from cases.schema import Analysis, Load, Member, Node, Output, Scene, Support
+
+DEFAULT_CASES = ("flexure", "cantilever-tip-load")
+OS_SYSTEMS = ("BandGen", "UmfPack", "SparseGeneral")
+LOWER_LOADS = (0.5, 0.4, 0.3, 0.2, 0.1)
+MAX_STEP_DOUBLINGS = 5  # 20 -> 640 equal steps
+
+
+# -- scenes -------------------------------------------------------------------------------------
+
+
+def flexure_scene(load: float = 10.0, slenderness: float = 100.0) -> Scene:
+    """Cantilever L = 1, EI = 1, EA L^2/EI = 12 (L/t)^2 (a steel flexure with L/t = 100 gives
+    1.2e5), dead tip force P L^2/EI = ``load`` downwards (dimensionless units)."""
+    ea = 12.0 * slenderness**2
+    return Scene(
+        name="bench-flexure",
+        title=f"Cantilever PL^2/EI = {load:g}, EA L^2/EI = {ea:.3g}",
+        units="nondim",
+        nodes=(Node("A", 0.0, 0.0), Node("B", 1.0, 0.0)),
+        members=(Member("beam", "A", "B", "flexible", E=1.0, I=1.0, A=ea),),
+        supports=(Support("A", "clamp"),),
+        loads=(Load("P", fy=-float(load), node="B"),),
+        analysis=Analysis(kind="load", steps=20),
+        outputs=(Output("tip", "B"),),
+    )
+
+
+def bench_scene(case: str, steps: int) -> Scene:
+    """``flexure`` or a catalog case name, with ``steps`` equal load steps and no references."""
+    if case == "flexure":
+        scene = flexure_scene()
+    else:
+        import cases
+
+        scene = cases.load(case)
+    a = dataclasses.replace(scene.analysis, kind="load", steps=int(steps), factor_end=1.0)
+    return dataclasses.replace(scene, analysis=a, references=(), models=())
+
+
+def scale_loads(scene: Scene, factor: float) -> Scene:
+    """The scene with every load multiplied by ``factor``."""
+    loads = tuple(
+        dataclasses.replace(ld, fx=ld.fx * factor, fy=ld.fy * factor, moment=ld.moment * factor)
+        for ld in scene.loads
+    )
+    return dataclasses.replace(scene, loads=loads)
+
+
+@dataclass(frozen=True)
+class Cantilever:
+    """The data OpenSees needs: one straight member clamped at ``a``, a dead load at ``b``."""
+
+    x0: float
+    y0: float
+    x1: float
+    y1: float
+    E: float
+    I: float
+    A: float
+    fx: float
+    fy: float
+    moment: float
+    tip: str
+
+    @property
+    def length(self) -> float:
+        """Member length (length units)."""
+        return math.hypot(self.x1 - self.x0, self.y1 - self.y0)
+
+    @property
+    def load_scale(self) -> float:
+        """|P| L^2 / EI of the full load (dimensionless)."""
+        return math.hypot(self.fx, self.fy) * self.length**2 / (self.E * self.I)
+
+
+def cantilever_of(scene: Scene) -> Cantilever:
+    """Extract a single-member cantilever with dead tip loads (ValueError otherwise)."""
+    if len(scene.members) != 1 or scene.members[0].kind != "flexible":
+        raise ValueError(f"{scene.name}: the benchmark needs exactly one flexible member")
+    m = scene.members[0]
+    sup = scene.support_at(m.a)
+    if sup is None or sup.type != "clamp" or len(scene.supports) != 1:
+        raise ValueError(f"{scene.name}: the benchmark needs one clamp at the member's first node")
+    if any(ld.node != m.b or ld.follower for ld in scene.loads):
+        raise ValueError(f"{scene.name}: the benchmark needs dead loads at the free end only")
+    I = m.I if m.I is not None else m.width * m.thickness**3 / 12.0
+    A = m.A if m.A is not None else m.width * m.thickness
+    a, b = scene.node(m.a), scene.node(m.b)
+    tip = next((o.name for o in scene.outputs if o.node == m.b), None)
+    if tip is None:
+        raise ValueError(f"{scene.name}: no output at the free end")
+    f = [sum(getattr(ld, q) for ld in scene.loads) for q in ("fx", "fy", "moment")]
+    return Cantilever(a.x, a.y, b.x, b.y, float(m.E), float(I), float(A), *f, tip)
+
+
+# -- one run of each code -----------------------------------------------------------------------
+
+
+@dataclass
+class Run:
+    """Outcome of one timed run."""
+
+    status: str  # converged | failed
+    iterations: int
+    wall_s: float
+    cpu_s: float
+    tip: tuple[float, float, float] | None  # (ux, uy, rot) at the full load
+    message: str = ""
+
+
+def _clock(fn: Callable[[], tuple[str, int, tuple | None, str]]) -> Run:
+    w0, c0 = time.perf_counter(), time.process_time()
+    status, its, tip, msg = fn()
+    return Run(status, its, time.perf_counter() - w0, time.process_time() - c0, tip, msg)
+
+
+def _fb_result(steps: list, status: str, message: str, key: str) -> tuple:
+    its = int(sum(s.iterations for s in steps))
+    last = steps[-1] if steps else None
+    if status != "converged" or last is None or abs(last.factor - 1.0) > 1e-12:
+        return "failed", its, None, message or "did not reach the full load"
+    o = last.outputs
+    return "converged", its, (o[f"{key}.ux"], o[f"{key}.uy"], o[f"{key}.rot"]), ""
+
+
+def flexbench_runner(scene: Scene, n: int, mode: str) -> Callable[[], Run]:
+    """Prepare one FlexBench run; calling the result performs and times it."""
+    key = cantilever_of(scene).tip
+    if mode == "e2e":
+        import reports
+
+        def e2e() -> tuple:
+            sol = reports.solve(scene, f"fem-{n}")
+            return _fb_result(list(sol.steps), sol.status, sol.message, key)
+
+        return lambda: _clock(e2e)
+    from fem_reference.models import Runner
+
+    def prepared() -> Run:
+        runner = Runner(scene, n, {"stability": False})  # built outside the clock
+
+        def solve() -> tuple:
+            status, message = runner.run()
+            return _fb_result(runner.steps, status, message, key)
+
+        return _clock(solve)
+
+    return prepared
+
+
+@dataclass(frozen=True)
+class OSConfig:
+    """OpenSees analysis settings for one comparison."""
+
+    algorithm: tuple = ("Newton",)
+    steps: int = 20
+    system: str = "BandGen"
+    test: str = "EnergyIncr"
+    rel_tol: float = 1e-16  # x |P| L (EnergyIncr) -- an absolute tolerance in OpenSees
+    max_iter: int = 50
+
+    def label(self) -> str:
+        """Short description for the table."""
+        return f"{self.algorithm[0]}/{self.steps} steps/{self.system}"
+
+
+def _os_build(ops: Any, c: Cantilever, n: int, cfg: OSConfig) -> None:
+    ops.wipe()
+    ops.model("basic", "-ndm", 2, "-ndf", 3)
+    xs = np.linspace(c.x0, c.x1, n + 1)
+    ys = np.linspace(c.y0, c.y1, n + 1)
+    for i in range(n + 1):
+        ops.node(i + 1, float(xs[i]), float(ys[i]))
+    ops.fix(1, 1, 1, 1)
+    ops.geomTransf("Corotational", 1)
+    for i in range(n):
+        ops.element("elasticBeamColumn", i + 1, i + 1, i + 2, c.A, c.E, c.I, 1)
+    ops.timeSeries("Linear", 1)
+    ops.pattern("Plain", 1, 1)
+    ops.load(n + 1, c.fx, c.fy, c.moment)
+    ops.constraints("Plain")
+    ops.numberer("RCM")
+    ops.system(cfg.system)
+    f = max(math.hypot(c.fx, c.fy) * c.length, abs(c.moment), 1e-300)
+    ops.test(cfg.test, cfg.rel_tol * f, cfg.max_iter)
+    ops.algorithm(*cfg.algorithm)
+    ops.integrator("LoadControl", 1.0 / cfg.steps)
+    ops.analysis("Static")
+
+
+def _os_analyze(ops: Any, n: int, steps: int) -> tuple:
+    its = 0
+    for k in range(steps):
+        ok = ops.analyze(1)
+        its += int(ops.testIter())
+        if ok != 0:
+            return "failed", its, None, f"analyze returned {ok} in step {k + 1}/{steps}"
+        tip = ops.nodeDisp(n + 1)
+    return "converged", its, (tip[0], tip[1], tip[2]), ""
+
+
+def opensees_runner(ops: Any, scene: Scene, n: int, cfg: OSConfig, mode: str) -> Callable:
+    """Prepare one OpenSees run; calling the result performs and times it."""
+    c = cantilever_of(scene)
+    if mode == "e2e":
+
+        def e2e() -> tuple:
+            _os_build(ops, c, n, cfg)
+            return _os_analyze(ops, n, cfg.steps)
+
+        return lambda: _clock(e2e)
+
+    def solve() -> tuple:
+        return _os_analyze(ops, n, cfg.steps)
+
+    def prepared() -> Run:
+        _os_build(ops, c, n, cfg)  # outside the clock
+        return _clock(solve)
+
+    return prepared
+
+
+# -- comparisons --------------------------------------------------------------------------------
+
+
+@dataclass
+class Row:
+    """One comparison line of the table."""
+
+    case: str
+    n: int
+    load: float  # PL^2/EI
+    mode: str
+    os_config: str
+    fb: dict = field(default_factory=dict)
+    os: dict = field(default_factory=dict)
+    ratio_wall: float | None = None
+    ratio_cpu: float | None = None
+    tip_diff: float | None = None
+    note: str = ""
+
+
+def _summary(runs: list[Run]) -> dict:
+    last = runs[-1]
+    ok = all(r.status == "converged" for r in runs)
+    return {
+        "status": "converged" if ok else "failed",
+        "iterations": last.iterations,
+        "wall_s": statistics.median(r.wall_s for r in runs),
+        "cpu_s": statistics.median(r.cpu_s for r in runs),
+        "wall_all_s": [r.wall_s for r in runs],
+        "tip": last.tip,
+        "message": next((r.message for r in runs if r.message), ""),
+    }
+
+
+def compare(
+    ops: Any, scene: Scene, n: int, cfg: OSConfig, mode: str, repeats: int, note: str = ""
+) -> Row:
+    """Interleaved timed runs of both codes (one warm-up each) and their agreement."""
+    c = cantilever_of(scene)
+    fb_run = flexbench_runner(scene, n, mode)
+    os_run = opensees_runner(ops, scene, n, cfg, mode)
+    fb_runs, os_runs = [], []
+    for k in range(repeats + 1):  # k = 0 is the warm-up
+        fb, osr = fb_run(), os_run()
+        if k:
+            fb_runs.append(fb)
+            os_runs.append(osr)
+    fb_s, os_s = _summary(fb_runs), _summary(os_runs)
+    row = Row(scene.name, n, c.load_scale, mode, cfg.label(), fb_s, os_s, note=note)
+    if row.fb["status"] == row.os["status"] == "converged":
+        row.ratio_wall = row.fb["wall_s"] / row.os["wall_s"]
+        row.ratio_cpu = row.fb["cpu_s"] / row.os["cpu_s"]
+        d = np.subtract(row.fb["tip"], row.os["tip"])
+        # translations relative to L, rotation in rad
+        row.tip_diff = float(max(abs(d[0]) / c.length, abs(d[1]) / c.length, abs(d[2])))
+    return row
+
+
+def pick_system(ops: Any, scene: Scene, n: int, base: OSConfig) -> tuple[str, dict]:
+    """Fastest OpenSees general solver, by wall time per Newton iteration at 1/10 load."""
+    light = scale_loads(scene, 0.1)
+    per_iter: dict[str, float] = {}
+    for system in OS_SYSTEMS:
+        cfg = dataclasses.replace(base, system=system)
+        try:
+            runs = [opensees_runner(ops, light, n, cfg, "solve")() for _ in range(2)]
+        except Exception:  # noqa: BLE001 - a solver OpenSees lacks is just not a candidate
+            continue
+        best = min(runs, key=lambda r: r.wall_s)
+        if best.status == "converged" and best.iterations:
+            per_iter[system] = best.wall_s / best.iterations
+    if not per_iter:
+        return base.system, per_iter
+    return min(per_iter, key=per_iter.get), per_iter
+
+
+def _os_converges(ops: Any, scene: Scene, n: int, cfg: OSConfig) -> bool:
+    return opensees_runner(ops, scene, n, cfg, "solve")().status == "converged"
+
+
+def bench_case(
+    ops: Any, case: str, n: int, steps: int, repeats: int, system: str, log: Callable[[str], None]
+) -> tuple[list[Row], dict]:
+    """All comparisons for one case and one mesh."""
+    scene = bench_scene(case, steps)
+    base = OSConfig(steps=steps)
+    info: dict[str, Any] = {}
+    if system == "auto":
+        system, per_iter = pick_system(ops, scene, n, base)
+        info["os_system_per_iteration_s"] = per_iter
+        log(
+            f"  OpenSees system: {system} (s/iteration at 1/10 load: "
+            + ", ".join(f"{k} {v * 1e6:.0f} us" for k, v in per_iter.items())
+            + ")"
+        )
+    info["os_system"] = system
+    base = dataclasses.replace(base, system=system)
+    rows: list[Row] = []
+
+    def add(sc: Scene, cfg: OSConfig, mode: str = "solve", note: str = "") -> None:
+        rows.append(compare(ops, sc, n, cfg, mode, repeats, note))
+        log("  " + format_row(rows[-1]))
+
+    add(scene, base, "solve")
+    add(scene, base, "e2e")
+    if rows[0].os["status"] == "converged":
+        return rows, info
+    # OpenSees' plain Newton failed with the requested equal steps: extra, honest comparisons.
+    add(scene, dataclasses.replace(base, algorithm=("NewtonLineSearch",)), note="line search")
+    for k in range(1, MAX_STEP_DOUBLINGS + 1):
+        more = dataclasses.replace(base, steps=steps * 2**k)
+        if _os_converges(ops, scene, n, more):
+            add(scene, more, note=f"OpenSees Newton needs {more.steps} equal steps")
+            break
+    else:
+        info["os_newton_max_steps_failed"] = steps * 2**MAX_STEP_DOUBLINGS
+        log(f"  OpenSees Newton still fails with {steps * 2**MAX_STEP_DOUBLINGS} equal steps")
+    for f in LOWER_LOADS:
+        if _os_converges(ops, scale_loads(scene, f), n, base):
+            add(scale_loads(scene, f), base, note="largest lower load OpenSees Newton solves")
+            break
+    else:
+        log(f"  OpenSees Newton fails with {steps} steps even at {LOWER_LOADS[-1]} x load")
+    return rows, info
+
+
+# -- output -------------------------------------------------------------------------------------
+
+HEADER = (
+    f"{'case':22s} {'N':>5s} {'PL2/EI':>6s} {'mode':5s} {'OpenSees config':34s} "
+    f"{'FB s':>8s} {'FB it':>5s} {'OS s':>8s} {'OS it':>5s} {'FB/OS':>6s} {'cpu':>6s} "
+    f"{'|dtip|':>8s}"
+)
+
+
+def _t(d: dict) -> str:
+    return f"{d['wall_s']:8.4f}" if d["status"] == "converged" else "  FAILED"
+
+
+def format_row(r: Row) -> str:
+    """One table line (times = median wall seconds; ratio = FlexBench / OpenSees)."""
+    rw = f"{r.ratio_wall:6.2f}" if r.ratio_wall is not None else "     -"
+    rc = f"{r.ratio_cpu:6.2f}" if r.ratio_cpu is not None else "     -"
+    td = f"{r.tip_diff:8.1e}" if r.tip_diff is not None else "       -"
+    line = (
+        f"{r.case:22s} {r.n:5d} {r.load:6.2f} {r.mode:5s} {r.os_config:34s} "
+        f"{_t(r.fb)} {r.fb['iterations']:5d} {_t(r.os)} {r.os['iterations']:5d} {rw} {rc} {td}"
+    )
+    return line + (f"  ({r.note})" if r.note else "")
+
+
+def verdicts(rows: list[Row]) -> list[str]:
+    """The issue's targets: N = 64 within 2x of OpenSees, N = 1000 faster than OpenSees."""
+    out = []
+    for r in rows:
+        if r.mode != "solve" or r.n not in (64, 1000):
+            continue
+        if r.ratio_wall is None:
+            out.append(
+                f"n/a    {r.case} N={r.n} PL2/EI={r.load:g} vs {r.os_config}: FlexBench "
+                f"{r.fb['status']}, OpenSees {r.os['status']} ({r.os['message']})"
+            )
+            continue
+        goal = 2.0 if r.n == 64 else 1.0
+        ok = r.ratio_wall <= goal if r.n == 64 else r.ratio_wall < goal
+        rel = "<=" if r.n == 64 else "<"
+        out.append(
+            f"{'MET ' if ok else 'MISSED'} {r.case} N={r.n} PL2/EI={r.load:g} vs "
+            f"{r.os_config}: FB/OS = {r.ratio_wall:.2f} (target {rel} {goal:g})"
+            + (f" [{r.note}]" if r.note else "")
+        )
+    return out
+
+
+def environment(ops: Any) -> dict:
+    """Versions and machine state recorded with the figures."""
+    import scipy
+
+    try:
+        from importlib.metadata import version
+
+        osv = version("openseespy")
+    except Exception:  # noqa: BLE001
+        osv = "?"
+    return {
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "scipy": scipy.__version__,
+        "openseespy": osv,
+        "opensees": str(ops.version()) if hasattr(ops, "version") else "?",
+        "cpus": os.cpu_count(),
+        "loadavg_at_start": os.getloadavg() if hasattr(os, "getloadavg") else None,
+        "platform": platform.platform(),
+    }
+
+
+def _import_opensees() -> Any:
+    try:
+        import openseespy.opensees as ops
+    except Exception as exc:  # noqa: BLE001 - ImportError or its RuntimeError on missing BLAS
+        return exc
+    return ops
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m reports.bench_fem [--elements 64 1000] [--steps 20] [--repeats N]
+    [--cases ...] [--system auto|BandGen|...] [--json OUT]``; exit 2 without OpenSeesPy."""
+    p = argparse.ArgumentParser(
+        prog="python -m reports.bench_fem",
+        description=__doc__.split("\n\n")[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("--elements", type=int, nargs="+", default=[64, 1000])
+    p.add_argument("--steps", type=int, default=20)
+    p.add_argument("--repeats", type=int, default=5)
+    p.add_argument(
+        "--cases",
+        nargs="+",
+        default=list(DEFAULT_CASES),
+        help="'flexure' (PL^2/EI = 10, EA L^2/EI = 1.2e5) and/or catalog cantilever cases",
+    )
+    p.add_argument("--system", default="auto", help="OpenSees system (default: fastest)")
+    p.add_argument("--json", dest="json_out", default=None, help="write all figures here")
+    a = p.parse_args(argv)
+    if min(a.elements) < 1 or a.steps < 1 or a.repeats < 1:
+        print("bench_fem: --elements, --steps and --repeats must be positive", file=sys.stderr)
+        return 2
+    ops = _import_opensees()
+    if isinstance(ops, Exception):
+        print(
+            f"bench_fem: OpenSeesPy is not available ({type(ops).__name__}: {ops}); install "
+            "it in a benchmark venv: pip install openseespy (+ Debian libblas3 liblapack3)",
+            file=sys.stderr,
+        )
+        return 2
+    ops.logFile(os.devnull, "-noEcho")  # OpenSees' own convergence chatter
+    env = environment(ops)
+    print(
+        f"FlexBench fem-N vs OpenSeesPy {env['openseespy']}: {a.steps} equal load steps, "
+        f"median of {a.repeats} (wall s), load average at start {env['loadavg_at_start']}"
+    )
+    print(
+        "mode solve = model building excluded for both; e2e = included for both "
+        "(FlexBench e2e = reports.solve(scene, 'fem-N'), with per-step stability)"
+    )
+    print(HEADER)
+    rows: list[Row] = []
+    infos: dict[str, dict] = {}
+    for case in a.cases:
+        for n in a.elements:
+            try:
+                r, info = bench_case(ops, case, n, a.steps, a.repeats, a.system, print)
+            except (ValueError, KeyError) as exc:
+                print(f"bench_fem: case {case!r}: {exc}", file=sys.stderr)
+                return 2
+            rows += r
+            infos[f"{case}/{n}"] = info
+    print("\nTargets (issue 3, solve-only wall time):")
+    for line in verdicts(rows):
+        print("  " + line)
+    if a.json_out:
+        with open(a.json_out, "w") as fh:
+            json.dump(
+                {
+                    "environment": env,
+                    "steps": a.steps,
+                    "repeats": a.repeats,
+                    "meshes": infos,
+                    "rows": [dataclasses.asdict(r) for r in rows],
+                },
+                fh,
+                indent=1,
+            )
+        print(f"figures written to {a.json_out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
