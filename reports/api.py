@@ -1,0 +1,192 @@
+"""One door to every model: the merged registry, model construction and ``solve``.
+
+``reduced_models.registry.MODELS`` and (when the FE package provides it)
+``fem_reference.models.MODELS`` both map a name (``"linear-N"`` for parametrised families) to
+``"module:Factory"``.  This module merges them, parses concrete names (``"cbcm-4"``,
+``"fem-64"``) and builds models with the case's options.  ``solve`` never raises for a model
+that crashes: the exception becomes a ``failed`` Solution (a user mistake -- unknown model,
+bad options -- still raises, so the CLI can say so).
+"""
+
+from __future__ import annotations
+
+import importlib
+import re
+import time
+import traceback
+from collections.abc import Callable
+from typing import Any
+
+from cases.schema import Scene
+from reduced_models import registry as _registry
+from reduced_models.base import Model, ModelCard, Solution, not_applicable
+from reports.errors import SPEED_BASELINES  # noqa: F401  (re-exported)
+
+UnknownModelError = _registry.UnknownModelError
+
+_PARAM = re.compile(r"^(?P<family>[a-z0-9-]+?)-(?P<n>\d+)$")
+
+
+# problems met while importing optional registries (shown by ``flexbench models``)
+REGISTRY_WARNINGS: list[str] = []
+
+
+def _fem_registry() -> tuple[dict[str, str], tuple[str, ...]]:
+    """The FE package's registry, or empty when it does not exist yet."""
+    try:
+        mod = importlib.import_module("fem_reference.models")
+    except ModuleNotFoundError as exc:
+        if exc.name not in ("fem_reference", "fem_reference.models"):
+            _warn(f"fem_reference.models: {exc}")
+        return {}, ()
+    except Exception as exc:  # a broken sibling registry must not take the CLI down
+        _warn(f"fem_reference.models: {type(exc).__name__}: {exc}")
+        return {}, ()
+    return dict(getattr(mod, "MODELS", {})), tuple(getattr(mod, "DEFAULT_NAMES", ()))
+
+
+def _warn(text: str) -> None:
+    if text not in REGISTRY_WARNINGS:
+        REGISTRY_WARNINGS.append(text)
+
+
+def registry_table() -> dict[str, str]:
+    """Merged registry: name (``family-N`` for parametrised families) -> ``"module:Factory"``."""
+    table = dict(_registry.MODELS)
+    fem, _ = _fem_registry()
+    for key, target in fem.items():
+        table.setdefault(key, target)
+    return table
+
+
+def default_names() -> tuple[str, ...]:
+    """Concrete model names a default run tries on every case."""
+    _, fem_defaults = _fem_registry()
+    return tuple(dict.fromkeys(tuple(_registry.DEFAULT_NAMES) + fem_defaults))
+
+
+def model_names() -> list[str]:
+    """Every registry key, sorted (parametrised families appear as ``family-N``)."""
+    return sorted(registry_table())
+
+
+def resolve(name: str, table: dict[str, str] | None = None) -> tuple[str, int | None, str]:
+    """Parse a concrete name into ``(registry key, N or None, "module:Factory")``.
+
+    Raises
+    ------
+    UnknownModelError
+        For a name no registry knows, or ``family-0``.
+    """
+    table = registry_table() if table is None else table
+    if name in table:
+        return name, None, table[name]
+    m = _PARAM.match(name)
+    if m and f"{m['family']}-N" in table:
+        n = int(m["n"])
+        if n < 1:
+            raise UnknownModelError(f"model {name!r}: N must be a positive integer")
+        key = f"{m['family']}-N"
+        return key, n, table[key]
+    raise UnknownModelError(
+        f"unknown model {name!r}; known: {', '.join(sorted(table))} (N = positive integer)"
+    )
+
+
+def factory(target: str) -> Callable[..., Model]:
+    """Import ``"module:Factory"``."""
+    module, attr = target.split(":")
+    return getattr(importlib.import_module(module), attr)
+
+
+def build(name: str, target: str, n: int | None, options: dict[str, Any] | None) -> Model:
+    """Instantiate a resolved model (``n`` as first positional argument, options as kwargs)."""
+    make = factory(target)
+    kwargs = dict(options or {})
+    model = make(n, **kwargs) if n is not None else make(**kwargs)
+    model.name = name
+    return model
+
+
+def make_model(name: str, scene: Scene | None = None, options: dict | None = None) -> Model:
+    """Build a model by name with ``scene.model_options(name)`` (or explicit ``options``).
+
+    Raises
+    ------
+    UnknownModelError
+        Unknown name.
+    ValueError
+        Options the model's constructor rejects (message names the model).
+    """
+    _, n, target = resolve(name)
+    if options is None:
+        options = scene.model_options(name) if scene is not None else {}
+    try:
+        return build(name, target, n, options)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"model {name!r}: bad options {options!r}: {exc}") from exc
+
+
+def card_of(name: str) -> ModelCard | None:
+    """The model's card from its factory (class attribute) without solving anything."""
+    try:
+        _, n, target = resolve(name)
+        card = getattr(factory(target), "card", None)
+        if card is None or not isinstance(card, ModelCard):
+            card = build(name, target, n, {}).card
+    except Exception:
+        return None
+    return card if isinstance(card, ModelCard) else None
+
+
+def run_model(model: Model, scene: Scene, *, catch: bool = True) -> Solution:
+    """Ask ``applies_to`` then ``solve``; an exception becomes a ``failed`` Solution.
+
+    The traceback is kept in ``extras["traceback"]`` (``catch=False`` re-raises instead).
+    """
+    name = getattr(model, "name", type(model).__name__)
+    try:
+        reason = model.applies_to(scene)
+        if reason:
+            return not_applicable(scene, name, str(reason))
+        sol = model.solve(scene)
+        if not isinstance(sol, Solution):
+            raise TypeError(f"solve() returned {type(sol).__name__}, not Solution")
+        return sol
+    except Exception as exc:
+        if not catch:
+            raise
+        return Solution(
+            case=scene.name,
+            model=name,
+            status="failed",
+            message=f"{type(exc).__name__}: {exc}".splitlines()[0][:500],
+            extras={"traceback": traceback.format_exc(limit=8)},
+        )
+
+
+def solve(
+    scene: Scene | str, model: str | Model, *, options: dict | None = None, catch: bool = True
+) -> Solution:
+    """Solve one scene with one model: ``reports.solve(scene, "prb-3r") -> Solution``.
+
+    Parameters
+    ----------
+    scene : a Scene, or a catalog name / path for ``cases.load``.
+    model : registry name or a model instance.
+    options : model options (default: the case's ``[[models]]`` options for this name).
+    catch : turn exceptions raised by the model into ``failed`` Solutions.
+    """
+    if isinstance(scene, str):
+        import cases
+
+        scene = cases.load(scene)
+    m = make_model(model, scene, options) if isinstance(model, str) else model
+    return run_model(m, scene, catch=catch)
+
+
+def timed_solve(scene: Scene, model: Model) -> tuple[Solution, float]:
+    """``run_model`` and its wall time in seconds (perf_counter)."""
+    t0 = time.perf_counter()
+    sol = run_model(model, scene)
+    return sol, time.perf_counter() - t0

@@ -1,0 +1,456 @@
+"""Render a run (the ``results.json`` payload) as report.html + report.md + PNG figures.
+
+``build_document`` turns the payload into a list of format-neutral blocks; ``html.py`` and
+``md.py`` only format those blocks, so both reports always say the same thing.
+
+Block kinds: ``("h1"|"h2"|"h3"|"p", text)``, ``("table", headers, rows)``,
+``("img", relative_path, alt)``, ``("ul", items)``.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+Block = tuple
+
+DEFINITIONS = (
+    "Summary error: the largest deviation from the case's reference path over every load "
+    "factor both reached, over the displacement (ux, uy; divided by the length scale L = "
+    "longest member) and rotation (rad) outputs. Cases without a reference path use the "
+    "largest relative error against their published references. Wall time: median of "
+    "repeated solves in one worker (first call excluded; a first call slower than the "
+    "policy cap is used alone); brackets give [min, max] and the number of repeats. "
+    "'vs ref' = reference wall time / model wall time."
+)
+
+
+# -- formatting ---------------------------------------------------------------------------------
+def fmt_time(s: float | None) -> str:
+    """Seconds as a short human string (µs, ms, s)."""
+    if s is None or not math.isfinite(s):
+        return "–"
+    if s < 1e-3:
+        return f"{s * 1e6:.0f} µs"
+    if s < 1.0:
+        return f"{s * 1e3:.3g} ms"
+    return f"{s:.3g} s"
+
+
+def fmt_num(x: float | None, digits: int = 2) -> str:
+    """Compact scientific notation, ``–`` for missing."""
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "–"
+    return f"{x:.{digits}e}"
+
+
+def fmt_ratio(x: float | None) -> str:
+    """Speed ratio like ``12.3x``."""
+    return "–" if x is None else f"{x:.3g}x"
+
+
+def slug(name: str) -> str:
+    """File-name-safe version of a case name."""
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", name)
+
+
+# -- points for the Pareto plots -------------------------------------------------------------------
+def case_points(records: Sequence[Mapping]) -> list[dict]:
+    """Pareto points of one case (the reference itself is a line, not a point)."""
+    pts = []
+    for r in records:
+        t = (r.get("timing") or {}).get("median_s")
+        if r.get("is_reference") or t is None or r.get("summary_error") is None:
+            continue
+        pts.append(
+            {
+                "model": r["model"],
+                "time": t,
+                "error": r["summary_error"],
+                "tmin": r["timing"]["min_s"],
+                "tmax": r["timing"]["max_s"],
+                "ok": r["status"] == "converged",
+            }
+        )
+    return pts
+
+
+def overall_rows(payload: Mapping) -> list[dict]:
+    """Per model: geometric-mean wall time and worst summary error over the cases it solved."""
+    per: dict[str, list[tuple[float, float, str]]] = {}
+    for r in payload["results"]:
+        t = (r.get("timing") or {}).get("median_s")
+        if r.get("is_reference") or r["status"] != "converged" or not t:
+            continue
+        if r.get("summary_error") is None:
+            continue
+        per.setdefault(r["model"], []).append((t, r["summary_error"], r["case"]))
+    rows = []
+    for model, vals in sorted(per.items()):
+        worst = max(vals, key=lambda v: v[1])
+        gmean = math.exp(sum(math.log(v[0]) for v in vals) / len(vals))
+        rows.append(
+            {
+                "model": model,
+                "n": len(vals),
+                "time": gmean,
+                "error": worst[1],
+                "worst_case": worst[2],
+                "ok": True,
+            }
+        )
+    return rows
+
+
+# -- the document ---------------------------------------------------------------------------------
+def _environment_blocks(payload: Mapping) -> list[Block]:
+    env, cfg = payload.get("environment", {}), payload.get("config", {})
+    commit = env.get("git_commit") or "(no commit)"
+    if env.get("git_dirty"):
+        commit += " + uncommitted changes"
+    pk = ", ".join(f"{k} {v}" for k, v in (env.get("packages") or {}).items() if v)
+    stats = payload.get("stats", {})
+    backend = f"dask {cfg['dask']}" if cfg.get("dask") else f"{cfg.get('workers')} local workers"
+    rows = [
+        ["time (UTC)", env.get("time", "")],
+        ["git commit", commit],
+        ["python", f"{env.get('python', '')} ({env.get('implementation', '')})"],
+        ["machine", f"{env.get('machine', '')}, {env.get('platform', '')}"],
+        ["CPU", f"{env.get('cpu', '')} ({env.get('cpu_count', '')} logical)"],
+        ["packages", pk],
+        [
+            "run",
+            f"{'quick' if cfg.get('quick') else 'full'} matrix, {backend}, "
+            f"{stats.get('pairs', len(payload['results']))} pairs "
+            f"({stats.get('solved', '?')} solved, {stats.get('resumed', 0)} resumed), "
+            f"{fmt_time(payload.get('elapsed_s'))}",
+        ],
+    ]
+    return [("h2", "Environment"), ("table", ["", ""], rows), ("p", DEFINITIONS)]
+
+
+def _case_blocks(name: str, case: Mapping, recs: Sequence[Mapping], figs: Mapping) -> list:
+    blocks: list[Block] = [("h2", f"{case.get('title') or name} ({name})")]
+    line = f"Tags: {', '.join(case.get('tags', [])) or '–'}. Units: {case.get('units', '')}. "
+    line += f"Length scale L = {case.get('length_scale', 1.0):g}. "
+    line += f"Reference path: {case.get('reference') or 'none'}"
+    if case.get("uncertainty") is not None:
+        line += f" (its own error estimate: {fmt_num(case['uncertainty'])})"
+    blocks.append(("p", line + "."))
+    if case.get("note"):
+        blocks.append(("p", f"Note: {case['note']}."))
+    if case.get("description"):
+        blocks.append(("p", case["description"]))
+    for kind in ("path", "shapes", "pareto", "history", "render3d"):
+        if figs.get(kind):
+            blocks.append(("img", figs[kind], f"{name}: {kind}"))
+    out = case.get("primary_output")
+    keys = [f"{out}.{q}" for q in ("ux", "uy", "rot")] if out else []
+    head = [
+        "model",
+        "role",
+        "status",
+        "wall (median)",
+        "[min, max] ×n",
+        "vs ref",
+        "summary error",
+        *(f"err {k}" for k in keys),
+        "note",
+    ]
+    rows = []
+    for r in recs:
+        t = r.get("timing") or {}
+        per = (r.get("errors") or {}).get("per_output") or {}
+        notes = [] if r["status"] == "converged" else [r.get("message") or ""]
+        notes += r.get("warnings") or []
+        err = r.get("errors") or {}
+        if err.get("coverage") is not None and err["coverage"] < 0.999:
+            notes.append(f"reached {err['coverage']:.0%} of the reference path")
+        if err.get("interpolated"):
+            notes.append("reference interpolated")
+        role = "reference" if r.get("is_reference") else r.get("role", "model")
+        span = f"[{fmt_time(t.get('min_s'))}, {fmt_time(t.get('max_s'))}] ×{t.get('n_repeats')}"
+        rows.append(
+            [
+                r["model"],
+                role,
+                r["status"],
+                fmt_time(t.get("median_s")),
+                span if t else "–",
+                fmt_ratio(r.get("speedup_vs_reference")),
+                fmt_num(r.get("summary_error"))
+                + (" (refs)" if r.get("summary_basis") == "references" else ""),
+                *(fmt_num(per.get(k)) for k in keys),
+                "; ".join(n for n in notes if n),
+            ]
+        )
+    blocks.append(("table", head, rows))
+    refs = case.get("references") or []
+    if refs:
+        blocks.append(("h3", "Published and closed-form references"))
+        rrows = [
+            [
+                f"R{i + 1}",
+                r["output"],
+                "end" if r.get("at_factor") is None else f"{r['at_factor']:g}",
+                f"{r['value']:.6g}",
+                r["kind"],
+                f"{r['tolerance']:g}" + (" abs" if r.get("abs_tolerance") else " rel"),
+                r["source"],
+                r["rationale"],
+            ]
+            for i, r in enumerate(refs)
+        ]
+        blocks.append(
+            (
+                "table",
+                [
+                    "",
+                    "output",
+                    "at factor",
+                    "value",
+                    "kind",
+                    "tolerance",
+                    "source",
+                    "tolerance rationale",
+                ],
+                rrows,
+            )
+        )
+        crows = []
+        for r in recs:
+            if r["status"] == "not-applicable":
+                continue
+            cells = []
+            for c in r.get("refchecks") or []:
+                if c["passed"] is None:
+                    cells.append(f"– ({c['note']})")
+                else:
+                    cells.append(f"{'pass' if c['passed'] else 'FAIL'} {fmt_num(c['error'])}")
+            crows.append([r["model"], *cells])
+        blocks.append(("table", ["model", *(f"R{i + 1}" for i in range(len(refs)))], crows))
+    return blocks
+
+
+def build_document(payload: Mapping, figures: Mapping[str, Mapping[str, str]]) -> list[Block]:
+    """Format-neutral content of the report (``figures``: case or ``"_overall"`` -> kind ->
+    relative PNG path)."""
+    results = payload["results"]
+    blocks: list[Block] = [("h1", "FlexBench report")]
+    blocks += _environment_blocks(payload)
+    blocks.append(("h2", "Overview"))
+    orows = []
+    for name, case in payload["cases"].items():
+        recs = [r for r in results if r["case"] == name]
+        count = {s: sum(r["status"] == s for r in recs) for s in ("converged", "failed")}
+        checks = [c for r in recs for c in (r.get("refchecks") or []) if c["passed"] is not None]
+        ref_checks = [
+            c
+            for r in recs
+            if r.get("is_reference")
+            for c in (r.get("refchecks") or [])
+            if c["passed"] is not None
+        ]
+        orows.append(
+            [
+                name,
+                case.get("reference") or "–",
+                str(len(recs)),
+                str(count["converged"]),
+                str(count["failed"]),
+                str(len(recs) - count["converged"] - count["failed"]),
+                f"{sum(c['passed'] for c in ref_checks)}/{len(ref_checks)}",
+                f"{sum(c['passed'] for c in checks)}/{len(checks)}",
+            ]
+        )
+    blocks.append(
+        (
+            "table",
+            [
+                "case",
+                "reference",
+                "pairs",
+                "converged",
+                "failed",
+                "not applicable",
+                "published checks passed by the reference",
+                "published checks passed, all models",
+            ],
+            orows,
+        )
+    )
+    blocks.append(("h2", "Speed against error, all cases"))
+    if figures.get("_overall", {}).get("pareto"):
+        blocks.append(("img", figures["_overall"]["pareto"], "overall Pareto"))
+    blocks.append(
+        (
+            "p",
+            "Per model: geometric-mean wall time and worst summary error over the cases it "
+            "solved (models are not all applicable to the same cases: compare counts).",
+        )
+    )
+    blocks.append(
+        (
+            "table",
+            ["model", "cases", "wall time (geo-mean)", "worst summary error", "worst case"],
+            [
+                [r["model"], str(r["n"]), fmt_time(r["time"]), fmt_num(r["error"]), r["worst_case"]]
+                for r in overall_rows(payload)
+            ],
+        )
+    )
+    ratios = payload.get("speed_ratios") or []
+    if ratios:
+        blocks.append(("h2", "Speed ratios against baselines (same run)"))
+        blocks.append(
+            (
+                "table",
+                ["case", "model", "baseline", "model time", "baseline time", "speed-up"],
+                [
+                    [
+                        r["case"],
+                        r["model"],
+                        r["baseline"],
+                        fmt_time(r["model_s"]),
+                        fmt_time(r["baseline_s"]),
+                        fmt_ratio(r["ratio"]),
+                    ]
+                    for r in ratios
+                ],
+            )
+        )
+    for name, case in payload["cases"].items():
+        recs = [r for r in results if r["case"] == name]
+        blocks += _case_blocks(name, case, recs, figures.get(name, {}))
+    blocks += _card_blocks(payload.get("models") or {})
+    bad = [r for r in results if r["status"] == "failed" or r.get("warnings")]
+    if bad:
+        blocks.append(("h2", "Failures and warnings"))
+        blocks.append(
+            (
+                "ul",
+                [
+                    f"{r['case']} / {r['model']}: {r['status']}: {r.get('message', '')}"
+                    + "".join(f"; {w}" for w in r.get("warnings") or [])
+                    for r in bad
+                ],
+            )
+        )
+    return blocks
+
+
+def _card_blocks(cards: Mapping[str, Mapping]) -> list[Block]:
+    blocks: list[Block] = [("h2", "Model cards")]
+    for name, card in sorted(cards.items()):
+        blocks.append(("h3", f"{name} ({card.get('family', '')})"))
+        blocks.append(("p", card.get("summary", "")))
+        items = [f"Assumes: {a}" for a in card.get("assumptions") or ()]
+        if card.get("validity"):
+            items.append(f"Valid: {card['validity']}")
+        items += [f"Reference: {r}" for r in card.get("references") or ()]
+        if items:
+            blocks.append(("ul", items))
+    return blocks
+
+
+# -- orchestration --------------------------------------------------------------------------------
+def _case_figures(job: tuple) -> dict[str, str | None]:
+    """All figures of one case (a picklable job, so cases can render in parallel)."""
+    from reports.render import figures as F
+
+    name, case, recs, cmap, out_dir, pyvista = job
+    figdir = out_dir / "figures"
+    ref = case.get("reference")
+    ref_rec = next((r for r in recs if r["model"] == ref), None)
+    s = slug(name)
+    t_ref = (ref_rec.get("timing") or {}).get("median_s") if ref_rec else None
+
+    def rel(p: Path | None) -> str | None:
+        return None if p is None else p.relative_to(out_dir).as_posix()
+
+    title = f"{name}: speed vs error"
+    return {
+        "path": rel(F.path_figure(case, recs, ref, cmap, figdir / f"{s}-path.png")),
+        "shapes": rel(F.shapes_figure(case, recs, ref, cmap, figdir / f"{s}-shapes.png")),
+        "pareto": rel(
+            F.pareto_figure(
+                case_points(recs),
+                figdir / f"{s}-pareto.png",
+                title,
+                cmap,
+                t_ref,
+                case.get("uncertainty"),
+            )
+        ),  # fmt: skip
+        "history": rel(F.history_figure(case, recs, figdir / f"{s}-history.png")),
+        "render3d": rel(F.pyvista_figure(case, ref_rec, figdir / f"{s}-3d.png"))
+        if pyvista
+        else None,
+    }
+
+
+def render_figures(payload: Mapping, out_dir: Path, pyvista: bool = False) -> dict[str, dict]:
+    """Every PNG of the report under ``out_dir/figures``; returns case -> kind -> rel. path.
+
+    Cases render in parallel on a small fork pool when there are several (matplotlib is
+    single-threaded; ~0.1-0.3 s per figure); any pool problem falls back to serial.
+    """
+    import multiprocessing
+    import os
+    from concurrent.futures import ProcessPoolExecutor
+
+    from reports.render import figures as F
+
+    (out_dir / "figures").mkdir(parents=True, exist_ok=True)
+    cmap = F.colours(sorted({r["model"] for r in payload["results"]}))
+    jobs = [
+        (name, case, [r for r in payload["results"] if r["case"] == name], cmap, out_dir, pyvista)
+        for name, case in payload["cases"].items()
+    ]
+    procs = min(os.cpu_count() or 1, len(jobs))
+    results = None
+    if (
+        procs > 1
+        and len(jobs) >= 4
+        and not pyvista
+        and "fork" in multiprocessing.get_all_start_methods()
+    ):
+        try:
+            ctx = multiprocessing.get_context("fork")
+            with ProcessPoolExecutor(procs, mp_context=ctx) as ex:
+                results = list(ex.map(_case_figures, jobs))
+        except Exception:
+            results = None  # serial below
+    if results is None:
+        results = [_case_figures(job) for job in jobs]
+    made: dict[str, dict] = {job[0]: res for job, res in zip(jobs, results)}
+    overall = F.pareto_figure(
+        overall_rows(payload),
+        out_dir / "figures" / "overall-pareto.png",
+        "all cases: per-model aggregate",
+        cmap,
+        xlabel="wall time per solve, geometric mean over cases [s]",
+    )
+    made["_overall"] = {"pareto": overall.relative_to(out_dir).as_posix() if overall else None}
+    return made
+
+
+def render_report(payload: Mapping, out_dir: str | Path, *, pyvista: bool = False) -> dict:
+    """Write ``report.html``, ``report.md`` and ``figures/*.png``; returns their paths."""
+    from reports.render.html import to_html
+    from reports.render.md import to_markdown
+
+    out = Path(out_dir)
+    figs = render_figures(payload, out, pyvista=pyvista)
+    blocks = build_document(payload, figs)
+    html_path, md_path = out / "report.html", out / "report.md"
+    html_path.write_text(to_html(blocks, "FlexBench report"), encoding="utf-8")
+    md_path.write_text(to_markdown(blocks), encoding="utf-8")
+    pngs = sorted((out / "figures").glob("*.png"))
+    return {"report.html": html_path, "report.md": md_path, "figures": pngs}
+
+
+__all__: Sequence[Any] = ("render_report", "build_document", "render_figures")

@@ -1,0 +1,594 @@
+"""The benchmark matrix: every (case, model) pair solved, timed, compared and stored.
+
+Flow: ``plan`` (which pairs) -> ``execute`` (serial, local process pool or Dask; every
+finished pair appended to ``DIR/partial.jsonl`` at once) -> ``errors.attach_errors`` per case
+-> ``results.json`` / ``results.csv`` / SQLite history -> ``render.render_report``.
+
+A pair record (JSON-level dict built by ``solve_task`` with ``store.record``)::
+
+    {"key", "case", "model", "role": "model" | "reference" | "baseline",
+     "status", "message", "steps": [{"factor", "outputs", "energy", "iterations", "stable",
+     "max_stress"}], "shapes": {member: [[x, y], ...]} (last step), "extras", "card",
+     "timing": {"median_s", "min_s", "max_s", "spread_s", "n_repeats", "first_s", "total_s"},
+     "warnings", "traceback"}
+
+plus, after ``attach_errors``: ``errors``, ``refchecks``, ``summary_error``,
+``summary_basis``, ``is_reference``, ``speedup_vs_reference``.
+
+Timing: the first call is the answer (and its time ``first_s`` is kept); then repeats (GC
+off, as in timeit) until their total reaches ``min_total_s`` (and at least ``min_runs``
+repeats unless they took twice that, so one stall on a shared machine cannot be the median
+of a fast solve) or ``max_runs`` repeats, whichever comes first; the median, min, max and
+spread (max - min) of the repeats are reported.  A first call slower than ``cold_cap_s`` is
+not repeated (n_repeats = 1, its own time) to keep the run short.
+
+Time limit: ``time_limit`` seconds per pair (SIGALRM in the worker, then the worker is killed
+after ``KILL_GRACE_S``); such pairs are ``failed`` and retried on resume.
+"""
+
+from __future__ import annotations
+
+import collections
+import concurrent.futures as cf
+import contextlib
+import dataclasses
+import gc
+import hashlib
+import json
+import math
+import multiprocessing
+import os
+import signal
+import statistics
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from pathlib import Path
+from typing import Any, TextIO
+
+from cases.schema import Scene
+from reports import api, errors, store
+
+
+@dataclasses.dataclass(frozen=True)
+class TimingPolicy:
+    """How often a pair is re-solved for its wall time (see module docstring)."""
+
+    min_total_s: float = 0.2
+    max_runs: int = 5
+    cold_cap_s: float = 1.0
+    min_runs: int = 3
+
+
+DEFAULT_TIMING = TimingPolicy()
+# s per pair (first solve) before it is failed: a pair this slow alone breaks the run's budget
+DEFAULT_TIME_LIMIT = 60.0
+QUICK_TIME_LIMIT = 20.0
+KILL_GRACE_S = 5.0  # after the soft limit (SIGALRM in the worker), the worker is killed
+QUICK_TIMING = TimingPolicy(min_total_s=0.02, max_runs=3, cold_cap_s=0.3, min_runs=2)
+
+
+@dataclasses.dataclass
+class RunResult:
+    """What ``run_matrix`` produced."""
+
+    payload: dict[str, Any]
+    out_dir: Path
+    paths: dict[str, Path]
+    solved: int
+    resumed: int
+    elapsed_s: float
+    report_error: str | None = None
+
+
+# -- planning ----------------------------------------------------------------------------------
+def quick_scene(scene: Scene, divisor: int = 4, min_steps: int = 4) -> Scene:
+    """``scene`` with about ``steps / divisor`` load steps (every reference factor kept on the
+    grid); path and sweep analyses are left alone (their length is part of the answer)."""
+    a = scene.analysis
+    if a.kind not in ("load", "distance", "energy") or a.steps <= min_steps:
+        return scene
+    ats = [r.at_factor for r in scene.references if r.at_factor is not None]
+    if ats and a.kind != "load":
+        return scene
+    for n in range(max(min_steps, math.ceil(a.steps / divisor)), a.steps):
+        grid = [at / a.factor_end * n for at in ats] if a.factor_end else []
+        if all(abs(g - round(g)) < 1e-9 for g in grid):
+            return dataclasses.replace(scene, analysis=dataclasses.replace(a, steps=n))
+    return scene
+
+
+def scene_hash(scene: Scene) -> str:
+    """Content hash of a scene (its repr covers every field, options included)."""
+    return hashlib.sha1(repr(scene).encode()).hexdigest()[:12]
+
+
+def code_hash() -> str:
+    """Hash of the solver packages' sources: a resumed run never reuses stale answers."""
+    import importlib
+
+    h = hashlib.sha1()
+    for name in ("cases", "reduced_models", "fem_reference"):
+        try:
+            pkg = importlib.import_module(name)
+        except ImportError:
+            continue
+        for base in getattr(pkg, "__path__", []):
+            for f in sorted(Path(base).rglob("*.py")):
+                h.update(str(f.relative_to(base)).encode())
+                h.update(f.read_bytes())
+    return h.hexdigest()[:12]
+
+
+def case_meta(scene: Scene) -> dict[str, Any]:
+    """What the report and ``compare`` need to know about a case without loading it."""
+    lengths = [scene.member_length(m.id) for m in scene.members]
+    length = max(lengths, default=0.0) or 1.0
+    undeformed = {}
+    for m in scene.members:
+        a, b = scene.node(m.a), scene.node(m.b)
+        undeformed[m.id] = [[a.x, a.y], [b.x, b.y]]
+    return {
+        "name": scene.name,
+        "title": scene.title,
+        "units": scene.units,
+        "tags": list(scene.tags),
+        "description": scene.description,
+        "path": scene.path,
+        "reference_model": scene.reference_model,
+        "length_scale": length,
+        "analysis": dataclasses.asdict(scene.analysis),
+        "outputs": [dataclasses.asdict(o) for o in scene.outputs],
+        "primary_output": scene.outputs[0].name if scene.outputs else None,
+        "references": [dataclasses.asdict(r) for r in scene.references],
+        "undeformed": undeformed,
+        "scene_hash": scene_hash(scene),
+    }
+
+
+def model_list(scene: Scene, models: Sequence[str] | None, table: dict[str, str]) -> list:
+    """(name, role) pairs for one case: the asked models (else the case's list + defaults),
+    the reference model (or a registered fallback) and speed baselines."""
+    names = list(models) if models else [s.name for s in scene.models] + list(api.default_names())
+    pairs = {n: "model" for n in names}
+    refs = [scene.reference_model] if scene.reference_model else []
+    for cand in refs + [c for c in errors.FALLBACK_REFERENCES if c not in refs]:
+        try:
+            api.resolve(cand, table)
+        except api.UnknownModelError:
+            continue
+        pairs[cand] = "reference"
+        break
+    for name in list(pairs):
+        base = api.SPEED_BASELINES.get(name)
+        if base and base not in pairs and base in table:
+            pairs[base] = "baseline"
+    return list(pairs.items())
+
+
+def plan(
+    scenes: Sequence[Scene],
+    models: Sequence[str] | None = None,
+    quick: bool = False,
+    timing: TimingPolicy | None = None,
+) -> tuple[list[dict], list[dict], dict[str, dict]]:
+    """Tasks to run, records decided without solving (unregistered names) and case metas.
+
+    Raises
+    ------
+    UnknownModelError
+        When a name in ``models`` (the user's list) is unknown.
+    """
+    table = api.registry_table()
+    for name in models or ():
+        api.resolve(name, table)
+    timing = timing or (QUICK_TIMING if quick else DEFAULT_TIMING)
+    code = code_hash()
+    tasks, fixed, metas = [], [], {}
+    for scene0 in scenes:
+        scene = quick_scene(scene0) if quick else scene0
+        meta = case_meta(scene)
+        metas[scene.name] = meta
+        for name, role in model_list(scene, models, table):
+            options = scene.model_options(name)
+            fp = json.dumps(
+                [meta["scene_hash"], name, store.jsonable(options), quick, timing.__dict__, code],
+                sort_keys=True,
+            )
+            key = f"{scene.name}|{name}|{hashlib.sha1(fp.encode()).hexdigest()[:12]}"
+            base = {"key": key, "case": scene.name, "model": name, "role": role}
+            try:
+                _, n, target = api.resolve(name, table)
+            except api.UnknownModelError:
+                fixed.append(
+                    store.record(base, "not-applicable", f"model {name!r} is not in the registry")
+                )
+                continue
+            heavy = role != "model" or name.startswith(("fem", "replay"))
+            tasks.append(
+                {
+                    **base,
+                    "scene": scene,
+                    "target": target,
+                    "n": n,
+                    "options": options,
+                    "timing": timing,
+                    "heavy": heavy,
+                }
+            )
+    tasks.sort(key=lambda t: not t["heavy"])  # long jobs first: shorter tail
+    return tasks, fixed, metas
+
+
+# -- solving one pair (runs in workers) ------------------------------------------------------
+def _timing(
+    call: Callable[[], object], first_s: float, policy: TimingPolicy, deadline: float = math.inf
+) -> dict:
+    times = [first_s]
+    if first_s <= policy.cold_cap_s and time.perf_counter() + first_s < deadline:
+        times, total = [], 0.0
+        gc_was_on = gc.isenabled()
+        gc.disable()  # as timeit does: a collection is not the model's cost
+        try:
+            while True:
+                t0 = time.perf_counter()
+                call()
+                dt = time.perf_counter() - t0
+                times.append(dt)
+                total += dt
+                many = len(times) >= policy.min_runs or total >= 2 * policy.min_total_s
+                enough = total >= policy.min_total_s and many
+                late = time.perf_counter() + dt > deadline  # the next repeat would overrun
+                if enough or late or len(times) >= policy.max_runs:
+                    break
+        finally:
+            if gc_was_on:
+                gc.enable()
+    return {
+        "median_s": statistics.median(times),
+        "min_s": min(times),
+        "max_s": max(times),
+        "spread_s": max(times) - min(times),
+        "n_repeats": len(times),
+        "first_s": first_s,
+        "total_s": first_s + (sum(times) if first_s <= policy.cold_cap_s else 0.0),
+    }
+
+
+class PairTimeout(BaseException):
+    """Raised by the alarm when a pair exceeds its time limit (a BaseException, so a model's
+    ``except Exception`` cannot swallow it)."""
+
+
+@contextlib.contextmanager
+def _alarm(seconds: float | None) -> Iterator[None]:
+    """SIGALRM-based time limit; a no-op off the main thread (Dask) or without setitimer."""
+    usable = (
+        seconds
+        and hasattr(signal, "setitimer")
+        and threading.current_thread() is threading.main_thread()
+    )
+    if not usable:
+        yield
+        return
+
+    def _raise(signum: int, frame: object) -> None:
+        raise PairTimeout
+
+    previous = signal.signal(signal.SIGALRM, _raise)
+    signal.setitimer(signal.ITIMER_REAL, float(seconds))
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0.0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+def solve_task(task: dict) -> dict:
+    """Solve, time and serialise one pair; never raises (a crash becomes ``failed``).
+
+    ``task["time_limit"]`` (s, optional) bounds the first solve; timing repeats stop early
+    rather than run past it.
+    """
+    base = {k: task[k] for k in ("key", "case", "model", "role")}
+    scene: Scene = task["scene"]
+    limit = task.get("time_limit")
+    try:
+        model = api.build(task["model"], task["target"], task["n"], task["options"])
+    except Exception as exc:
+        return store.record(base, "failed", f"cannot build model: {type(exc).__name__}: {exc}")
+    card = getattr(model, "card", None)
+    card = store.jsonable(dataclasses.asdict(card)) if dataclasses.is_dataclass(card) else None
+    t_start = time.perf_counter()
+    sol = None
+    try:
+        with _alarm(limit):
+            sol = api.run_model(model, scene)
+            first = time.perf_counter() - t_start
+            if sol.status == "not-applicable":
+                return store.record(base, sol.status, sol.message, card=card)
+            deadline = t_start + 0.8 * limit if limit else math.inf
+            timing = _timing(lambda: api.run_model(model, scene), first, task["timing"], deadline)
+    except PairTimeout:
+        if sol is None:
+            msg = f"time limit of {limit:g} s exceeded"
+            return store.record(base, "failed", msg, card=card, retry=True)
+        timing = _timing(lambda: None, first, dataclasses.replace(task["timing"], cold_cap_s=0))
+    trace = sol.extras.get("traceback") if isinstance(sol.extras, Mapping) else None
+    steps, shapes, warnings = store.steps_json(sol)
+    return store.record(
+        base,
+        sol.status,
+        sol.message,
+        steps=store.jsonable(steps),
+        shapes=store.jsonable(shapes),
+        extras=store.extras_json(dict(sol.extras)),
+        card=card,
+        timing=timing,
+        warnings=warnings,
+        traceback=trace,
+    )
+
+
+def solve_batch(tasks: Sequence[dict]) -> list[dict]:
+    """Several pairs in one worker call (amortises Dask's per-task overhead)."""
+    return [solve_task(t) for t in tasks]
+
+
+def _crashed(task: dict, why: str) -> dict:
+    """A pair lost to its worker (killed, timed out): ``failed``, retried on resume."""
+    base = {k: task[k] for k in ("key", "case", "model", "role")}
+    return store.record(base, "failed", why, retry=True)
+
+
+# -- execution backends -----------------------------------------------------------------------
+def _preimport(tasks: Iterable[dict]) -> None:
+    """Import model modules once before forking so no worker pays it inside a timing."""
+    for target in {t["target"] for t in tasks}:
+        try:
+            api.factory(target)
+        except Exception:
+            pass  # the task itself will report the import error
+
+
+def _pool_context() -> multiprocessing.context.BaseContext:
+    methods = multiprocessing.get_all_start_methods()
+    return multiprocessing.get_context("fork" if "fork" in methods else "spawn")
+
+
+def _kill(ex: cf.ProcessPoolExecutor) -> None:
+    """Stop a pool now: pending work cancelled, running workers terminated."""
+    procs = list((getattr(ex, "_processes", None) or {}).values())  # private, guarded
+    ex.shutdown(wait=False, cancel_futures=True)
+    for p in procs:
+        if p.is_alive():
+            p.terminate()
+    for p in procs:
+        p.join(2)
+
+
+def _submit(
+    ex: cf.ProcessPoolExecutor, running: dict, task: dict, suspect: bool, origin: Any
+) -> None:
+    """Submit one task; if the pool has just died, put it back into ``origin`` and re-raise."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    try:
+        fut = ex.submit(solve_task, task)
+    except BrokenProcessPool:
+        origin.appendleft(task)
+        raise
+    running[fut] = (task, time.monotonic(), suspect)
+
+
+def run_pool(tasks: Sequence[dict], workers: int, time_limit: float | None = None) -> Iterator:
+    """Local process pool, at most one task in flight per worker (so a task's start time is
+    known).  A pair running past ``time_limit`` + ``KILL_GRACE_S`` has its worker killed; a worker
+    that dies takes only its own pair (the pairs in flight with it are re-run one at a time
+    to find the culprit).  Killed and timed-out pairs are ``failed`` and retried on resume."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    pending = collections.deque(tasks)
+    suspects: collections.deque = collections.deque()  # in flight when a worker died
+    hard = time_limit + KILL_GRACE_S if time_limit else math.inf
+    while pending or suspects:
+        ex = cf.ProcessPoolExecutor(workers, mp_context=_pool_context())
+        running: dict = {}  # future -> (task, submit time, suspect?)
+        broken = killed = False
+
+        try:
+            while (pending or suspects or running) and not (broken or killed):
+                try:
+                    if suspects and not running:  # a suspect always runs alone
+                        _submit(ex, running, suspects.popleft(), True, suspects)
+                    while pending and not suspects and len(running) < workers:
+                        _submit(ex, running, pending.popleft(), False, pending)
+                except BrokenProcessPool:
+                    broken = True
+                    continue
+                done, _ = cf.wait(running, timeout=0.25, return_when=cf.FIRST_COMPLETED)
+                for fut in done:
+                    task, _, suspect = running.pop(fut)
+                    try:
+                        yield fut.result()
+                    except BrokenProcessPool:
+                        broken = True
+                        if suspect:
+                            yield _crashed(task, "worker process died while solving")
+                        else:
+                            suspects.append(task)
+                    except Exception as exc:  # pickling errors and the like
+                        yield _crashed(task, f"worker error: {type(exc).__name__}: {exc}")
+                now = time.monotonic()
+                for fut, (task, t0, _) in list(running.items()):
+                    if now - t0 > hard:
+                        running.pop(fut)
+                        yield _crashed(task, f"time limit of {time_limit:g} s exceeded (killed)")
+                        killed = True
+            # tasks still in flight: after a death any of them may be the culprit
+            for task, _, suspect in running.values():
+                if broken or suspect:
+                    suspects.append(task)
+                else:
+                    pending.appendleft(task)
+        finally:
+            if broken or killed or running:
+                _kill(ex)
+            else:
+                ex.shutdown(wait=True)
+
+
+def run_dask(tasks: Sequence[dict], address: str) -> Iterator[dict]:
+    """The same tasks on a Dask cluster, batched (about four batches per worker thread)."""
+    from distributed import Client, as_completed
+
+    client = Client(address, timeout="15s")
+    try:
+        threads = max(1, sum(client.nthreads().values()))
+        size = max(1, math.ceil(len(tasks) / (4 * threads)))
+        batches = [list(tasks[i : i + size]) for i in range(0, len(tasks), size)]
+        futs = client.map(solve_batch, batches, pure=False)
+        owner = {f.key: b for f, b in zip(futs, batches)}
+        for fut in as_completed(futs):
+            try:
+                yield from fut.result()
+            except Exception as exc:
+                for t in owner[fut.key]:
+                    yield _crashed(t, f"dask task failed: {type(exc).__name__}: {exc}")
+    finally:
+        client.close()
+
+
+def execute(
+    tasks: Sequence[dict],
+    workers: int | None = None,
+    dask: str | None = None,
+    time_limit: float | None = None,
+) -> Iterator[dict]:
+    """Records as they finish (order not guaranteed)."""
+    if not tasks:
+        return iter(())
+    if dask:
+        return run_dask(tasks, dask)
+    workers = workers or os.cpu_count() or 1
+    if workers == 1 or len(tasks) == 1:
+        return (solve_task(t) for t in tasks)
+    _preimport(tasks)
+    return run_pool(tasks, min(workers, len(tasks)), time_limit)
+
+
+class Progress:
+    """``[#####.....] 12/40  0:05 elapsed  ETA 0:07  case / model`` on a TTY, silent otherwise."""
+
+    def __init__(self, total: int, stream: TextIO | None = None, enabled: bool | None = None):
+        self.total, self.done, self.t0 = total, 0, time.monotonic()
+        self.stream = stream or sys.stderr
+        self.enabled = self.stream.isatty() if enabled is None else enabled
+
+    @staticmethod
+    def _clock(s: float) -> str:
+        s = int(round(s))
+        return f"{s // 60}:{s % 60:02d}"
+
+    def update(self, label: str = "") -> None:
+        self.done += 1
+        if not self.enabled or self.total == 0:
+            return
+        el = time.monotonic() - self.t0
+        eta = el / self.done * (self.total - self.done)
+        fill = int(30 * self.done / self.total)
+        bar = "#" * fill + "." * (30 - fill)
+        text = f"[{bar}] {self.done}/{self.total}  {self._clock(el)} elapsed  "
+        text += f"ETA {self._clock(eta)}  {label}"
+        self.stream.write("\r" + text[:110].ljust(110))
+        self.stream.flush()
+
+    def close(self) -> None:
+        if self.enabled and self.total:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+# -- the whole run ---------------------------------------------------------------------------
+def run_matrix(
+    scenes: Sequence[Scene],
+    models: Sequence[str] | None = None,
+    out_dir: str | Path = "out",
+    *,
+    quick: bool = False,
+    workers: int | None = None,
+    dask: str | None = None,
+    history: str | Path | None = None,
+    fresh: bool = False,
+    render: bool = True,
+    progress: bool | None = None,
+    timing: TimingPolicy | None = None,
+    time_limit: float | None | str = "auto",
+) -> RunResult:
+    """Solve the matrix, store everything under ``out_dir`` and render the report.
+
+    Finished pairs are appended to ``out_dir/partial.jsonl`` as they complete; a rerun with
+    the same ``out_dir`` (same scenes, models, code and ``quick``) skips them (``fresh``
+    starts over); pairs lost to a killed worker or to ``time_limit`` (seconds per pair;
+    "auto": ``QUICK_TIME_LIMIT`` / ``DEFAULT_TIME_LIMIT``; None: none; not enforced on Dask)
+    are retried.  ``history`` defaults to
+    ``out_dir/history.sqlite``.
+    """
+    t_start = time.perf_counter()
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    partial = out / "partial.jsonl"
+    if fresh:
+        partial.unlink(missing_ok=True)
+    if time_limit == "auto":
+        time_limit = QUICK_TIME_LIMIT if quick else DEFAULT_TIME_LIMIT
+    tasks, fixed, metas = plan(scenes, models, quick, timing)
+    for t in tasks:
+        t["time_limit"] = time_limit
+    wanted = {t["key"] for t in tasks}
+    done = {
+        r["key"]: r
+        for r in store.read_partial(partial)
+        if r.get("key") in wanted and not r.get("retry")  # killed/timed out: try again
+    }
+    todo = [t for t in tasks if t["key"] not in done]
+    records = list(done.values()) + fixed
+    bar = Progress(len(todo), enabled=progress)
+    try:
+        for rec in execute(todo, workers, dask, time_limit):
+            store.append_partial(partial, rec)
+            records.append(rec)
+            bar.update(f"{rec['case']} / {rec['model']}")
+    finally:
+        bar.close()
+    config = {
+        "quick": quick,
+        "models": list(models) if models else None,
+        "cases": list(metas),
+        "workers": None if dask else (workers or os.cpu_count()),
+        "dask": dask,
+        "time_limit_s": time_limit,
+        "timing": dataclasses.asdict(timing or (QUICK_TIMING if quick else DEFAULT_TIMING)),
+    }
+    payload = store.assemble(records, metas, config)
+    elapsed = time.perf_counter() - t_start
+    payload["elapsed_s"] = elapsed
+    payload["stats"] = {"solved": len(todo), "resumed": len(done), "pairs": len(records)}
+    paths = {
+        "results.json": store.write_results(out / "results.json", payload),
+        "results.csv": store.write_csv(out / "results.csv", payload["results"]),
+    }
+    hist = Path(history) if history else out / "history.sqlite"
+    store.append_history(hist, payload, str(out), elapsed)
+    paths["history"] = hist
+    result = RunResult(payload, out, paths, len(todo), len(done), elapsed)
+    if render:
+        try:
+            from reports.render import render_report
+
+            paths.update(render_report(payload, out))
+        except Exception as exc:  # results are safe on disk; say what broke
+            result.report_error = f"{type(exc).__name__}: {exc}"
+    result.elapsed_s = time.perf_counter() - t_start
+    return result
