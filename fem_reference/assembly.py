@@ -1,0 +1,780 @@
+"""Scene -> discrete corotational system: meshes, DOF maps, supports, joints, springs, loads.
+
+``build(scene, n_elements)`` returns a ``FEMSystem`` (satisfies ``system.DiscreteSystem``).
+
+Modelling choices (what the scene format means here)
+----------------------------------------------------
+* Every flexible member is meshed on a scikit-fem ``MeshLine1`` in its arc-length coordinate
+  with ``n_elements`` corotational elements; break points are inserted where loads act at a
+  fraction along the member (segments get elements in proportion to their length).
+* Rigid members are *one stiff corotational element* per segment (not an exact constraint):
+  ``EI_r = rigid_factor * K_ref * L`` and ``EA_r = 12 EI_r / L^2`` where ``K_ref`` is the
+  largest rotational stiffness scale of the scene (flexible ``EI/L``, torsion-spring and
+  linear-spring stiffnesses).  With the default ``rigid_factor = 1e6`` the link compliance
+  perturbs outputs by ~1e-6 relative, far below the mesh error, and a stiff element keeps
+  large rigid rotations exact (corotational) without a nonlinear constraint.
+* Welded member ends at a node share one rotation DOF; every pinned end has its own.
+  Translations are always shared at a node.
+* Supports: ``clamp`` fixes x, y and the welded rotation; ``pin`` x, y; ``slider`` keeps the
+  node on the line at ``angle_deg`` (one free DOF t: ux = t cos a, uy = t sin a); ``guided``
+  fixes the welded rotation only.
+* Torsion springs act between the rotation DOFs of two member ends at a node (or one end and
+  ground) with energy ``k/2 (rot_a - rot_b - free_angle)^2``; linear springs (member kind
+  ``spring``) have energy ``k/2 (l - free_length)^2`` and no rotation DOFs.
+* Follower forces turn with the rotation DOF of the point they act on; moments are the same
+  dead or follower in 2-D.
+* Mass (for the dynamic replay): consistent P1 mass ``rho A`` on translations and ``rho I`` on
+  rotations (scikit-fem forms), constant and frame invariant.  ``rho`` = ``Member.density``
+  or, if absent, 7850 (``m-N-Pa``), 7.85e-9 (``mm-N-MPa``), 1.0 otherwise.  Springs are
+  massless; rigid links get ``rho A`` with A from the member or the mean flexible A (else 1),
+  and a small rotary inertia ``1e-3 rho A L^2`` per length when I is absent.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import reverse_cuthill_mckee
+
+from cases.schema import Member, Scene
+from fem_reference import corotational as cr
+from reduced_models.base import Step
+
+DEFAULT_DENSITY = {"m-N-Pa": 7850.0, "mm-N-MPa": 7.85e-9}
+
+
+class ModelError(ValueError):
+    """The scene cannot be represented (message names the member/node and the reason)."""
+
+
+# -- sparse scatter ----------------------------------------------------------------------------
+
+
+class Scatter:
+    """Precomputed scatter of small dense blocks (families of k-DOF blocks) into free DOFs.
+
+    A full DOF ``f`` maps to free DOF ``free[f]`` (-1: fixed) with coefficient ``coef[f]``
+    (sliders at an angle map two translations onto one free DOF).  The csr pattern and the
+    map from flattened block entries to csr data are built once; each assembly is a
+    multiply, a ``np.bincount`` and no Python loop over elements.
+    """
+
+    def __init__(self, free: np.ndarray, coef: np.ndarray, families: list[np.ndarray], n: int):
+        self.n = n
+        rows_v, w_v, sel_v, rows_m, cols_m, w_m, sel_m = [], [], [], [], [], [], []
+        off_v = off_m = 0
+        for edofs in families:
+            nb, k = edofs.shape
+            fi, w = free[edofs], coef[edofs]
+            ok = (fi >= 0) & (w != 0.0)
+            sel_v.append(off_v + np.flatnonzero(ok.ravel()))
+            rows_v.append(fi[ok])
+            w_v.append(w[ok])
+            okm = ok[:, :, None] & ok[:, None, :]
+            sel_m.append(off_m + np.flatnonzero(okm.ravel()))
+            rows_m.append(np.broadcast_to(fi[:, :, None], (nb, k, k))[okm])
+            cols_m.append(np.broadcast_to(fi[:, None, :], (nb, k, k))[okm])
+            w_m.append((w[:, :, None] * w[:, None, :])[okm])
+            off_v += nb * k
+            off_m += nb * k * k
+        self.sel_v, self.rows_v = np.concatenate(sel_v), np.concatenate(rows_v)
+        self.w_v = np.concatenate(w_v)
+        self.sel_m, self.w_m = np.concatenate(sel_m), np.concatenate(w_m)
+        rows, cols = np.concatenate(rows_m), np.concatenate(cols_m)
+        keys, self.inv = np.unique(rows.astype(np.int64) * n + cols, return_inverse=True)
+        self.indices = (keys % n).astype(np.int32)
+        self.indptr = np.searchsorted(keys // n, np.arange(n + 1)).astype(np.int32)
+        self.nnz = keys.size
+
+    def vector(self, blocks: list[np.ndarray]) -> np.ndarray:
+        """Sum of blocks (one (nb, k) array per family) into a free vector (n,)."""
+        flat = np.concatenate([b.ravel() for b in blocks])
+        return np.bincount(self.rows_v, flat[self.sel_v] * self.w_v, minlength=self.n)
+
+    def matrix(self, mats: list[np.ndarray]) -> sp.csr_matrix:
+        """Sum of block matrices (one (nb, k, k) array per family) as csr (n, n)."""
+        flat = np.concatenate([m.ravel() for m in mats])
+        data = np.bincount(self.inv, flat[self.sel_m] * self.w_m, minlength=self.nnz)
+        return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
+
+
+# -- the discrete system -----------------------------------------------------------------------
+
+
+@dataclass
+class MemberMesh:
+    """Mesh bookkeeping of one member: its points (node a ... node b) and element range."""
+
+    id: str
+    kind: str
+    points: np.ndarray  # (n_pts,) point indices from node a to node b
+    elements: slice  # slice into the beam element arrays (empty for springs)
+    s: np.ndarray  # (n_pts,) arc-length coordinates
+    thickness: float | None = None
+    E: float | None = None
+    I: float | None = None
+
+
+@dataclass
+class FEMSystem:
+    """Discretised scene; see the module docstring for the modelling choices.
+
+    Public attributes used by the solvers: ``ndof``, ``weights`` (ndof,) arc-length metric
+    (1/Lref^2 for translations, 1 for rotations, divided by ndof: an RMS norm, so arc-length
+    steps mean the same on every mesh), ``is_rotation`` (ndof,) bool,
+    ``preload`` (scale of spring preloads, 1.0 = as specified), ``const_factor`` (load factor
+    of the ``constant`` load group, used by energy analyses).
+    """
+
+    scene: Scene
+    n_elements: int
+    ndof: int
+    free: np.ndarray
+    coef: np.ndarray
+    points: np.ndarray
+    trans: np.ndarray
+    beams: cr.BeamSet
+    beam_dofs: np.ndarray
+    members: list[MemberMesh]
+    spring_dofs: np.ndarray
+    spring_k: np.ndarray
+    spring_l0: np.ndarray
+    spring_X: np.ndarray
+    spring_L: np.ndarray
+    tors_dofs: np.ndarray
+    tors_k: np.ndarray
+    tors_phi: np.ndarray
+    fol_dofs: np.ndarray
+    fol_f0: np.ndarray
+    fol_group: np.ndarray
+    dead: np.ndarray
+    dead_const: np.ndarray
+    out_rot: dict
+    out_point: dict
+    scatter: Scatter
+    weights: np.ndarray
+    is_rotation: np.ndarray
+    mass_blocks: tuple
+    Lref: float
+    fscale: float
+    bandwidth: int = 0
+    preload: float = 1.0
+    const_factor: float = 0.0
+    extra: dict = field(default_factory=dict)
+
+    # -- state helpers ---------------------------------------------------------------------
+    def full(self, u: np.ndarray) -> np.ndarray:
+        """Full DOF displacement vector (nfull + 1,) (last entry: ground, always 0)."""
+        d = np.zeros(self.free.shape[0])
+        m = self.free >= 0
+        d[m] = self.coef[m] * u[self.free[m]]
+        return d
+
+    def _follower_forces(self, d: np.ndarray, group: int) -> tuple[np.ndarray, np.ndarray]:
+        sel = self.fol_group == group
+        th = d[self.fol_dofs[sel, 2]]
+        c, s = np.cos(th), np.sin(th)
+        fx, fy = self.fol_f0[sel, 0], self.fol_f0[sel, 1]
+        f = np.zeros((sel.sum(), 3))
+        f[:, 0], f[:, 1] = c * fx - s * fy, s * fx + c * fy
+        dfdth = np.stack([-s * fx - c * fy, c * fx - s * fy], axis=1)
+        return f, dfdth
+
+    def _load_blocks(self, d: np.ndarray, lam: float) -> tuple[np.ndarray, np.ndarray]:
+        """Follower blocks of the residual's external part and their stiffness (nf, 3, 3)."""
+        nf = self.fol_dofs.shape[0]
+        fb = np.zeros((nf, 3))
+        kb = np.zeros((nf, 3, 3))
+        for group, scale in ((0, lam), (1, self.const_factor)):
+            sel = self.fol_group == group
+            if sel.any() and scale != 0.0:
+                f, dfdth = self._follower_forces(d, group)
+                fb[sel] = scale * f
+                kb[sel, 0:2, 2] = -scale * dfdth
+        return fb, kb
+
+    def _springs(self, d: np.ndarray, tangent: bool) -> tuple:
+        ns = self.spring_dofs.shape[0]
+        if ns == 0:
+            return np.zeros((0, 4)), np.zeros((0, 4, 4)), 0.0
+        dd = d[self.spring_dofs]
+        x = self.spring_X + dd[:, 2:4] - dd[:, 0:2]
+        ln = np.hypot(x[:, 0], x[:, 1])
+        n = x / ln[:, None]
+        l0 = self.spring_L + self.preload * (self.spring_l0 - self.spring_L)
+        T = self.spring_k * (ln - l0)
+        f = np.concatenate([-n * T[:, None], n * T[:, None]], axis=1)
+        e = float(np.sum(0.5 * self.spring_k * (ln - l0) ** 2))
+        if not tangent:
+            return f, None, e
+        nn = n[:, :, None] * n[:, None, :]
+        k2 = self.spring_k[:, None, None] * nn + (T / ln)[:, None, None] * (np.eye(2) - nn)
+        K = np.zeros((ns, 4, 4))
+        K[:, :2, :2] = K[:, 2:, 2:] = k2
+        K[:, :2, 2:] = K[:, 2:, :2] = -k2
+        return f, K, e
+
+    def _torsion(self, d: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+        nt = self.tors_dofs.shape[0]
+        if nt == 0:
+            return np.zeros((0, 2)), np.zeros((0, 2, 2)), 0.0
+        rel = d[self.tors_dofs[:, 0]] - d[self.tors_dofs[:, 1]] - self.preload * self.tors_phi
+        T = self.tors_k * rel
+        f = np.stack([T, -T], axis=1)
+        K = self.tors_k[:, None, None] * np.array([[1.0, -1.0], [-1.0, 1.0]])
+        return f, K, float(np.sum(0.5 * self.tors_k * rel**2))
+
+    # -- DiscreteSystem protocol -----------------------------------------------------------
+    def external(self, u: np.ndarray) -> np.ndarray:
+        """f_ext(u) at load factor 1 (the lam-scaled group only), (ndof,)."""
+        d = self.full(u)
+        f = self.dead.copy()
+        if self.fol_dofs.shape[0]:
+            ff, _ = self._follower_forces(d, 0)
+            np.add.at(f, self.fol_dofs[self.fol_group == 0, 0], ff[:, 0])
+            np.add.at(f, self.fol_dofs[self.fol_group == 0, 1], ff[:, 1])
+        return self._full_to_free(f)
+
+    def _full_to_free(self, f: np.ndarray) -> np.ndarray:
+        m = (self.free >= 0) & (self.coef != 0.0)
+        return np.bincount(self.free[m], f[m] * self.coef[m], minlength=self.ndof)
+
+    def _assemble(self, u: np.ndarray, lam: float, tangent: bool):
+        d = self.full(u)
+        de = d[self.beam_dofs]
+        if tangent:
+            fe, Ke, _ = cr.forces_and_tangent(self.beams, de)
+        else:
+            fe, _ = cr.forces(self.beams, de)
+            Ke = None
+        fs, Ks, _ = self._springs(d, tangent)
+        ft, Kt, _ = self._torsion(d)
+        fl, Kl = self._load_blocks(d, lam)
+        r = self.scatter.vector([fe, fs, ft, -fl])
+        r -= self._full_to_free(lam * self.dead + self.const_factor * self.dead_const)
+        if not tangent:
+            return r, None
+        return r, self.scatter.matrix([Ke, Ks, Kt, Kl])
+
+    def residual(self, u: np.ndarray, lam: float) -> np.ndarray:
+        """r(u, lam) = f_int(u) - f_const(u) - lam f_ext(u), (ndof,)."""
+        return self._assemble(u, lam, False)[0]
+
+    def residual_and_tangent(self, u: np.ndarray, lam: float) -> tuple[np.ndarray, sp.csr_matrix]:
+        """r(u, lam) and K = dr/du (material + geometric + follower-load stiffness)."""
+        return self._assemble(u, lam, True)
+
+    def mass(self) -> sp.csr_matrix:
+        """Consistent mass matrix on the free DOFs (see module docstring), (ndof, ndof)."""
+        return self.scatter.matrix(list(self.mass_blocks))
+
+    def strain_energy(self, u: np.ndarray) -> float:
+        """Elastic energy in beams, linear springs and torsion springs."""
+        d = self.full(u)
+        st = cr.local_state(self.beams, d[self.beam_dofs])
+        return float(
+            np.sum(cr.energy(self.beams, st)) + self._springs(d, False)[2] + self._torsion(d)[2]
+        )
+
+    def length_scale(self) -> float:
+        """Largest member length."""
+        return self.Lref
+
+    def residual_floor(self) -> float:
+        """Round-off level of the scaled residual norm: eps times the stiffest axial element
+        stiffness times the coordinate magnitude, times sqrt(ndof) and a safety factor 10."""
+        k = float(np.max(self.beams.ka, initial=0.0))
+        k = max(k, float(np.max(self.spring_k, initial=0.0)))
+        xmax = float(np.max(np.abs(self.points), initial=0.0)) + self.Lref
+        return 10.0 * np.finfo(float).eps * k * xmax * math.sqrt(max(self.ndof, 1))
+
+    def force_scale(self) -> float:
+        """A force magnitude for residual tolerances (loads, preloads or stiffness based)."""
+        return self.fscale
+
+    def output_functional(self, key: str) -> tuple[int, float, float]:
+        """Output ``name.q`` as ``offset + coef * u[index]`` (index -1: fixed value)."""
+        name, q = key.rsplit(".", 1)
+        if name not in self.out_point:
+            raise KeyError(key)
+        p = self.out_point[name]
+        if q in ("x", "y", "ux", "uy"):
+            f = self.trans[p, 0 if q in ("x", "ux") else 1]
+            off = self.points[p, 0 if q == "x" else 1] if q in ("x", "y") else 0.0
+        elif q == "rot":
+            f, off = self.out_rot[name], 0.0
+            if f is None:
+                return -1, 0.0, 0.0
+        else:
+            raise KeyError(key)
+        return int(self.free[f]), float(self.coef[f]), float(off)
+
+    def node_dofs(self, node_id: str) -> tuple[int | None, int | None, int | None]:
+        """Free DOF indices (ux, uy, rot) of a scene node; None where fixed or absent.
+
+        For a slider both translations may map to the same free DOF (with coefficients)."""
+        p = self.extra["nodes"][node_id]
+        r = self.extra["node_rot"](node_id)
+        out = []
+        for f in (self.trans[p, 0], self.trans[p, 1], r):
+            ok = f is not None and self.free[f] >= 0 and self.coef[f] != 0.0
+            out.append(int(self.free[f]) if ok else None)
+        return tuple(out)
+
+    def driver_functional(self) -> tuple[int, float, float]:
+        """Driver coordinate (driver units: length or degrees) as ``scale * coef * u[index]``;
+        returns (index, coef * scale, 0.0); index -1 if a support fixes it."""
+        f = self.extra["driver_dof"]
+        if f is None:
+            raise ModelError("scene has no driver")
+        return int(self.free[f]), float(self.coef[f] * self.extra["driver_scale"]), 0.0
+
+    def outputs(self, u: np.ndarray) -> dict[str, float]:
+        """All node outputs of the scene at state u."""
+        d = self.full(u)
+        out: dict[str, float] = {}
+        for name, p in self.out_point.items():
+            ux, uy = d[self.trans[p, 0]], d[self.trans[p, 1]]
+            r = self.out_rot[name]
+            out[f"{name}.x"] = float(self.points[p, 0] + ux)
+            out[f"{name}.y"] = float(self.points[p, 1] + uy)
+            out[f"{name}.ux"] = float(ux)
+            out[f"{name}.uy"] = float(uy)
+            out[f"{name}.rot"] = float(d[r]) if r is not None else 0.0
+        return out
+
+    def shapes(self, u: np.ndarray) -> dict[str, np.ndarray]:
+        """Deformed points of every member, {id: (n, 2)} from node a to node b."""
+        d = self.full(u)
+        disp = d[self.trans]
+        return {m.id: self.points[m.points] + disp[m.points] for m in self.members}
+
+    def max_stress(self, u: np.ndarray) -> float | None:
+        """max |E t kappa / 2| over flexible members with a thickness, or None."""
+        d = self.full(u)
+        st = cr.local_state(self.beams, d[self.beam_dofs])
+        kap = cr.end_curvatures(self.beams, st)
+        vals = [
+            m.E * m.thickness * float(np.max(kap[m.elements])) / 2.0
+            for m in self.members
+            if m.kind == "flexible" and m.thickness is not None and m.E is not None
+        ]
+        return max(vals) if vals else None
+
+    def step(self, u: np.ndarray, lam: float, iterations: int, stable: bool | None) -> Step:
+        """Outputs, shapes, strain energy and max stress of state u as a ``Step``."""
+        return Step(
+            factor=float(lam),
+            outputs=self.outputs(u),
+            energy=self.strain_energy(u),
+            iterations=int(iterations),
+            stable=stable,
+            shapes=self.shapes(u),
+            max_stress=self.max_stress(u),
+        )
+
+
+# -- builder -----------------------------------------------------------------------------------
+
+
+def _section(scene: Scene, m: Member, L: float) -> tuple[float, float]:
+    """(EI, EA) of a flexible member; A or width*thickness; EA defaults to 1e6 EI / L^2."""
+    I, A = m.I, m.A
+    if I is None and m.width is not None and m.thickness is not None:
+        I = m.width * m.thickness**3 / 12.0
+    if A is None and m.width is not None and m.thickness is not None:
+        A = m.width * m.thickness
+    if m.E is None or I is None:
+        raise ModelError(f"member {m.id!r}: flexible members need E and I (or width+thickness)")
+    EI = m.E * I
+    EA = m.E * A if A is not None else 1e6 * EI / L**2
+    return float(EI), float(EA)
+
+
+def _density(scene: Scene, m: Member) -> float:
+    if m.density is not None:
+        return float(m.density)
+    return DEFAULT_DENSITY.get(scene.units, 1.0)
+
+
+def build(
+    scene: Scene,
+    n_elements: int,
+    *,
+    rigid_factor: float = 1e6,
+    driver_load: bool = False,
+) -> FEMSystem:
+    """Discretise ``scene`` with ``n_elements`` corotational elements per flexible member.
+
+    Parameters
+    ----------
+    scene : the validated scene.
+    n_elements : elements per flexible member (>= 1); rigid members get one per segment.
+    rigid_factor : stiffness ratio of rigid links to the scene's stiffest flexible part.
+    driver_load : energy analyses: the scene loads form the *constant* group (applied at
+        ``system.const_factor``) and a unit force/torque at the driver coordinate is the
+        lam-scaled load, so lam is the driver reaction.
+
+    Raises
+    ------
+    ModelError : the scene uses something this discretisation cannot represent.
+    """
+    if n_elements < 1:
+        raise ModelError("n_elements must be >= 1")
+    nodes = {n.id: i for i, n in enumerate(scene.nodes)}
+    pts = [[n.x, n.y] for n in scene.nodes]
+    beams_m = [m for m in scene.members if m.kind in ("flexible", "rigid")]
+    springs_m = [m for m in scene.members if m.kind == "spring"]
+    Lref = max([scene.member_length(m.id) for m in scene.members] or [1.0])
+    flex = [m for m in beams_m if m.kind == "flexible"]
+    sec = {m.id: _section(scene, m, scene.member_length(m.id)) for m in flex}
+    kref = [sec[m.id][0] / scene.member_length(m.id) for m in flex]
+    kref += [abs(t.stiffness) for t in scene.torsion_springs]
+    kref += [abs(m.k or 0.0) * scene.member_length(m.id) ** 2 for m in springs_m]
+    Kref = max(kref) if kref and max(kref) > 0 else 1.0
+
+    # -- rotation DOFs at scene nodes: one shared by welded ends, one per pinned end
+    weld_nodes = {m.a for m in beams_m if m.end_a == "weld"} | {
+        m.b for m in beams_m if m.end_b == "weld"
+    }
+    # per point: list of full DOF ids; numbering is per point (ux, uy, rotations...)
+    nfull = 0
+    trans, weld_rot, end_rot = [], {}, {}
+    for n in scene.nodes:
+        trans.append([nfull, nfull + 1])
+        nfull += 2
+        if n.id in weld_nodes:
+            weld_rot[n.id] = nfull
+            nfull += 1
+        for m in beams_m:
+            for end, nid, kind in (("a", m.a, m.end_a), ("b", m.b, m.end_b)):
+                if nid == n.id:
+                    if kind == "weld":
+                        end_rot[(m.id, end)] = weld_rot[n.id]
+                    else:
+                        end_rot[(m.id, end)] = nfull
+                        nfull += 1
+    # -- mesh beam members (scikit-fem MeshLine1 in arc length)
+    load_points: dict[tuple[str, float], tuple[int, int]] = {}
+    members: list[MemberMesh] = []
+    X21, L0, ka, kb, EI_e, edofs, mA, mR = [], [], [], [], [], [], [], []
+    ne_total = 0
+    rot_of_point: dict[int, int] = {}
+    mean_A = np.mean([m.A for m in flex if m.A is not None] or [1.0])
+    for m in beams_m:
+        a, b = scene.node(m.a), scene.node(m.b)
+        L = math.hypot(b.x - a.x, b.y - a.y)
+        if L <= 0:
+            raise ModelError(f"member {m.id!r} has zero length")
+        ex, ey = (b.x - a.x) / L, (b.y - a.y) / L
+        fr = sorted(
+            {0.0, 1.0}
+            | {float(ld.fraction) for ld in scene.loads if ld.member == m.id and ld.fraction}
+        )
+        s = [0.0]
+        for f0, f1 in zip(fr[:-1], fr[1:]):
+            k = 1 if m.kind == "rigid" else max(1, round(n_elements * (f1 - f0)))
+            s.extend(np.linspace(f0 * L, f1 * L, k + 1)[1:].tolist())
+        s = np.array(s)
+        mesh = cr.line_mesh(s)
+        p_ids = [nodes[m.a]]
+        for si in s[1:-1]:
+            p_ids.append(len(pts))
+            pts.append([a.x + ex * si, a.y + ey * si])
+            trans.append([nfull, nfull + 1])
+            rot_of_point[p_ids[-1]] = nfull + 2
+            nfull += 3
+        p_ids.append(nodes[m.b])
+        p_ids = np.array(p_ids)
+        for f in fr[1:-1]:
+            load_points[(m.id, f)] = (int(p_ids[np.argmin(np.abs(s - f * L))]), 0)
+        rots = [end_rot[(m.id, "a")]] + [rot_of_point[p] for p in p_ids[1:-1]]
+        rots.append(end_rot[(m.id, "b")])
+        if m.kind == "flexible":
+            EI, EA = sec[m.id]
+        else:
+            EI = rigid_factor * Kref * L
+            EA = 12.0 * EI / L**2
+        k_a, k_b, l0 = cr.local_matrices(mesh, EA, EI)
+        rho = _density(scene, m)
+        A = (
+            m.A
+            if m.A is not None
+            else (m.width * m.thickness if m.width and m.thickness else mean_A)
+        )
+        Iy = (
+            m.I
+            if m.I is not None
+            else (m.width * m.thickness**3 / 12.0 if m.width and m.thickness else None)
+        )
+        rot_line = rho * Iy if Iy is not None else 1e-3 * rho * A * L**2
+        mA.append(cr.local_mass(mesh, rho * A))
+        mR.append(cr.local_mass(mesh, rot_line))
+        ne = l0.size
+        X21.append(np.outer(l0, [ex, ey]))
+        L0.append(l0)
+        ka.append(k_a)
+        kb.append(k_b)
+        EI_e.append(np.full(ne, EI))
+        i0, i1 = mesh.t[0], mesh.t[1]
+        tr = np.array(trans)
+        rots = np.array(rots)
+        edofs.append(
+            np.column_stack(
+                [
+                    tr[p_ids[i0], 0],
+                    tr[p_ids[i0], 1],
+                    rots[i0],
+                    tr[p_ids[i1], 0],
+                    tr[p_ids[i1], 1],
+                    rots[i1],
+                ]
+            )
+        )
+        members.append(
+            MemberMesh(
+                m.id, m.kind, p_ids, slice(ne_total, ne_total + ne), s, m.thickness, m.E, m.I
+            )
+        )
+        ne_total += ne
+    trans = np.array(trans, dtype=np.int64).reshape(-1, 2)
+    ground = nfull
+    points = np.array(pts, dtype=float)
+    beams = cr.BeamSet(
+        X21=np.concatenate(X21) if X21 else np.zeros((0, 2)),
+        L0=np.concatenate(L0) if L0 else np.zeros(0),
+        ka=np.concatenate(ka) if ka else np.zeros(0),
+        kb=np.concatenate(kb) if kb else np.zeros((0, 2, 2)),
+        EI=np.concatenate(EI_e) if EI_e else np.zeros(0),
+    )
+    beam_dofs = np.concatenate(edofs).astype(np.int64) if edofs else np.zeros((0, 6), int)
+
+    # -- linear springs
+    sd, sk, sl0, sX = [], [], [], []
+    for m in springs_m:
+        if m.k is None:
+            raise ModelError(f"spring {m.id!r} needs k")
+        pa, pb = nodes[m.a], nodes[m.b]
+        sd.append([trans[pa, 0], trans[pa, 1], trans[pb, 0], trans[pb, 1]])
+        sk.append(m.k)
+        sX.append(points[pb] - points[pa])
+        sl0.append(m.free_length if m.free_length is not None else np.hypot(*sX[-1]))
+        members.append(
+            MemberMesh(
+                m.id, "spring", np.array([pa, pb]), slice(0, 0), np.array([0.0, np.hypot(*sX[-1])])
+            )
+        )
+    spring_X = np.array(sX, dtype=float).reshape(-1, 2)
+
+    # -- torsion springs
+    def end_dof(member_id: str, node_id: str) -> int:
+        m = scene.member(member_id)
+        if m.kind == "spring":
+            raise ModelError(f"torsion spring on linear spring {member_id!r}")
+        if m.a == node_id:
+            return end_rot[(m.id, "a")]
+        if m.b == node_id:
+            return end_rot[(m.id, "b")]
+        raise ModelError(f"member {member_id!r} does not end at node {node_id!r}")
+
+    td, tk, tp = [], [], []
+    for t in scene.torsion_springs:
+        da = end_dof(t.member_a, t.node)
+        db = end_dof(t.member_b, t.node) if t.member_b else ground
+        if da == db:
+            raise ModelError(f"torsion spring {t.id!r} joins two welded ends (no effect)")
+        td.append([da, db])
+        tk.append(t.stiffness)
+        tp.append(math.radians(t.free_angle_deg))
+
+    # -- output / load rotation DOF of a node: welded rotation, else first pinned end
+    def node_rot(nid: str) -> int | None:
+        if nid in weld_rot:
+            return weld_rot[nid]
+        for m in beams_m:
+            for end, e_n in (("a", m.a), ("b", m.b)):
+                if e_n == nid:
+                    return end_rot[(m.id, end)]
+        return None
+
+    # -- loads
+    dead = np.zeros(nfull + 1)
+    dead_c = np.zeros(nfull + 1)
+    fd, ff, fg = [], [], []
+    for ld in scene.loads:
+        if ld.node is not None:
+            p, r = nodes[ld.node], node_rot(ld.node)
+        else:
+            m = scene.member(ld.member)
+            f = float(ld.fraction or 0.0)
+            if f <= 0.0 or f >= 1.0:
+                nid = m.a if f <= 0.0 else m.b
+                p = nodes[nid]
+                r = end_rot.get((m.id, "a" if f <= 0.0 else "b"), node_rot(nid))
+            else:
+                if m.kind == "spring":
+                    raise ModelError(f"load {ld.id!r} along linear spring {m.id!r}")
+                p = load_points[(m.id, f)][0]
+                r = rot_of_point[p]
+        target = dead_c if driver_load else dead
+        if ld.moment:
+            if r is None:
+                raise ModelError(f"load {ld.id!r}: moment at a point without rotation DOF")
+            target[r] += ld.moment
+        if ld.follower and (ld.fx or ld.fy):
+            if r is None:
+                raise ModelError(f"load {ld.id!r}: follower force needs a member end")
+            fd.append([trans[p, 0], trans[p, 1], r])
+            ff.append([ld.fx, ld.fy])
+            fg.append(1 if driver_load else 0)
+        else:
+            target[trans[p, 0]] += ld.fx
+            target[trans[p, 1]] += ld.fy
+
+    # -- driver coordinate (distance / energy analyses)
+    drv = scene.analysis.driver
+    driver_dof, driver_scale = None, 1.0
+    if drv is not None:
+        if drv.kind == "displacement":
+            if drv.node is None or drv.direction not in ("x", "y"):
+                raise ModelError("displacement driver needs node and direction x|y")
+            driver_dof = int(trans[nodes[drv.node], 0 if drv.direction == "x" else 1])
+        elif drv.kind == "rotation":
+            if drv.member is None or (drv.member, "a") not in end_rot:
+                raise ModelError("rotation driver needs a beam or rigid member")
+            driver_dof, driver_scale = end_rot[(drv.member, "a")], 180.0 / math.pi
+        else:
+            raise ModelError(f"unknown driver kind {drv.kind!r}")
+        if driver_load:
+            dead[driver_dof] += 1.0
+    elif driver_load:
+        raise ModelError("driver_load needs analysis.driver")
+
+    # -- supports -> free DOF map
+    fixed: set[int] = set()
+    slider: dict[int, tuple[int, float, float]] = {}
+    for sup in scene.supports:
+        p = nodes[sup.node]
+        tx, ty = trans[p]
+        if sup.type in ("clamp", "pin"):
+            fixed |= {int(tx), int(ty)}
+        if sup.type in ("clamp", "guided") and sup.node in weld_rot:
+            fixed.add(weld_rot[sup.node])
+        if sup.type == "slider":
+            a = math.radians(sup.angle_deg)
+            slider[int(tx)] = (int(ty), math.cos(a), math.sin(a))
+    free = -np.ones(nfull + 1, dtype=np.int64)
+    coef = np.ones(nfull + 1)
+    coef[ground] = 0.0
+    k = 0
+    partner: set[int] = set()
+    for f in range(nfull):
+        if f in fixed or f in partner:
+            continue
+        if f in slider:
+            fy, ca, sa = slider[f]
+            partner.add(fy)
+            for ff_, cc in ((f, ca), (fy, sa)):
+                if abs(cc) > 1e-13:
+                    free[ff_], coef[ff_] = k, cc
+            k += 1
+            continue
+        free[f] = k
+        k += 1
+    ndof = k
+    is_rot_full = np.ones(nfull + 1, dtype=bool)
+    is_rot_full[trans.ravel()] = False
+
+    # -- families: beams (6), springs (4), torsion (2), followers (3)
+    fam = [
+        beam_dofs,
+        np.array(sd, dtype=np.int64).reshape(-1, 4),
+        np.array(td, dtype=np.int64).reshape(-1, 2),
+        np.array(fd, dtype=np.int64).reshape(-1, 3),
+    ]
+    scatter = Scatter(free, coef, fam, ndof)
+    # renumber free DOFs by reverse Cuthill-McKee: member chains become narrow bands, so the
+    # Newton solves can use a banded LU (static._factor)
+    pattern = sp.csr_matrix(
+        (np.ones(scatter.nnz), scatter.indices, scatter.indptr), shape=(ndof, ndof)
+    )
+    perm = reverse_cuthill_mckee(pattern, symmetric_mode=True)
+    new_of_old = np.empty(ndof, dtype=np.int64)
+    new_of_old[perm] = np.arange(ndof)
+    free = np.where(free >= 0, new_of_old[np.maximum(free, 0)], -1)
+    scatter = Scatter(free, coef, fam, ndof)
+    rows = np.repeat(np.arange(ndof), np.diff(scatter.indptr))
+    bandwidth = int(np.max(np.abs(rows - scatter.indices), initial=0))
+    is_rotation = np.ones(ndof, dtype=bool)
+    m_ = free >= 0
+    is_rotation[free[m_][~is_rot_full[m_]]] = False
+    Mb = np.zeros((ne_total, 6, 6))
+    if ne_total:
+        MA, MR = np.concatenate(mA), np.concatenate(mR)
+        for i, j in ((0, 3), (1, 4)):
+            Mb[:, [i, i, j, j], [i, j, i, j]] = MA.reshape(-1, 4)
+        Mb[:, [2, 2, 5, 5], [2, 5, 2, 5]] = MR.reshape(-1, 4)
+    mass_blocks = (
+        Mb,
+        np.zeros((fam[1].shape[0], 4, 4)),
+        np.zeros((fam[2].shape[0], 2, 2)),
+        np.zeros((fam[3].shape[0], 3, 3)),
+    )
+
+    rs = np.where(is_rot_full, 1.0 / Lref, 1.0)  # moments -> force units
+    fscale = float(np.linalg.norm(dead * rs) + np.linalg.norm(dead_c * rs))
+    fscale += float(np.linalg.norm(ff or [0.0]))
+    pre = [abs(kk * ph) / Lref for kk, ph in zip(tk, tp)]
+    pre += [abs(kk * (l0 - np.hypot(*x))) for kk, l0, x in zip(sk, sl0, sX)]
+    fscale = max(fscale, max(pre or [0.0]))
+    if fscale == 0.0:
+        fscale = Kref / Lref
+    out_point = {o.name: nodes[o.node] for o in scene.outputs}
+    out_rot = {o.name: node_rot(o.node) for o in scene.outputs}
+    return FEMSystem(
+        scene=scene,
+        n_elements=n_elements,
+        ndof=ndof,
+        free=free,
+        coef=coef,
+        points=points,
+        trans=trans,
+        beams=beams,
+        beam_dofs=beam_dofs,
+        members=members,
+        spring_dofs=fam[1],
+        spring_k=np.array(sk, float),
+        spring_l0=np.array(sl0, float),
+        spring_X=spring_X,
+        spring_L=np.hypot(spring_X[:, 0], spring_X[:, 1]),
+        tors_dofs=fam[2],
+        tors_k=np.array(tk, float),
+        tors_phi=np.array(tp, float),
+        fol_dofs=fam[3],
+        fol_f0=np.array(ff, float).reshape(-1, 2),
+        fol_group=np.array(fg, dtype=np.int64),
+        dead=dead,
+        dead_const=dead_c,
+        out_rot=out_rot,
+        out_point=out_point,
+        scatter=scatter,
+        weights=np.where(is_rotation, 1.0, 1.0 / Lref**2) / max(ndof, 1),
+        is_rotation=is_rotation,
+        mass_blocks=mass_blocks,
+        Lref=float(Lref),
+        fscale=fscale,
+        bandwidth=bandwidth,
+        extra={
+            "Kref": Kref,
+            "end_rot": end_rot,
+            "weld_rot": weld_rot,
+            "node_rot": node_rot,
+            "nodes": nodes,
+            "ground": ground,
+            "driver_dof": driver_dof,
+            "driver_scale": driver_scale,
+        },
+    )

@@ -1,0 +1,379 @@
+"""The FE reference models ``fem-N`` and ``fem-auto`` and their registry.
+
+``fem-N`` discretises every flexible member with N corotational elements (``assembly.build``)
+and runs the scene's analysis with the solvers of ``static.py``:
+
+* ``load``: the factors ``load_factors(scene)`` are reached exactly by load control with step
+  cutting; if load control stalls (a limit point), arc-length continues along the path until
+  the factor is crossed again and Newton lands on it (``Step.info['snap'] = 1``).
+* ``path``: arc-length from factor 0; every converged step is reported until ``stop_output``
+  reaches ``stop_value`` (landed exactly by displacement control) or the factor reaches
+  ``factor_end``; limit points (load maxima/minima) are refined and inserted as steps
+  (``info['limit_point'] = +1 max / -1 min``) and listed in ``extras['limit_points']``.
+* ``distance``: displacement control on the driver coordinate; ``Step.factor`` = load factor.
+* ``energy``: the driver is displacement-controlled with a unit driving force/torque; the scene
+  loads stay at ``factor_end``; outputs ``driver.force`` / ``driver.torque`` = the reaction;
+  ``Step.factor`` = driver coordinate.
+
+``fem-auto`` runs a mesh sequence and Richardson-extrapolates (``richardson.py``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from cases.schema import Scene
+from fem_reference import static as S
+from fem_reference.assembly import FEMSystem, ModelError, build
+from reduced_models.base import ModelCard, Solution, Step, load_factors, not_applicable
+
+MODELS: dict[str, str] = {
+    "fem-N": "fem_reference.models:FEM",
+    "fem-auto": "fem_reference.models:FEMAuto",
+    "replay": "fem_reference.replay:Replay",
+}
+DEFAULT_NAMES: tuple[str, ...] = ("fem-auto", "replay")
+
+_REFS = (
+    "Crisfield, Non-linear Finite Element Analysis of Solids and Structures, Vol. 1, Wiley 1991,"
+    " Ch. 7 (corotational beam) and Ch. 9 (arc-length)",
+    "Battini & Pacoste, CMAME 191:1755-1789 (2002), doi 10.1016/S0045-7825(01)00352-8",
+    "Roache, Verification and Validation in Computational Science and Engineering, 1998 (RE)",
+)
+_OPTION_KEYS = (
+    "rtol",
+    "max_iter",
+    "arc_length",
+    "arc_length_max",
+    "stability",
+    "rigid_factor",
+    "dense_max",
+    "limit_points",
+)
+
+
+def _rec(
+    system: FEMSystem,
+    st: S.State,
+    factor: float,
+    stab: dict | None,
+    extra_out: dict | None = None,
+    info: dict | None = None,
+) -> Step:
+    step = system.step(st.u, st.lam, st.iterations, None if stab is None else stab["stable"])
+    inf = {
+        "iterations": float(st.iterations),
+        "cuts": float(st.cuts),
+        "residual": float(st.residual),
+        "load_factor": float(st.lam),
+    }
+    if stab is not None:
+        inf["min_eig"] = stab["min_eig"]
+        inf["n_neg"] = float(stab["n_neg"])
+    inf.update(st.info or {})
+    inf.update(info or {})
+    outs = dict(step.outputs)
+    outs.update(extra_out or {})
+    return replace(step, factor=float(factor), outputs=outs, info=inf)
+
+
+class Runner:
+    """Runs one analysis of ``scene`` on one discretisation (see module docstring)."""
+
+    def __init__(self, scene: Scene, n: int, options: dict):
+        self.scene, self.n = scene, n
+        o = {k: v for k, v in options.items() if k in _OPTION_KEYS}
+        self.opts = S.Options(rtol=float(o.get("rtol", 1e-9)), max_iter=int(o.get("max_iter", 25)))
+        self.o = o
+        a = scene.analysis
+        self.system = build(
+            scene, n, rigid_factor=float(o.get("rigid_factor", 1e6)), driver_load=a.kind == "energy"
+        )
+        if a.kind == "energy":
+            self.system.const_factor = a.factor_end
+        self.steps: list[Step] = []
+        self.states: list[S.State] = []
+        self.extras: dict = {"n_elements": n, "ndof": self.system.ndof}
+
+    # -- helpers ---------------------------------------------------------------------------
+    def stab(self, st: S.State, exclude: int | None = None) -> dict | None:
+        if not self.o.get("stability", True):
+            return None
+        return S.stability(
+            self.system, st.u, st.lam, int(self.o.get("dense_max", 60)), exclude=exclude
+        )
+
+    def initial(self, constraint: tuple | None = None) -> S.State:
+        """Equilibrium at factor 0 (preloaded springs, constant loads); ramps the preload and
+        the constant loads when a direct Newton solve fails."""
+        sysm, opts = self.system, self.opts
+        u0 = np.zeros(sysm.ndof)
+        try:
+            return S.newton(sysm, u0, 0.0, opts, constraint)
+        except S.SolveError:
+            pass
+        pre, cf = sysm.preload, sysm.const_factor
+        s, h, u, lam, its = 0.0, 0.25, u0, 0.0, 0
+        try:
+            while s < 1.0:
+                s1 = min(1.0, s + h)
+                sysm.preload, sysm.const_factor = s1 * pre, s1 * cf
+                try:
+                    st = S.newton(sysm, u, lam, opts, constraint)
+                except S.SolveError as err:
+                    h /= 4.0
+                    if h < 1e-6:
+                        raise S.SolveError(f"initial equilibrium (preload ramp): {err}") from None
+                    continue
+                s, u, lam, its = s1, st.u, st.lam, its + st.iterations
+                h = min(1.5 * h, 1.0)
+        finally:
+            sysm.preload, sysm.const_factor = pre, cf
+        return S.State(u, lam, its, 0, st.residual)
+
+    def ds0(self, st: S.State) -> float:
+        a, sysm = self.scene.analysis, self.system
+        if "arc_length" in self.o:
+            return float(self.o["arc_length"])
+        lu = S._lu(sysm, sysm.residual_and_tangent(st.u, st.lam)[1])
+        t = lu.solve(sysm.external(st.u))
+        cand = [S._Scaler(sysm).unorm(t) * abs(a.factor_end) / max(a.steps, 1), 0.05]
+        if a.stop_output:  # the stop output should be reached in about ``steps`` steps
+            i, c, off = sysm.output_functional(a.stop_output)
+            if i >= 0:
+                dv = abs(a.stop_value - off - c * st.u[i]) / abs(c)
+                ti = abs(c * t[i])  # stop output per unit factor along the initial tangent
+                if ti > 0:
+                    cand.append(dv / max(a.steps, 1) * S._Scaler(sysm).unorm(t) / ti)
+        return min(cand)
+
+    # -- analyses --------------------------------------------------------------------------
+    def run(self) -> tuple[str, str]:
+        kind = self.scene.analysis.kind
+        try:
+            if kind == "load":
+                self.run_load()
+            elif kind == "path":
+                return self.run_path()
+            elif kind in ("distance", "energy"):
+                self.run_driver(kind)
+            else:
+                return "not-applicable", f"analysis kind {kind!r} is not solved by fem"
+        except S.SolveError as err:
+            return "failed", str(err)
+        except (np.linalg.LinAlgError, FloatingPointError, ValueError) as err:
+            return "failed", f"{type(err).__name__}: {err}"
+        return "converged", ""
+
+    def _push(
+        self,
+        st: S.State,
+        factor: float,
+        extra_out: dict | None = None,
+        exclude: int | None = None,
+        info: dict | None = None,
+    ) -> None:
+        self.states.append(st)
+        self.steps.append(_rec(self.system, st, factor, self.stab(st, exclude), extra_out, info))
+
+    def run_load(self) -> None:
+        st = self.initial()
+        self._push(st, 0.0)
+        f = load_factors(self.scene)
+        for prev, fk in zip(f[:-1], f[1:]):
+            st = S.reach_factor(self.system, st, float(fk), float(fk - prev), self.opts)
+            self._push(st, float(fk))
+
+    def run_driver(self, kind: str) -> None:
+        a, sysm = self.scene.analysis, self.system
+        i, c, off = sysm.driver_functional()
+        if i < 0:
+            raise S.SolveError("the driver coordinate is fixed by a support")
+        vals = np.linspace(a.driver.start, a.driver.stop, a.steps + 1)
+        st = self.initial(constraint=(i, c, vals[0] - off))
+        key = "driver.torque" if a.driver.kind == "rotation" else "driver.force"
+        for k, v in enumerate(vals):
+            if k:
+                st = S.displacement_control(
+                    sysm, st, (i, c, off), float(v), float(abs(v - vals[k - 1])), self.opts
+                )
+            extra = {key: float(st.lam)} if kind == "energy" else {}
+            factor = float(v) if kind == "energy" else float(st.lam)
+            self._push(st, factor, extra, exclude=i if kind == "energy" else None)
+
+    def run_path(self) -> tuple[str, str]:
+        a, sysm, opts = self.scene.analysis, self.system, self.opts
+        st = self.initial()
+        self._push(st, st.lam)
+        ds = self.ds0(st)
+        ds_max = float(self.o.get("arc_length_max", 2.0 * ds))
+        sgn = 1.0 if a.factor_end >= 0 else -1.0
+        arc = S.ArcLength(sysm, st, ds, opts, direction=sgn, ds_max=ds_max)
+        func = sysm.output_functional(a.stop_output) if a.stop_output else None
+
+        def val(s: S.State) -> float:
+            return func[2] + func[1] * s.u[func[0]] if func[0] >= 0 else func[2]
+
+        status, message = "failed", f"stop criterion not reached within {a.max_steps} steps"
+        for _ in range(a.max_steps):
+            prev = st
+            try:
+                st = arc.step()
+            except S.SolveError as err:
+                status, message = "failed", str(err)
+                break
+            if func is not None and (val(prev) - a.stop_value) * (val(st) - a.stop_value) <= 0:
+                st = S.displacement_control(
+                    sysm, prev, func, a.stop_value, abs(a.stop_value - val(prev)), opts
+                )
+                self._push(st, st.lam)
+                status, message = "converged", ""
+                break
+            if (prev.lam - a.factor_end) * (st.lam - a.factor_end) <= 0 and st.lam != prev.lam:
+                w = (a.factor_end - prev.lam) / (st.lam - prev.lam)
+                st = S.newton(sysm, prev.u + w * (st.u - prev.u), a.factor_end, opts)
+                self._push(st, st.lam)
+                status, message = "converged", ""
+                break
+            self._push(st, st.lam)
+        if self.o.get("limit_points", True):
+            self.limit_points()
+        return status, message
+
+    def limit_points(self) -> None:
+        lam = np.array([s.lam for s in self.states])
+        found = []
+        for k in range(1, len(lam) - 1):
+            d1, d2 = lam[k] - lam[k - 1], lam[k + 1] - lam[k]
+            if d1 * d2 < 0:
+                try:
+                    lp = S.refine_extremum(self.system, *self.states[k - 1 : k + 2], self.opts)
+                except S.SolveError:
+                    continue
+                found.append((k, lp))
+        self.extras["limit_points"] = []
+        for k, lp in reversed(found):
+            i = int(lp.info["control_dof"])
+            after = (lp.u[i] - self.states[k].u[i]) * (
+                self.states[k + 1].u[i] - self.states[k].u[i]
+            ) > 0
+            pos = k + 1 if after else k
+            self.states.insert(pos, lp)
+            self.steps.insert(pos, _rec(self.system, lp, lp.lam, self.stab(lp)))
+        for _, lp in found:
+            self.extras["limit_points"].append(
+                {
+                    "factor": float(lp.lam),
+                    "kind": "max" if lp.info["limit_point"] > 0 else "min",
+                    "outputs": self.system.outputs(lp.u),
+                }
+            )
+
+
+def _solution(scene: Scene, name: str, r: Runner, status: str, message: str) -> Solution:
+    return Solution(
+        case=scene.name,
+        model=name,
+        status=status,
+        message=message,
+        steps=tuple(r.steps),
+        extras=r.extras,
+    )
+
+
+class FEM:
+    """``fem-N``: the corotational reference on N elements per flexible member."""
+
+    card = ModelCard(
+        name="fem-N",
+        family="fem",
+        summary="2-D corotational Euler-Bernoulli beam FE (scikit-fem meshes), N elements per "
+        "flexible member; Newton, step cutting, arc-length through limit points",
+        assumptions=(
+            "Euler-Bernoulli beams: no shear deformation; linear elastic local law",
+            "small strains, arbitrarily large rotations (corotational)",
+            "rigid links = one stiff element (relative compliance ~1e-6)",
+            "stability from the lowest eigenvalue of the symmetric tangent part",
+        ),
+        validity="any planar scene of the case format; discretisation error O(h^2) in "
+        "displacements (use fem-auto for an error estimate)",
+        references=_REFS,
+    )
+
+    def __init__(self, n: int = 32, **options: object):
+        self.n = int(n)
+        self.name = f"fem-{self.n}"
+        self.options = dict(options)
+
+    def applies_to(self, scene: Scene) -> str | None:
+        """None, or why the FE reference cannot represent ``scene``."""
+        if scene.analysis.kind == "sweep":
+            return "sweep analyses are expanded into single scenes by the runner"
+        try:
+            build(scene, 1)
+        except (ModelError, KeyError) as err:
+            return f"not representable: {err}"
+        return None
+
+    def runner(self, scene: Scene) -> tuple[Runner, str, str]:
+        """Run and return the runner (states kept) with status and message."""
+        r = Runner(scene, self.n, self.options)
+        status, message = r.run()
+        ignored = sorted(set(self.options) - set(_OPTION_KEYS) - {"sequence"})
+        if ignored:
+            r.extras["ignored_options"] = ignored
+        return r, status, message
+
+    def solve(self, scene: Scene) -> Solution:
+        """Equilibrium path of ``scene`` (never raises for a numerical failure)."""
+        reason = self.applies_to(scene)
+        if reason:
+            return not_applicable(scene, self.name, reason)
+        r, status, message = self.runner(scene)
+        return _solution(scene, self.name, r, status, message)
+
+
+class FEMAuto:
+    """``fem-auto``: mesh sequence + Richardson extrapolation with an error estimate.
+
+    Options: ``sequence`` (element counts, default 8, 16, 32, 64) plus the ``fem-N`` options.
+    ``extras['error_estimate'][key]`` = absolute error estimate at the last step;
+    ``extras['observed_order'][key]`` = observed order at the last step.
+    """
+
+    card = ModelCard(
+        name="fem-auto",
+        family="fem",
+        summary="fem-N on a mesh sequence, Richardson-extrapolated with observed order and "
+        "error estimate per output",
+        assumptions=FEM.card.assumptions + ("asymptotic range: error ~ C h^p",),
+        validity="as fem-N; the error estimate is meaningful when the observed order is near 2",
+        references=_REFS,
+    )
+
+    def __init__(self, sequence: tuple[int, ...] | list[int] = (8, 16, 32, 64), **options):
+        self.sequence = tuple(int(n) for n in sequence)
+        self.options = dict(options)
+        self.name = "fem-auto"
+
+    def applies_to(self, scene: Scene) -> str | None:
+        """As ``fem-N``."""
+        return FEM(1).applies_to(scene)
+
+    def solve(self, scene: Scene) -> Solution:
+        """Solve on every mesh and extrapolate (see ``richardson.combine``)."""
+        reason = self.applies_to(scene)
+        if reason:
+            return not_applicable(scene, self.name, reason)
+        from fem_reference.richardson import combine
+
+        # stability is reported from the finest mesh only: skip the eigen-analysis elsewhere
+        coarse = {**self.options, "stability": False}
+        runs = [FEM(n, **coarse).runner(scene) for n in self.sequence[:-1]]
+        runs.append(FEM(self.sequence[-1], **self.options).runner(scene))
+        return combine(scene, self.name, self.sequence, runs)
+
+
+__all__ = ["DEFAULT_NAMES", "FEM", "FEMAuto", "MODELS", "Runner"]

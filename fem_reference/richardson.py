@@ -1,0 +1,256 @@
+"""Richardson extrapolation and observed order of convergence for the ``fem-auto`` model.
+
+For a quantity computed on meshes with mesh sizes h1 > h2 > h3 (element counts n1 < n2 < n3)
+and an error ``f(h) - f* ~ C h^p``, the observed order p solves
+``(f2 - f1) / (f3 - f2) = (h1^p - h2^p) / (h2^p - h3^p)`` (closed form for a constant ratio
+r = h1/h2 = h2/h3: ``p = log(|f2 - f1| / |f3 - f2|) / log r``) and the extrapolated value is
+``f* = f3 + (f3 - f2) / ((h2/h3)^p - 1)`` (Roache, Verification and Validation in Computational
+Science and Engineering, 1998, Ch. 5; Celik et al., J. Fluids Eng. 130:078001, 2008).
+
+When the three values do not converge monotonically (differences change sign, or p falls
+outside ``P_RANGE``) the formal order of the corotational element (p = 2 for displacements
+and load factors) is used instead and the error estimate is made conservative
+(max of the correction and the last difference).  Values that agree to round-off get a zero
+order (``nan``) and the last difference as error.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
+
+import numpy as np
+from scipy.optimize import brentq
+
+from cases.schema import Scene
+from reduced_models.base import Solution
+
+if TYPE_CHECKING:  # the runner lives in models.py, which imports this module
+    from fem_reference.models import Runner
+
+P_FORMAL = 2.0
+P_RANGE = (0.5, 6.0)
+
+
+@dataclass(frozen=True)
+class Extrapolation:
+    """Result for one quantity: extrapolated value, error estimate of it (absolute), observed
+    order (nan when undefined), and whether the formal order had to be used."""
+
+    value: float
+    error: float
+    order: float
+    fallback: bool
+
+
+def observed_order(f: np.ndarray, n: np.ndarray) -> float:
+    """Observed order from the last three values ``f`` on element counts ``n`` (nan if the
+    sequence is not monotone)."""
+    f1, f2, f3 = (float(x) for x in f[-3:])
+    h1, h2, h3 = (1.0 / float(x) for x in n[-3:])
+    d21, d32 = f2 - f1, f3 - f2
+    if d32 == 0.0 or d21 == 0.0 or d21 * d32 < 0.0:
+        return math.nan
+    ratio = d21 / d32
+    r12, r23 = h1 / h2, h2 / h3
+    if abs(r12 - r23) < 1e-12:
+        return math.log(ratio) / math.log(r12)
+
+    def g(p: float) -> float:
+        return (h1**p - h2**p) / (h2**p - h3**p) - ratio
+
+    try:
+        return float(brentq(g, 1e-3, 20.0))
+    except ValueError:
+        return math.nan
+
+
+def extrapolate(f: np.ndarray, n: np.ndarray, scale: float = 0.0) -> Extrapolation:
+    """Richardson-extrapolate values ``f`` (m,) computed on element counts ``n`` (m,).
+
+    ``scale`` is a magnitude for the round-off test (e.g. a length for displacements).
+    With two meshes only, the formal order is assumed.
+    """
+    f = np.asarray(f, dtype=float)
+    n = np.asarray(n, dtype=float)
+    if f.size == 1:
+        return Extrapolation(float(f[0]), math.nan, math.nan, True)
+    f2, f3 = float(f[-2]), float(f[-1])
+    d32 = f3 - f2
+    floor = 1e-11 * max(abs(f3), abs(scale), 1e-300)
+    if abs(d32) <= floor:
+        return Extrapolation(f3, abs(d32), math.nan, False)
+    rr = float(n[-1] / n[-2])
+    p = observed_order(f, n) if f.size >= 3 else math.nan
+    fallback = not (P_RANGE[0] <= p <= P_RANGE[1]) if not math.isnan(p) else True
+    if fallback:
+        corr = d32 / (rr**P_FORMAL - 1.0)
+        return Extrapolation(f3 + corr, max(abs(corr), abs(d32)), p, True)
+    corr = d32 / (rr**p - 1.0)
+    return Extrapolation(f3 + corr, abs(corr), p, False)
+
+
+def extrapolate_table(
+    values: dict[str, np.ndarray], n: np.ndarray, scales: dict[str, float] | None = None
+) -> dict[str, np.ndarray]:
+    """Vectorised over steps: ``values[key]`` is (m meshes, n_steps).
+
+    Returns ``{"value": {key: (n_steps,)}, "error": ..., "order": ..., "fallback": ...}``
+    as nested dicts of arrays.
+    """
+    scales = scales or {}
+    out = {"value": {}, "error": {}, "order": {}, "fallback": {}}
+    for key, tab in values.items():
+        tab = np.asarray(tab, dtype=float)
+        res = [extrapolate(tab[:, j], n, scales.get(key, 0.0)) for j in range(tab.shape[1])]
+        out["value"][key] = np.array([r.value for r in res])
+        out["error"][key] = np.array([r.error for r in res])
+        out["order"][key] = np.array([r.order for r in res])
+        out["fallback"][key] = np.array([r.fallback for r in res])
+    return out
+
+
+# -- fem-auto: combine the runs of a mesh sequence ---------------------------------------------
+
+
+def _scale(key: str, L: float, steps: list) -> float:
+    if key.endswith((".x", ".y", ".ux", ".uy")):
+        return L
+    if key.endswith(".rot"):
+        return 1.0
+    if key == "energy":
+        return max([abs(s.energy) for s in steps] + [1e-300])
+    return max([abs(s.factor) for s in steps] + [1e-300])
+
+
+def _retrace(runner: Runner, key: str, values: np.ndarray) -> bool:
+    """Re-solve a coarse mesh by displacement control through the finest path's values of the
+    (monotone) stop output; replaces ``runner.steps``.  False if a step fails."""
+    from fem_reference import static as S
+    from fem_reference.models import _rec
+
+    sysm = runner.system
+    func = sysm.output_functional(key)
+    st = runner.states[0]
+    steps = [runner.steps[0]]
+    for k in range(1, len(values)):
+        try:
+            st = S.displacement_control(
+                sysm, st, func, float(values[k]), float(abs(values[k] - values[k - 1])), runner.opts
+            )
+        except S.SolveError:
+            return False
+        steps.append(_rec(sysm, st, st.lam, None))
+    runner.steps = steps
+    return True
+
+
+def combine(scene: Scene, name: str, sequence: tuple[int, ...], runs: list) -> Solution:
+    """Combine ``runs`` = [(Runner, status, message)] on element counts ``sequence`` into the
+    ``fem-auto`` Solution (see ``FEMAuto``)."""
+    fin, fstatus, fmsg = runs[-1]
+    extras: dict = {"sequence": list(sequence), "statuses": [r[1] for r in runs]}
+    if fstatus != "converged" or len(fin.steps) == 0:
+        return Solution(
+            scene.name,
+            name,
+            fstatus if fstatus != "converged" else "failed",
+            f"finest mesh (n={sequence[-1]}): {fmsg or 'no steps'}",
+            tuple(fin.steps),
+            extras,
+        )
+    kind = scene.analysis.kind
+    message = ""
+    usable = [(n, r) for n, (r, st, _) in zip(sequence, runs) if st == "converged"]
+    if kind == "path":
+        key = scene.analysis.stop_output
+        vals = np.array([s.outputs.get(key, np.nan) for s in fin.steps]) if key else None
+        mono = vals is not None and np.all(np.diff(vals) * np.sign(vals[-1] - vals[0]) > 0)
+        if mono:
+            usable = [(n, r) for n, r in usable[:-1] if _retrace(r, key, vals)] + [usable[-1]]
+        else:
+            message = (
+                "path not monotone in its stop output: steps are the finest mesh's; "
+                "error estimates from the end point and the limit points"
+            )
+            usable_end = usable
+            usable = []
+            _limit_and_end(scene, fin, usable_end, extras)
+    usable = [(n, r) for n, r in usable if len(r.steps) == len(fin.steps)]
+    if len(usable) < 2:
+        if kind != "path" or not message:
+            message = message or "fewer than two usable meshes: no error estimate"
+        return Solution(scene.name, name, "converged", message, tuple(fin.steps), extras)
+    ns = np.array([n for n, _ in usable], dtype=float)
+    keys = list(fin.steps[0].outputs)
+    table = {k: np.array([[s.outputs[k] for s in r.steps] for _, r in usable]) for k in keys}
+    table["energy"] = np.array([[s.energy for s in r.steps] for _, r in usable])
+    solved_factor = kind in ("path", "distance")
+    if solved_factor:
+        table["factor"] = np.array([[s.factor for s in r.steps] for _, r in usable])
+    L = fin.system.length_scale()
+    ex = extrapolate_table(table, ns, {k: _scale(k, L, fin.steps) for k in table})
+    steps = []
+    for j, s in enumerate(fin.steps):
+        outs = {k: float(ex["value"][k][j]) for k in keys}
+        steps.append(
+            replace(
+                s,
+                outputs=outs,
+                energy=float(ex["value"]["energy"][j]),
+                factor=float(ex["value"]["factor"][j]) if solved_factor else s.factor,
+                info={**s.info, "richardson": 1.0},
+            )
+        )
+    extras["error_estimate"] = {k: float(ex["error"][k][-1]) for k in table}
+    extras["observed_order"] = {k: float(ex["order"][k][-1]) for k in table}
+    extras["order_fallback"] = sorted(k for k in table if ex["fallback"][k][-1])
+    extras["error_estimate_steps"] = {k: ex["error"][k].tolist() for k in table}
+    extras["observed_order_steps"] = {k: ex["order"][k].tolist() for k in table}
+    extras["meshes_used"] = ns.astype(int).tolist()
+    if kind == "path":
+        _limit_and_end(scene, fin, usable, extras, end=False)
+    return Solution(scene.name, name, "converged", message, tuple(steps), extras)
+
+
+def _limit_and_end(scene: Scene, fin: Runner, usable: list, extras: dict, end: bool = True) -> None:
+    """Richardson on the path's limit points (matched by order) and, if ``end``, on the end
+    point (landed exactly on the stop criterion in every mesh)."""
+    usable = [(n, r) for n, r in usable if "limit_points" in r.extras]
+    lps = fin.extras.get("limit_points", [])
+    out = []
+    for i, lp in enumerate(lps):
+        same = [
+            (n, r.extras["limit_points"][i]["factor"])
+            for n, r in usable
+            if len(r.extras["limit_points"]) == len(lps)
+            and r.extras["limit_points"][i]["kind"] == lp["kind"]
+        ]
+        item = dict(lp)
+        if len(same) >= 2:
+            e = extrapolate(
+                np.array([f for _, f in same]), np.array([n for n, _ in same]), abs(lp["factor"])
+            )
+            item.update(
+                factor_extrapolated=e.value,
+                error=e.error,
+                order=e.order,
+                factors_by_mesh={str(n): f for n, f in same},
+            )
+        out.append(item)
+    extras["limit_points"] = out
+    if not end:
+        return
+    ends = [(n, r.steps[-1]) for n, r in usable if r.steps] if usable else []
+    if len(ends) >= 2:
+        ns = np.array([n for n, _ in ends], dtype=float)
+        keys = list(fin.steps[-1].outputs) + ["factor"]
+        L = fin.system.length_scale()
+        err, order = {}, {}
+        for k in keys:
+            vals = np.array([s.factor if k == "factor" else s.outputs[k] for _, s in ends])
+            e = extrapolate(vals, ns, _scale(k, L, fin.steps))
+            err[k], order[k] = e.error, e.order
+        extras["error_estimate"] = err
+        extras["observed_order"] = order
