@@ -39,7 +39,15 @@ from cases.schema import (
 CATALOG = Path(__file__).parent / "catalog"
 _NAME = re.compile(r"^[a-z0-9]+(-[a-z0-9]+)*$")
 # outputs that are not node quantities but may carry references
-EXTRA_OUTPUTS = ("factor", "energy", "driver.force", "driver.torque", "max_stress")
+EXTRA_OUTPUTS = (
+    "factor",
+    "factor.max",  # the largest load factor along the path (a limit load)
+    "factor.min",  # the smallest load factor along the path (e.g. a second limit load)
+    "energy",
+    "driver.force",
+    "driver.torque",
+    "max_stress",
+)
 
 
 class CaseError(ValueError):

@@ -161,6 +161,13 @@ def _value_at(steps: Sequence[Mapping], key: str, at: float | None, complete: bo
     """(value, note) of ``key`` at factor ``at`` (None: end of a complete path)."""
     if not steps:
         return None, "no steps"
+    if key in ("factor.max", "factor.min"):
+        # an extremum along the path (a limit load): the path must pass it, not end on it
+        f = values(steps, "factor")
+        i = int(np.nanargmax(f) if key == "factor.max" else np.nanargmin(f))
+        if i == len(f) - 1 and not complete:
+            return None, "path ended before the extremum"
+        return float(f[i]), ("" if 0 < i < len(f) - 1 else "extremum at the path end")
     if at is None:
         if not complete:
             return None, "path incomplete"

@@ -1,0 +1,42 @@
+"""Limit loads as references: ``factor.max`` / ``factor.min`` along a path."""
+
+from __future__ import annotations
+
+import pytest
+
+from reports.errors import reference_checks
+
+
+def steps(factors):
+    return [{"factor": f, "outputs": {}} for f in factors]
+
+
+REF = {
+    "output": "factor.max",
+    "value": 18.5,
+    "kind": "published",
+    "source": "s",
+    "rationale": "r",
+    "tolerance": 5e-3,
+}
+
+
+def test_interior_maximum_is_checked():
+    (chk,) = reference_checks([REF], steps([0.0, 10.0, 18.55, 12.0, -9.4, 5.0]), True)
+    assert chk["model_value"] == 18.55
+    assert chk["passed"] is True
+    (low,) = reference_checks(
+        [{**REF, "output": "factor.min", "value": -9.0}], steps([0.0, 18.0, -9.4, 3.0]), True
+    )
+    assert low["model_value"] == -9.4 and low["passed"] is False  # 4.4 % off
+
+
+def test_path_ending_on_its_maximum_is_not_a_limit_load():
+    (chk,) = reference_checks([REF], steps([0.0, 10.0, 18.5]), False)
+    assert chk["model_value"] is None and chk["passed"] is None
+
+
+@pytest.mark.parametrize("value,passed", [(18.59, True), (18.6, False)])
+def test_tolerance_band(value, passed):
+    (chk,) = reference_checks([REF], steps([0.0, value, 1.0]), True)
+    assert chk["passed"] is passed
