@@ -179,6 +179,9 @@ def _value_at(steps: Sequence[Mapping], key: str, at: float | None, complete: bo
     if hit.size:
         val = float(v[hit[0]])
         return (val, "") if math.isfinite(val) else (None, "not reported")
+    if f.size >= 2 and f[-1] < f[0]:
+        # a driver moving towards negative values (energy analyses): interpolate reversed
+        f, v = f[::-1], v[::-1]
     if _monotonic(f) and f[0] <= at <= f[-1]:
         val = float(np.interp(at, f, v))
         return (val, "interpolated") if math.isfinite(val) else (None, "not reported")

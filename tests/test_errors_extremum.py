@@ -40,3 +40,12 @@ def test_path_ending_on_its_maximum_is_not_a_limit_load():
 def test_tolerance_band(value, passed):
     (chk,) = reference_checks([REF], steps([0.0, value, 1.0]), True)
     assert chk["passed"] is passed
+
+
+def test_reference_on_a_decreasing_driver_path_is_interpolated():
+    """Energy analyses drive a coordinate from 0 towards negative values (DAS-2D Ex. 5)."""
+    ref = {**REF, "output": "driver.force", "value": -12.776, "at_factor": -16.279}
+    path = [{"factor": -2.0 * i, "outputs": {"driver.force": -12.7 - 0.01 * i}} for i in range(11)]
+    (chk,) = reference_checks([ref], path, True)
+    assert chk["note"] == "interpolated"
+    assert chk["model_value"] == pytest.approx(-12.7 - 0.01 * 16.279 / 2.0)
