@@ -84,7 +84,7 @@ def _floats(x: Any) -> Any:
 
 def solution_json(sol: Any, wall_s: float) -> dict[str, Any]:
     """The ``solve --json`` object of DESIGN.md (non-finite numbers -> null)."""
-    return {
+    out = {
         "case": sol.case,
         "model": sol.model,
         "status": sol.status,
@@ -101,6 +101,24 @@ def solution_json(sol: Any, wall_s: float) -> dict[str, Any]:
         ],
         "wall_s": float(wall_s),
     }
+    # Extension (DESIGN.md allows extending, never breaking): the reference's own error
+    # estimate, observed orders, limit points, dynamic jumps and validity flags, when present.
+    extra = {k: sol.extras[k] for k in _JSON_EXTRAS if k in sol.extras}
+    if extra:
+        from reports.store import extras_json
+
+        out["extras"] = extras_json(extra)
+    return out
+
+
+_JSON_EXTRAS = (
+    "error_estimate",
+    "observed_order",
+    "limit_points",
+    "jumps",
+    "validity_warning",
+    "validity_message",
+)
 
 
 # -- commands ------------------------------------------------------------------------------------

@@ -66,7 +66,8 @@ def flexbench(*args: str) -> subprocess.CompletedProcess:
 
 
 def check_contract(obj: dict) -> None:
-    assert set(obj) == TOP_KEYS
+    # the contract keys, plus the optional "extras" extension (error estimates, limit points)
+    assert TOP_KEYS <= set(obj) <= TOP_KEYS | {"extras"}
     assert all(isinstance(obj[k], str) for k in ("case", "model", "status", "message"))
     assert obj["status"] in ("converged", "failed", "not-applicable")
     assert isinstance(obj["wall_s"], float) and obj["wall_s"] >= 0
@@ -229,3 +230,17 @@ def test_run_quick_on_a_case_file(dummies, case_file, tmp_path, capsys):
     assert data["cases"]["dummy-cli"]["analysis"]["steps"] == 4  # 8 steps -> quick 4
     assert cli.main(argv) == 0
     assert "(0 solved, 3 resumed" in capsys.readouterr().out
+
+
+def test_fem_auto_json_carries_error_estimates():
+    """Issue 3: `solve CASE --model fem-auto --json` gives values with error estimates."""
+    res = flexbench("solve", "lee-frame", "--model", "fem-auto", "--json")
+    assert res.returncode == 0, res.stderr
+    obj = json.loads(res.stdout)
+    check_contract(obj)
+    est = obj["extras"]["error_estimate"]
+    assert set(obj["steps"][-1]["outputs"]) <= set(est) | {"factor"}
+    first = obj["extras"]["limit_points"][0]
+    # Lee's frame first limit load 18.5 (published, 3 digits) within 0.5 %
+    assert abs(first["factor_extrapolated"] - 18.5) / 18.5 < 5e-3
+    assert first["error"] < 0.01
