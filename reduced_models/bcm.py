@@ -137,10 +137,11 @@ def bcm_shape(
 
 
 def stiffness_positive_definite(p: np.ndarray) -> np.ndarray:
-    """(N,) bool: is G + p P + p^2 Q positive definite (2x2: k11 > 0 and det > 0)?"""
-    K = BCM_LAW.stiffness(p)
+    """Bool array shaped like p: is G + p P + p^2 Q positive definite (k11 > 0, det > 0)?"""
+    p = np.asarray(p, dtype=float)
+    K = BCM_LAW.stiffness(p.ravel())
     det = K[:, 0, 0] * K[:, 1, 1] - K[:, 0, 1] * K[:, 1, 0]
-    return (K[:, 0, 0] > 0) & (det > 0)
+    return ((K[:, 0, 0] > 0) & (det > 0)).reshape(p.shape)
 
 
 def segment_energy(ux: np.ndarray, y: np.ndarray, a: np.ndarray, k: float) -> np.ndarray:
@@ -224,16 +225,20 @@ class ChainedBCM(ChainModel):
         """Local segment shapes (xl, yl, kappa), each (N, s), segment units."""
         return bcm_shape(ux, y, a, p, k, sigma)
 
-    def warnings(
+    def warning_flags(
         self, ux: np.ndarray, y: np.ndarray, a: np.ndarray, p: np.ndarray, k: float
-    ) -> list[str]:
-        """Validity-range violations of any segment (messages without numbers repeat)."""
-        out = []
-        if np.any(np.abs(y) > Y_LIMIT):
-            out.append(f"segment transverse deflection |y| > {Y_LIMIT} h (BCM range)")
-        if not np.all(stiffness_positive_definite(p)):
-            out.append("BCM stiffness G + pP + p^2Q not positive definite")
-        return out
+    ) -> list[tuple[str, np.ndarray]]:
+        """Validity-range violations per reported step ((m, N) segment arrays)."""
+        return [
+            (
+                f"segment transverse deflection |y| > {Y_LIMIT} h (BCM range)",
+                np.any(np.abs(y) > Y_LIMIT, axis=-1),
+            ),
+            (
+                "BCM stiffness G + pP + p^2Q not positive definite",
+                ~np.all(stiffness_positive_definite(p), axis=-1),
+            ),
+        ]
 
 
 class BCM(ChainedBCM):

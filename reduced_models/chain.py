@@ -47,7 +47,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg as sla
+from scipy.linalg import lapack
 
 from cases.schema import Scene
 from reduced_models import single_beam
@@ -58,6 +58,27 @@ NB = 4  # unknowns per node: X, Y, phi, p
 HALF_BAND = 2 * NB - 1  # block-tridiagonal with 4x4 blocks -> 7 off-diagonals
 
 
+# Constant patterns of the kinematic Jacobian J = d(ux, y, a, p)/d(X0, Y0, phi0, p0, X1, Y1,
+# phi1, p1) of a segment and of the phi0-row of the second derivatives of (ux, y): both are
+# linear in the per-segment coefficients (c/h, s/h, eta, xi, 1), so one matrix product per
+# Newton iteration builds them for all segments.
+_J_PATTERN = np.zeros((5, 4, 2 * NB))
+_J_PATTERN[0, 0, [0, 4]] = _J_PATTERN[0, 1, [1, 5]] = (-1.0, 1.0)  # c/h
+_J_PATTERN[1, 0, [1, 5]] = _J_PATTERN[1, 1, [4, 0]] = (-1.0, 1.0)  # s/h
+_J_PATTERN[2, 0, 2] = 1.0  # eta: d ux / d phi0
+_J_PATTERN[3, 1, 2] = -1.0  # xi: d y / d phi0
+_J_PATTERN[4, 2, [2, 6]] = (-1.0, 1.0)  # a = phi1 - phi0
+_J_PATTERN[4, 3, 7] = 1.0  # p = p1
+_J_PATTERN = _J_PATTERN.reshape(5, -1)
+_V_PATTERN = np.zeros((5, 2, 2 * NB))  # d2(ux, y) / d phi0 d(local)
+_V_PATTERN[0, 0, [1, 5]] = _V_PATTERN[0, 1, [4, 0]] = (-1.0, 1.0)
+_V_PATTERN[1, 0, [4, 0]] = _V_PATTERN[1, 1, [5, 1]] = (-1.0, 1.0)
+_V_PATTERN[2, 1, 2] = -1.0
+_V_PATTERN[3, 0, 2] = -1.0
+_V_PATTERN = _V_PATTERN.reshape(5, -1)
+_POW = np.arange(3.0)
+
+
 @dataclass(frozen=True)
 class SegmentLaw:
     """Coefficient matrices (2x2) of the segment-normalised mixed Lagrangian (module doc)."""
@@ -66,35 +87,69 @@ class SegmentLaw:
     P: np.ndarray
     Q: np.ndarray
 
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "_coef_cache", {})
+
+    def coefficients(self, k: float) -> np.ndarray:
+        """(18, 20) matrix C: ``[d2l | dl]`` (4 x 5 per segment, flat) = monomials @ C + ux e.
+
+        Every entry of the gradient and Hessian of l is a polynomial in (p, y, a) (plus ux in
+        dl/dp): p^i times one of (1, y, a, y^2, y a, a^2), i = 0, 1, 2 -- 18 monomials.  The
+        coefficients are written out here once per k, so a Newton iteration evaluates all
+        20 derivatives of all segments with one matrix product (see ``block``):
+
+        dl = [p, K w, ux + w.P.w/2 - p D],  d2l = [[0, 0, 1], [0, K, c], [1, c, -D]],
+        K = G + p P + p^2 Q, c = P w + 2 p Q w, D = k - w.Q.w, w = (y, a).
+        """
+        C = self._coef_cache.get(k)
+        if C is not None:
+            return C
+        G, P, Q = self.G, self.P, self.Q
+        C = np.zeros((3, 6, 4, 5))  # [p power, monomial of w, row of [d2l | dl], column]
+        ONE, Y, A, YY, YA, AA = range(6)
+        C[1, ONE, 0, 4] = 1.0  # dl/dux = p
+        for i, M in enumerate((G, P, Q)):
+            for r in (0, 1):  # rows y, a of K w and of K
+                C[i, Y, 1 + r, 4], C[i, A, 1 + r, 4] = M[r, 0], M[r, 1]
+                C[i, ONE, 1 + r, 1], C[i, ONE, 1 + r, 2] = M[r, 0], M[r, 1]
+        for r in (0, 1):  # c = P w + 2 p Q w in column and row p
+            for i, M, f in ((0, P, 1.0), (1, Q, 2.0)):
+                C[i, Y, 1 + r, 3] = C[i, Y, 3, 1 + r] = f * M[r, 0]
+                C[i, A, 1 + r, 3] = C[i, A, 3, 1 + r] = f * M[r, 1]
+        # dl/dp = ux + w.P.w/2 - p k + p w.Q.w;  d2l/dp2 = -k + w.Q.w
+        C[0, [YY, YA, AA], 3, 4] = 0.5 * P[0, 0], P[0, 1], 0.5 * P[1, 1]
+        C[1, [ONE, YY, YA, AA], 3, 4] = -k, Q[0, 0], 2.0 * Q[0, 1], Q[1, 1]
+        C[0, [ONE, YY, YA, AA], 3, 3] = -k, Q[0, 0], 2.0 * Q[0, 1], Q[1, 1]
+        C[0, ONE, 0, 3] = C[0, ONE, 3, 0] = 1.0  # d2l/dux dp
+        C = C.reshape(18, 20)
+        self._coef_cache[k] = C
+        return C
+
+    def block(
+        self, ux: np.ndarray, y: np.ndarray, a: np.ndarray, p: np.ndarray, k: float
+    ) -> np.ndarray:
+        """``[d2l | dl]``, shape (N, 4, 5): Hessian and gradient of l in (ux, y, a, p)."""
+        n = ux.shape[0]
+        m2 = np.empty((n, 6))  # 1, y, a, y^2, y a, a^2
+        m2[:, 0], m2[:, 1], m2[:, 2] = 1.0, y, a
+        m2[:, 3:5] = y[:, None] * m2[:, 1:3]
+        m2[:, 5] = a * a
+        mono = ((p[:, None] ** _POW)[:, :, None] * m2[:, None, :]).reshape(n, 18)
+        out = mono @ self.coefficients(k)
+        out[:, 19] += ux
+        return out.reshape(n, 4, 5)
+
     def lagrangian(
         self, ux: np.ndarray, y: np.ndarray, a: np.ndarray, p: np.ndarray, k: float
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Value (N,), gradient (N, 4) and Hessian (N, 4, 4) in (ux, y, a, p)."""
-        (g11, g12), (_, g22) = self.G
-        (p11, p12), (_, p22) = self.P
-        (q11, q12), (_, q22) = self.Q
-        # 2x2 symmetric products written out: this runs in every Newton iteration
-        Gw0, Gw1 = g11 * y + g12 * a, g12 * y + g22 * a
-        Pw0, Pw1 = p11 * y + p12 * a, p12 * y + p22 * a
-        Qw0, Qw1 = q11 * y + q12 * a, q12 * y + q22 * a
-        wPw = y * Pw0 + a * Pw1
-        D = k - (y * Qw0 + a * Qw1)
-        p2 = p * p
-        val = 0.5 * (y * Gw0 + a * Gw1) + p * (ux + 0.5 * wPw) - 0.5 * p2 * D
-        grad = np.empty((ux.size, 4))
-        grad[:, 0] = p
-        grad[:, 1] = Gw0 + p * Pw0 + p2 * Qw0
-        grad[:, 2] = Gw1 + p * Pw1 + p2 * Qw1
-        grad[:, 3] = ux + 0.5 * wPw - p * D
-        hess = np.zeros((ux.size, 4, 4))
-        hess[:, 0, 3] = hess[:, 3, 0] = 1.0
-        hess[:, 1, 1] = g11 + p * p11 + p2 * q11
-        hess[:, 1, 2] = hess[:, 2, 1] = g12 + p * p12 + p2 * q12
-        hess[:, 2, 2] = g22 + p * p22 + p2 * q22
-        hess[:, 1, 3] = hess[:, 3, 1] = Pw0 + 2.0 * p * Qw0
-        hess[:, 2, 3] = hess[:, 3, 2] = Pw1 + 2.0 * p * Qw1
-        hess[:, 3, 3] = -D
-        return val, grad, hess
+        w = np.stack([y, a], axis=1)
+        wGw = np.einsum("ni,ij,nj->n", w, self.G, w)
+        wPw = np.einsum("ni,ij,nj->n", w, self.P, w)
+        wQw = np.einsum("ni,ij,nj->n", w, self.Q, w)
+        val = 0.5 * wGw + p * (ux + 0.5 * wPw) - 0.5 * p * p * (k - wQw)
+        B = self.block(ux, y, a, p, k)
+        return val, B[:, :, 4], B[:, :, :4]
 
     def energy(
         self, ux: np.ndarray, y: np.ndarray, a: np.ndarray, p: np.ndarray, k: float
@@ -116,20 +171,20 @@ def local_coords(nodes: np.ndarray, h: float) -> tuple[np.ndarray, ...]:
 
     Parameters
     ----------
-    nodes : (N + 1, 3) normalised node states (X, Y, phi).
+    nodes : (..., N + 1, 3) normalised node states (X, Y, phi), optionally stacked.
     h : normalised segment length 1/N.
 
     Returns
     -------
-    xi, eta, a, c, s : each (N,): normalised local tip position, segment rotation, and
+    xi, eta, a, c, s : each (..., N): normalised local tip position, segment rotation, and
     cos/sin of the previous node's angle.
     """
-    X, Y, phi = nodes[:, 0], nodes[:, 1], nodes[:, 2]
-    c, s = np.cos(phi[:-1]), np.sin(phi[:-1])
-    dX, dY = X[1:] - X[:-1], Y[1:] - Y[:-1]
+    X, Y, phi = nodes[..., 0], nodes[..., 1], nodes[..., 2]
+    c, s = np.cos(phi[..., :-1]), np.sin(phi[..., :-1])
+    dX, dY = X[..., 1:] - X[..., :-1], Y[..., 1:] - Y[..., :-1]
     xi = (c * dX + s * dY) / h
     eta = (-s * dX + c * dY) / h
-    return xi, eta, phi[1:] - phi[:-1], c, s
+    return xi, eta, phi[..., 1:] - phi[..., :-1], c, s
 
 
 def _band_index(N: int) -> tuple[np.ndarray, np.ndarray]:
@@ -139,7 +194,7 @@ def _band_index(N: int) -> tuple[np.ndarray, np.ndarray]:
     rows = gdof[:, :, None]
     cols = gdof[:, None, :]
     band_row = HALF_BAND + rows - cols  # ab[u + i - j, j]
-    return gdof, (band_row * n + cols)
+    return gdof.ravel(), (band_row * n + cols).ravel()
 
 
 class ChainProblem:
@@ -174,7 +229,9 @@ class ChainProblem:
         rdof = 3 * np.arange(N)[:, None] + np.arange(6)[None, :]
         r, cc = rdof[:, :, None], rdof[:, None, :]
         # (N, 6, 6): ab[5 + i - j, j] for i <= j; lower-triangle entries go to a dump slot
-        self.ridx = np.where(r <= cc, (5 + r - cc) * 3 * (N + 1) + cc, 6 * 3 * (N + 1))
+        self.ridx = np.where(r <= cc, (5 + r - cc) * 3 * (N + 1) + cc, 6 * 3 * (N + 1)).ravel()
+        self.rfixed = np.array([0, 1, 2] + ([3 * N + 2] if guided else []))
+        self._keep = np.array([0, 1, 2, 4, 5, 6])
         tip = NB * N
         self.tip = tip
         self.fixed = np.array([0, 1, 2, 3] + ([tip + 2] if guided else []))
@@ -185,94 +242,110 @@ class ChainProblem:
         # damping: at most 0.5 (L or rad) per Newton update in geometry, none in p
         self.max_step = np.full(self.n, 0.5)
         self.max_step[3::NB] = np.inf
+        self._dead = np.zeros(self.n)  # d(residual)/d(load factor) for dead loads
+        self._dead[tip : tip + 3] = -self.loads
+        self._coef = np.ones((N, 5))
         self._cache: tuple | None = None
+        self._coords_cache: tuple | None = None
 
     def split(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Node states (N + 1, 3) and segment axial forces (N,) from the unknown vector."""
-        q = x.reshape(self.N + 1, NB)
-        return q[:, :3], q[1:, 3]
+        """Node states (..., N + 1, 3) and segment axial forces (..., N) from unknowns (..., n)."""
+        q = x.reshape(x.shape[:-1] + (self.N + 1, NB))
+        return q[..., :3], q[..., 1:, 3]
+
+    def _coords(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Local tip coordinates z = xi + i eta (N,) and N e^{-i phi_{i-1}} (N,).
+
+        Node rows [X, Y, phi, p] are read as complex pairs (X + i Y, phi + i p).  Coordinates
+        of a state made by ``update`` are known already (forward kinematics from them).
+        """
+        c = self._coords_cache
+        if c is not None and c[0] is x and np.array_equal(c[1], x):
+            return c[2], c[3]
+        qc = np.ascontiguousarray(x).reshape(self.N + 1, NB).view(np.complex128)
+        Ne = self.N * np.exp(-1j * qc[:-1, 1].real)
+        return Ne * (qc[1:, 0] - qc[:-1, 0]), Ne
 
     def local(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Segment gradients (N, 8) and Hessians (N, 8, 8) of N * l_i in the local unknowns
         (X0, Y0, phi0, p0, X1, Y1, phi1, p1) of each segment (no load terms)."""
-        if self._cache is not None and np.array_equal(self._cache[0], x):
-            return self._cache[1]  # stability() asks again at the state just converged
-        N, h = self.N, self.h
-        nodes, p = self.split(x)
-        xi, eta, a, c, s = local_coords(nodes, h)
-        _, dl, d2l = self.law.lagrangian(xi - 1.0, eta, a, p, self.k)
-        # d(ux, y, a, p)/d(local unknowns): (N, 4, 8)
-        J = np.zeros((N, 4, 2 * NB))
-        ch, sh = c / h, s / h
-        J[:, 0, 0], J[:, 0, 1], J[:, 0, 2], J[:, 0, 4], J[:, 0, 5] = -ch, -sh, eta, ch, sh
-        J[:, 1, 0], J[:, 1, 1], J[:, 1, 2], J[:, 1, 4], J[:, 1, 5] = sh, -ch, -xi, -sh, ch
-        J[:, 2, 2], J[:, 2, 6], J[:, 3, 7] = -1.0, 1.0, 1.0
-        gloc = N * np.einsum("nij,ni->nj", J, dl)
-        Hloc = N * (J.transpose(0, 2, 1) @ d2l @ J)
+        c = self._cache
+        if c is not None and c[0] is x and np.array_equal(c[1], x):
+            return c[2]  # update/stability/tangent ask again at the state just evaluated
+        N = self.N
+        q = x.reshape(N + 1, NB)
+        z, Ne = self._coords(x)
+        xi, eta = z.real, z.imag
+        B = N * self.law.block(xi - 1.0, eta, q[1:, 2] - q[:-1, 2], q[1:, 3], self.k)
+        coef = self._coef  # (c/h, s/h, eta, xi, 1) per segment
+        coef[:, 0], coef[:, 1], coef[:, 2], coef[:, 3] = Ne.real, -Ne.imag, eta, xi
+        J = (coef @ _J_PATTERN).reshape(N, 4, 2 * NB)
+        JB = J.transpose(0, 2, 1) @ B  # (N, 8, 5): [J^T d2l | J^T dl]
+        gloc = JB[:, :, 4]
+        Hloc = JB[:, :, :4] @ J
         # curvature of xi and eta in phi_{i-1} (row/column 2 of their second derivatives)
-        zero = np.zeros_like(c)
-        vxi = np.stack([sh, -ch, -xi, zero, -sh, ch, zero, zero], axis=1)
-        veta = np.stack([ch, sh, -eta, zero, -ch, -sh, zero, zero], axis=1)
-        G2 = N * (dl[:, 0:1] * vxi + dl[:, 1:2] * veta)
+        G2 = (B[:, None, :2, 4] @ (coef @ _V_PATTERN).reshape(N, 2, 2 * NB))[:, 0]
+        G2[:, 2] *= 0.5  # the (phi0, phi0) entry is reached by both the row and the column
         Hloc[:, 2, :] += G2
         Hloc[:, :, 2] += G2
-        Hloc[:, 2, 2] -= G2[:, 2]
-        self._cache = (x.copy(), (gloc, Hloc))
+        self._cache = (x, x.copy(), (gloc, Hloc))
+        self._coords_cache = (x, self._cache[1], z, Ne)
         return gloc, Hloc
 
     def update(self, x: np.ndarray, dx: np.ndarray) -> np.ndarray:
         """Retraction used by the continuation instead of ``x + dx``.
 
         The update is mapped to segment deformations (ux, y, a) through the kinematic
-        Jacobian (exact to first order), and the node positions and angles are rebuilt from
-        the new deformations by forward kinematics (cumulative sums).  Without it a Newton
-        step that rotates a long chain leaves O(phi^2) errors in every segment's local
-        coordinates, which are large against the small per-segment deformations of a long
-        chain and make Newton diverge for N >~ 64.
+        Jacobian (exact to first order), and the node positions are rebuilt from the new
+        deformations by forward kinematics (cumulative sums; angles and axial forces are
+        linear and simply add).  Without it a Newton step that rotates a long chain leaves
+        O(phi^2) errors in every segment's local coordinates, which are large against the
+        small per-segment deformations of a long chain and make Newton diverge for N >~ 64.
         """
-        N, h = self.N, self.h
-        nodes, p = self.split(x)
-        xi, eta, a, c, s = local_coords(nodes, h)
-        d = dx.reshape(N + 1, NB)
-        dd = d[1:] - d[:-1]
-        dX, dY, dphi = dd[:, 0], dd[:, 1], dd[:, 2]
-        dphi0 = d[:-1, 2]
-        # J of local_coords (same as in ``local``) applied to the node increments
-        dxi = (c * dX + s * dY) / h + eta * dphi0
-        deta = (-s * dX + c * dY) / h - xi * dphi0
-        xi2, eta2, a2 = xi + dxi, eta + deta, a + dphi
-        phi = np.concatenate([[nodes[0, 2] + d[0, 2]], nodes[0, 2] + d[0, 2] + np.cumsum(a2)])
-        cp, sp = np.cos(phi[:-1]), np.sin(phi[:-1])
-        out = np.empty_like(x).reshape(N + 1, NB)
-        out[0, :3] = nodes[0] + d[0, :3]
-        out[1:, 0] = out[0, 0] + np.cumsum(h * (cp * xi2 - sp * eta2))
-        out[1:, 1] = out[0, 1] + np.cumsum(h * (sp * xi2 + cp * eta2))
-        out[:, 2] = phi
-        out[:, 3] = x[3::NB] + d[:, 3]
-        return out.ravel()
+        z, Ne = self._coords(x)
+        d = np.ascontiguousarray(dx).reshape(self.N + 1, NB)
+        dc = d.view(np.complex128)
+        # first-order change of z = N e^{-i phi_{i-1}} (dX + i dY), then forward kinematics
+        z2 = z + Ne * (dc[1:, 0] - dc[:-1, 0]) - 1j * z * d[:-1, 2]
+        out = x.reshape(self.N + 1, NB) + d
+        oc = out.view(np.complex128)
+        rot = np.exp(1j * out[:-1, 2])
+        oc[1:, 0] = oc[0, 0] + self.h * np.cumsum(rot * z2)
+        x2 = out.ravel()
+        self._coords_cache = (x2, x2.copy(), z2, self.N * rot.conj())
+        return x2
 
     def grad_hess(self, x: np.ndarray, lam: float) -> tuple[np.ndarray, Banded]:
         """Residual (n,) and tangent (band storage, 7 + 7 diagonals) at load factor lam."""
         gloc, Hloc = self.local(x)
-        g = np.bincount(self.gdof.ravel(), gloc.ravel(), minlength=self.n)
+        g = np.bincount(self.gdof, gloc.ravel(), minlength=self.n)
         nb = 2 * HALF_BAND + 1
-        ab = np.bincount(self.bidx.ravel(), Hloc.ravel(), minlength=nb * self.n)
-        ab = ab.reshape(nb, self.n)
-        fX, fY, m = lam * self.loads
+        ab = np.bincount(self.bidx, Hloc.ravel(), minlength=nb * self.n).reshape(nb, self.n)
         t = self.tip
         if self.follower:
+            fX, fY, m = lam * self.loads
             phi = x[t + 2]
             cp, sp = math.cos(phi), math.sin(phi)
             g[t] -= cp * fX - sp * fY
             g[t + 1] -= sp * fX + cp * fY
+            g[t + 2] -= m
             # d(-F)/dphi in rows X_N, Y_N, column phi_N: ab[u + i - j, j]
             ab[HALF_BAND - 2, t + 2] += sp * fX + cp * fY
             ab[HALF_BAND - 1, t + 2] += -(cp * fX - sp * fY)
         else:
-            g[t] -= fX
-            g[t + 1] -= fY
-        g[t + 2] -= m
+            g[t : t + 3] += lam * self._dead[t : t + 3]
         return g, Banded(ab, HALF_BAND, HALF_BAND, symmetric=not self.follower)
+
+    def load_gradient(self, x: np.ndarray, lam: float) -> np.ndarray:
+        """d(residual)/d(load factor) (n,): minus the tip loads (turned with a follower)."""
+        if not self.follower:
+            return self._dead
+        fX, fY, m = self.loads
+        t = self.tip
+        cp, sp = math.cos(x[t + 2]), math.sin(x[t + 2])
+        out = np.zeros(self.n)
+        out[t : t + 3] = -(cp * fX - sp * fY), -(sp * fX + cp * fY), -m
+        return out
 
     def stability(self, x: np.ndarray, lam: float, H: Banded) -> bool | None:
         """Is the equilibrium a strict minimum of the strain energy minus the load work?
@@ -289,33 +362,30 @@ class ChainProblem:
             return None
         _, Hloc = self.local(x)
         Hpp = np.minimum(Hloc[:, 7, 7], -self.N * 1e-9)
-        keep = np.array([0, 1, 2, 4, 5, 6])
-        Hr = Hloc[:, keep[:, None], keep[None, :]] - (
-            Hloc[:, keep, 7][:, :, None] * Hloc[:, 7, keep][:, None, :] / Hpp[:, None, None]
-        )
+        keep = self._keep
+        Hc = Hloc[:, keep, 7]
+        Hr = Hloc[:, keep[:, None], keep] - Hc[:, :, None] * (Hc / Hpp[:, None])[:, None, :]
         nr = 3 * (self.N + 1)
-        ab = np.bincount(self.ridx.ravel(), Hr.ravel(), minlength=6 * nr + 1)[: 6 * nr]
+        ab = np.bincount(self.ridx, Hr.ravel(), minlength=6 * nr + 1)[: 6 * nr]
         R = Banded(ab.reshape(6, nr), 0, 5)
-        fixed = [0, 1, 2] + ([3 * self.N + 2] if self.guided else [])
-        R.fix(np.array(fixed))
-        try:
-            sla.cholesky_banded(R.ab, lower=False, check_finite=False)
-        except np.linalg.LinAlgError:
-            return False
-        return True
+        R.fix(self.rfixed)
+        return lapack.dpbtrf(R.ab)[1] == 0
 
-    def tip_loads(self, x: np.ndarray) -> np.ndarray:
+    def tip_loads(self, X: np.ndarray) -> np.ndarray:
         """Loads (fX, fY, m) the last segment carries at the tip, from its constitutive law.
 
-        Normalised, beam frame.  At equilibrium they equal the applied tip loads (and the
-        guided-tip reaction moment).
+        ``X``: one state (n,) or a stack (m, n); result (3,) or (m, 3).  Normalised, beam
+        frame.  At equilibrium they equal the applied tip loads (and the guided-tip reaction
+        moment).
         """
-        nodes, p = self.split(x)
-        xi, eta, a, c, s = local_coords(nodes[-2:], self.h)
-        _, dl, _ = self.law.lagrangian(xi - 1.0, eta, a, p[-1:], self.k)
-        pl, fl, ml = dl[0, 0], dl[0, 1], dl[0, 2]
+        Xs = np.atleast_2d(X)
+        nodes, p = self.split(Xs)
+        xi, eta, a, c, s = (v[:, 0] for v in local_coords(nodes[:, -2:], self.h))
+        B = self.law.block(xi - 1.0, eta, a, p[:, -1], self.k)
+        pl, fl, ml = B[:, 0, 4], B[:, 1, 4], B[:, 2, 4]
         N2 = self.N**2
-        return np.array([N2 * (c[0] * pl - s[0] * fl), N2 * (s[0] * pl + c[0] * fl), self.N * ml])
+        out = np.column_stack([N2 * (c * pl - s * fl), N2 * (s * pl + c * fl), self.N * ml])
+        return out if np.ndim(X) == 2 else out[0]
 
 
 def chain_shape(nodes: np.ndarray, xl: np.ndarray, yl: np.ndarray, h: float) -> np.ndarray:
@@ -323,19 +393,21 @@ def chain_shape(nodes: np.ndarray, xl: np.ndarray, yl: np.ndarray, h: float) -> 
 
     Parameters
     ----------
-    nodes : (N + 1, 3) normalised node states.
-    xl, yl : (N, s) segment-normalised local coordinates, xl[:, 0] = 0 at the segment root.
+    nodes : (..., N + 1, 3) normalised node states (optionally stacked over steps).
+    xl, yl : (..., N, s) segment-normalised local coordinates, xl[..., 0] = 0 at the root.
     h : normalised segment length.
 
     Returns
     -------
-    (N (s - 1) + 1, 2) normalised beam-frame points from root to tip.
+    (..., N (s - 1) + 1, 2) normalised beam-frame points from root to tip.
     """
-    c, s = np.cos(nodes[:-1, 2])[:, None], np.sin(nodes[:-1, 2])[:, None]
-    X = nodes[:-1, 0:1] + h * (c * xl - s * yl)
-    Y = nodes[:-1, 1:2] + h * (s * xl + c * yl)
-    pts = np.stack([X[:, :-1].ravel(), Y[:, :-1].ravel()], axis=1)
-    return np.vstack([pts, nodes[-1:, :2]])
+    c, s = np.cos(nodes[..., :-1, 2])[..., None], np.sin(nodes[..., :-1, 2])[..., None]
+    X = nodes[..., :-1, 0:1] + h * (c * xl - s * yl)
+    Y = nodes[..., :-1, 1:2] + h * (s * xl + c * yl)
+    lead = nodes.shape[:-2]
+    npts = xl.shape[-2] * (xl.shape[-1] - 1)
+    pts = np.stack([X[..., :-1], Y[..., :-1]], axis=-1).reshape(lead + (npts, 2))
+    return np.concatenate([pts, nodes[..., -1:, :2]], axis=-2)
 
 
 class ChainModel:
@@ -343,7 +415,8 @@ class ChainModel:
 
     Subclasses set ``law`` (SegmentLaw), ``family``, ``_card`` (ModelCard template) and
     implement ``shape(ux, y, a, p, k, sigma) -> (xl, yl, kappa)`` (each (N, s), segment
-    units) and ``warnings(ux, y, a, p, k) -> list[str]``.
+    units; called once with the segments of all reported steps) and
+    ``warning_flags(ux, y, a, p, k) -> [(message, (m,) bool)]`` ((m, N) segment arrays).
 
     Parameters
     ----------
@@ -388,10 +461,11 @@ class ChainModel:
         """
         raise NotImplementedError
 
-    def warnings(
+    def warning_flags(
         self, ux: np.ndarray, y: np.ndarray, a: np.ndarray, p: np.ndarray, k: float
-    ) -> list[str]:
-        """Messages for segment states outside the model's validity range (none here)."""
+    ) -> list[tuple[str, np.ndarray]]:
+        """Validity-range violations: (message, (m,) bool per reported step) pairs for
+        segment states given as (m, N) arrays (none here)."""
         return []
 
     # -- Model protocol --------------------------------------------------------------------
@@ -429,47 +503,49 @@ class ChainModel:
             max_step=prob.max_step,
             stability=prob.stability,
             update=prob.update,
+            load_gradient=prob.load_gradient,
         )
-        L, EI = beam.L, beam.EI
+        L, EI, N, k = beam.L, beam.EI, self.N, prob.k
+        # every per-step quantity for all reported states at once: (m, N) segment arrays
+        m = len(res.factors)
+        nodes, p = prob.split(res.states)  # (m, N + 1, 3), (m, N)
+        xi, eta, a, _, _ = local_coords(nodes, prob.h)
+        ux = xi - 1.0
+        flat = (ux.ravel(), eta.ravel(), a.ravel(), p.ravel(), k)
+        energy = EI / L * N * self.law.energy(*flat).reshape(m, N).sum(axis=1)
         sigma = np.linspace(0.0, 1.0, self.shape_points)
-        steps, all_nodes, all_p = [], [], []
-        warned: dict[str, str] = {}  # warning -> first factor it appeared at
+        xl, yl, kappa = (v.reshape(m, N, sigma.size) for v in self.shape(*flat, sigma))
+        pts = beam.rotate_to_global(chain_shape(nodes, xl, yl, prob.h) * L)  # (m, P, 2)
+        kmax = np.abs(kappa).max(axis=(1, 2), initial=0.0) * N / L
+        loads = prob.tip_loads(res.states) * np.array([EI / L**2, EI / L**2, EI / L])
+        ymax = np.abs(eta).max(axis=1, initial=0.0)
+        flags = self.warning_flags(ux, eta, a, p, k)
+        steps = []
         a_cfg = scene.analysis
         v0 = None
-        for j, lam in enumerate(res.factors):
-            x = res.states[j]
-            nodes, p = prob.split(x)
-            xi, eta, a, _, _ = local_coords(nodes, prob.h)
-            ux = xi - 1.0
-            energy = EI / L * self.N * float(np.sum(self.law.energy(ux, eta, a, p, prob.k)))
-            xl, yl, kappa = self.shape(ux, eta, a, p, prob.k, sigma)
-            pts = chain_shape(nodes, xl, yl, prob.h) * L
-            tip = nodes[-1]
+        for j in range(m):
+            lam = float(res.factors[j])
+            tip = nodes[j, -1]
             outputs = single_beam.tip_outputs(scene, beam, tip[0] * L, tip[1] * L, tip[2])
-            loads = prob.tip_loads(x)
-            for w in self.warnings(ux, eta, a, p, prob.k):
-                warned.setdefault(w, f"{w} (from factor {lam:.4g})")
             steps.append(
                 Step(
-                    factor=float(lam),
+                    factor=lam,
                     outputs=outputs,
-                    energy=energy,
+                    energy=float(energy[j]),
                     iterations=int(res.iterations[j]),
                     stable=res.stable[j],
-                    shapes={beam.member: beam.rotate_to_global(pts)},
-                    max_stress=single_beam.stress_from_curvature(scene, beam, kappa * self.N / L),
+                    shapes={beam.member: pts[j]},
+                    max_stress=single_beam.stress_from_curvature(scene, beam, kmax[j : j + 1]),
                     info={
-                        "tip.fx": float(loads[0] * EI / L**2),
-                        "tip.fy": float(loads[1] * EI / L**2),
-                        "tip.m": float(loads[2] * EI / L),
+                        "tip.fx": float(loads[j, 0]),
+                        "tip.fy": float(loads[j, 1]),
+                        "tip.m": float(loads[j, 2]),
                         "residual": float(res.residuals[j]),
                         "cuts": float(res.cuts[j]),
-                        "max_segment_y": float(np.max(np.abs(eta))),
+                        "max_segment_y": float(ymax[j]),
                     },
                 )
             )
-            all_nodes.append(nodes * np.array([L, L, 1.0]))
-            all_p.append(p)
             # a "path" analysis stops once its stop output reaches the stop value
             if a_cfg.kind == "path" and a_cfg.stop_output and a_cfg.stop_value is not None:
                 v = outputs.get(a_cfg.stop_output)
@@ -480,9 +556,14 @@ class ChainModel:
                     and (v - a_cfg.stop_value) * (v0 - a_cfg.stop_value) <= 0
                 ):
                     break
+        m = len(steps)
+        # warning -> first reported factor it appeared at
+        first = sorted((int(np.argmax(f[:m])), w) for w, f in flags if np.any(f[:m]))
+        warned = {w: f"{w} (from factor {res.factors[j]:.4g})" for j, w in first}
+        all_nodes, all_p = nodes[:m] * np.array([L, L, 1.0]), p[:m]
         extras: dict[str, object] = {
-            "nodes": np.array(all_nodes),
-            "axial": np.array(all_p),
+            "nodes": all_nodes,
+            "axial": all_p,
             "k": prob.k,
         }
         if warned:

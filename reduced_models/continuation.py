@@ -6,17 +6,22 @@ API
 ---
 ``minimize_path(grad_hess, x0, factors, *, scale=None, xtol=1e-10, gtol=None, max_iter=25,
 max_cuts=10, max_step=None, fixed=None, stability=positive_definite, update=None,
-keep_branch=True) -> PathResult``
+keep_branch=True, load_gradient=None, symmetric=None) -> PathResult``
 
 * ``grad_hess(x, lam) -> (g, H)``: for a conservative model ``g`` is the gradient of the total
   potential ``Pi(x; lam) = U(x) - lam * W(x)`` and ``H`` its Hessian; any residual/Jacobian
   pair works (follower loads give an unsymmetric ``H``; a mixed Lagrangian gives an
   indefinite one).  ``x`` has shape (n,), ``g`` shape (n,).  ``H`` may be
 
-  - a dense ``numpy.ndarray`` of shape (n, n),
-  - a ``Banded`` (LAPACK band storage, solved by ``scipy.linalg.solve_banded``; pays for
-    chained segments whose Hessian is block-tridiagonal),
-  - a ``scipy.sparse`` matrix (solved by ``scipy.sparse.linalg.spsolve``).
+  - a dense ``numpy.ndarray`` of shape (n, n) (LAPACK ``dgesv``, or ``dposv`` -- Cholesky --
+    when ``symmetric`` is True and the stability test is ``positive_definite``),
+  - a ``Banded`` (LAPACK band storage, ``dgbsv``, or ``dpbsv`` under the same condition; pays
+    for chained segments whose Hessian is block-tridiagonal),
+  - a ``scipy.sparse`` matrix (sparse LU, ``scipy.sparse.linalg.splu``).
+
+  The LAPACK drivers are called directly: for the small systems of reduced models the
+  argument checking of ``numpy.linalg.solve`` / ``scipy.linalg.solve_banded`` costs more
+  than the factorisation.
 
 * ``factors``: the load factors to report, shape (m,), usually starting at 0
   (``base.load_factors(scene)``).  Between two reported factors the increment is halved on a
@@ -26,38 +31,59 @@ keep_branch=True) -> PathResult``
 * ``fixed``: indices of unknowns held at their ``x0`` value (supports).  Their rows and
   columns are replaced by identity rows so band structure is kept; callers may also do this
   themselves.
-* Convergence: after a Newton update, ``max |dx_i / scale_i| <= xtol``; the residual is then
-  quadratically small.  ``scale`` (shape (n,)) gives each unknown's typical size (default 1).
-  With ``gtol`` the residual at the accepted point must also satisfy ``max |g| <= gtol``.
+* Convergence: a Newton iteration evaluates ``g, H`` at ``x_k`` and solves for the update
+  ``dx_k``; the iteration is converged when ``max |dx_k,i / scale_i| <= xtol`` (and, with
+  ``gtol``, ``max |g(x_k)| <= gtol``).  The accepted state is ``x_k + dx_k`` -- the same
+  state and the same test as a "converged after the update" rule -- but no extra evaluation
+  is spent at it: the reported residual is ``max |g(x_k)|`` measured at the last evaluated
+  iterate, which over-states the residual of the accepted state (quadratically smaller).
+  ``scale`` (shape (n,)) gives each unknown's typical size (default 1).  A residual that
+  stops falling while the update is already below ``xtol`` (a round-off floor above
+  ``gtol``) fails the attempt.
 * ``max_step``: optional cap (scalar or per unknown) on ``|dx_i / scale_i|`` per Newton
   update; a longer update is shortened as a whole (damping).
 * ``update(x, dx) -> x_new``: optional retraction replacing ``x + dx`` (first-order equal);
   chained-segment models use it to rebuild node positions from segment deformations.
-* ``stability(x, lam, H) -> bool | None``: evaluated at every converged (sub)state.  With
-  ``keep_branch`` (default) a substep from a stable to an unstable state, or one whose
-  increment (scaled) points against the previous increment, is cut and retried (Newton
-  tends to jump branches next to a bifurcation of an imperfect system); it is accepted only
-  at the shortest step.  The default,
-  ``positive_definite``, is right for pure energy minimisation; pass ``None`` to skip, or a
-  model-specific test (e.g. an inertia count for a mixed Lagrangian).
+* Predictor: with ``load_gradient(x, lam) -> dg/dlam`` (shape (n,); for dead loads
+  ``-grad W``; called with the last point handed to ``grad_hess``), the path tangent
+  ``dx/dlam = -H^{-1} dg/dlam`` at each converged state is obtained from the factorisation
+  of its last Newton solve (one extra triangular solve), and the next start is the cubic
+  Hermite polynomial through the previous and the current state and their tangents (the
+  tangent line on the first increment), taken in x itself (no retraction).  Without it,
+  or where that polynomial runs more than 3 times further than the secant (a tangent
+  blowing up next to a bifurcation or limit point), the secant through the last two
+  converged states.  A predictor that fails is retried from the last converged state
+  before the increment is cut.  The increment grown after an easy step (<= 4 iterations)
+  is carried on to the next reported factor, so it recovers after a cut.
+* ``stability(x, lam, H) -> bool | None``: evaluated at every converged (sub)state, at the
+  last evaluated iterate (within ``xtol`` of the accepted state).  With ``keep_branch``
+  (default) a substep from a stable to an unstable state, or one whose increment (scaled)
+  points against the previous increment, is cut and retried (Newton tends to jump branches
+  next to a bifurcation of an imperfect system); it is accepted only at the shortest step.
+  The default, ``positive_definite``, is right for pure energy minimisation; pass ``None``
+  to skip, or a model-specific test (e.g. an inertia count for a mixed Lagrangian).  With
+  ``symmetric=True`` (the caller guarantees a symmetric ``H``) and ``positive_definite``,
+  the Newton systems are solved by Cholesky where it succeeds, so the last solve already
+  decides positive definiteness and no separate factorisation is spent on the test.
 
 Returns a ``PathResult``: the converged reported factors, states, Newton iterations per
-reported step (substeps and failed attempts included), cuts, final residual norms, stability
-flags, ``ok`` and a one-line ``reason`` when the path stopped early.  Nothing is ever returned
-as converged that did not meet ``xtol``.  The predictor is the secant through the last two
-converged (sub)states.
+reported step (one iteration = one evaluation of ``grad_hess`` and one linear solve;
+substeps and failed attempts included), cuts, final residual norms, stability flags, ``ok``
+and a one-line ``reason`` when the path stopped early.  Nothing is ever returned as
+converged that did not meet ``xtol`` (and ``gtol``).
 """
 
 from __future__ import annotations
 
 import functools
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from scipy.linalg import lapack
 
 __all__ = [
     "Banded",
@@ -102,9 +128,10 @@ class Banded:
         """Upper symmetric band storage (u + 1, n) for ``solveh_banded``/``eigvals_banded``."""
         return self.ab[: self.u + 1]
 
-    def fix(self, idx: np.ndarray) -> None:
+    def fix(self, idx: np.ndarray | tuple[int, ...]) -> None:
         """Replace rows and columns ``idx`` by identity rows/columns (in place)."""
-        zero, diag = _band_fix_index(self.n, self.l, self.u, tuple(np.atleast_1d(idx).tolist()))
+        key = idx if isinstance(idx, tuple) else tuple(np.atleast_1d(idx).tolist())
+        zero, diag = _band_fix_index(self.n, self.l, self.u, key)
         if not self.ab.flags.c_contiguous:
             self.ab = np.ascontiguousarray(self.ab)
         flat = self.ab.reshape(-1)  # a view of the C-contiguous storage
@@ -142,16 +169,87 @@ def _fix_sparse(H: sp.spmatrix, idx: np.ndarray, n: int) -> sp.csc_matrix:
     return (D @ H @ D + E).tocsc()
 
 
+_dposv, _dpotrs = lapack.dposv, lapack.dpotrs
+_dgesv, _dgetrs = lapack.dgesv, lapack.dgetrs
+_dpbsv, _dpbtrs = lapack.dpbsv, lapack.dpbtrs
+_dgbsv, _dgbtrs = lapack.dgbsv, lapack.dgbtrs
+
+
+def _absmax(v: np.ndarray) -> float:
+    """max |v_i| (nan if any entry is not finite).
+
+    Small vectors go through a Python list: for a handful of entries the two numpy calls
+    cost four times more, and this runs twice per Newton iteration.
+    """
+    if v.size > 32:
+        return float(abs(v).max())
+    lst = v.tolist()
+    m = max(map(abs, lst))
+    return m if math.isfinite(sum(lst)) else math.nan
+
+
+def _factor_solve(H: object, rhs: np.ndarray, chol: bool) -> tuple[np.ndarray, bool | None, tuple]:
+    """Solve ``H x = rhs`` and keep the factorisation.
+
+    ``chol``: try Cholesky first (H symmetric by the caller's guarantee).  Returns
+    ``(x, pd, factor)``: ``pd`` is True/False when a Cholesky attempt decided positive
+    definiteness, else None; ``factor`` is handed to ``_resolve`` for more right-hand sides.
+    Raises ``numpy.linalg.LinAlgError`` for an exactly singular matrix.
+    """
+    pd = None
+    if type(H) is np.ndarray:  # the common small dense case first
+        if chol:
+            c, x, info = _dposv(H, rhs)
+            if info == 0:
+                return x, True, ("po", c)
+            pd = False
+        lu, piv, x, info = _dgesv(H, rhs)
+        if info > 0:
+            raise np.linalg.LinAlgError("singular matrix")
+        return x, pd, ("ge", lu, piv)
+    if isinstance(H, Banded):
+        if chol and H.symmetric and H.l == H.u:
+            c, x, info = _dpbsv(H.ab[: H.u + 1], rhs)
+            if info == 0:
+                return x, True, ("pb", c)
+            pd = False
+        n, lo, up = H.ab.shape[1], H.l, H.u
+        ab = np.empty((2 * lo + up + 1, n), order="F")  # dgbsv wants l extra rows for fill-in
+        ab[lo:] = H.ab
+        lub, piv, x, info = _dgbsv(lo, up, ab, rhs, overwrite_ab=1)
+        if info > 0:
+            raise np.linalg.LinAlgError("singular banded matrix")
+        return x, pd, ("gb", lub, piv, lo, up)
+    if sp.issparse(H):
+        try:
+            lu = spla.splu(sp.csc_matrix(H))
+        except RuntimeError as exc:  # "Factor is exactly singular"
+            raise np.linalg.LinAlgError(str(exc)) from None
+        return lu.solve(rhs), None, ("sp", lu)
+    return _factor_solve(np.asarray(H, dtype=float), rhs, chol)
+
+
+def _resolve(factor: tuple, rhs: np.ndarray) -> np.ndarray:
+    """Solve with a factorisation kept by ``_factor_solve``."""
+    kind = factor[0]
+    if kind == "po":
+        return _dpotrs(factor[1], rhs)[0]
+    if kind == "ge":
+        return _dgetrs(factor[1], factor[2], rhs)[0]
+    if kind == "pb":
+        return _dpbtrs(factor[1], rhs)[0]
+    if kind == "gb":
+        _, lub, piv, lo, up = factor
+        return _dgbtrs(lub, lo, up, rhs, piv)[0]
+    return factor[1].solve(rhs)
+
+
 def solve_linear(H: object, rhs: np.ndarray) -> np.ndarray:
     """Solve ``H x = rhs`` for a dense, ``Banded`` or sparse ``H`` (raises LinAlgError)."""
-    if isinstance(H, Banded):
-        return sla.solve_banded((H.l, H.u), H.ab, rhs, check_finite=False)
-    if sp.issparse(H):
-        x = spla.spsolve(sp.csc_matrix(H), rhs)
-        if not np.all(np.isfinite(x)):
-            raise np.linalg.LinAlgError("singular sparse matrix")
-        return x
-    return np.linalg.solve(H, rhs)
+    x = _factor_solve(H, np.asarray(rhs, dtype=float), False)[0]
+    if not np.all(np.isfinite(x)):
+        raise np.linalg.LinAlgError("singular matrix")
+    return x
 
 
 def positive_definite(x: np.ndarray, lam: float, H: object) -> bool | None:
@@ -160,21 +258,16 @@ def positive_definite(x: np.ndarray, lam: float, H: object) -> bool | None:
     Dense and symmetric ``Banded`` matrices use a Cholesky factorisation; sparse or
     unsymmetric matrices give None (not assessed).
     """
-    try:
-        if isinstance(H, Banded):
-            if not H.symmetric:
-                return None
-            sla.cholesky_banded(H.upper(), lower=False, check_finite=False)
-            return True
-        if sp.issparse(H):
+    if isinstance(H, Banded):
+        if not H.symmetric:
             return None
-        H = np.asarray(H)
-        if not np.allclose(H, H.T, rtol=1e-9, atol=1e-12 * np.max(np.abs(H))):
-            return None
-        np.linalg.cholesky(H)
-        return True
-    except np.linalg.LinAlgError:
-        return False
+        return lapack.dpbtrf(H.upper())[1] == 0
+    if sp.issparse(H):
+        return None
+    H = np.asarray(H, dtype=float)
+    if not np.allclose(H, H.T, rtol=1e-9, atol=1e-12 * np.max(np.abs(H))):
+        return None
+    return lapack.dpotrf(H)[1] == 0
 
 
 @dataclass(frozen=True)
@@ -204,66 +297,101 @@ class PathResult:
     reason: str
 
 
-def _evaluate(
-    grad_hess: Callable, x: np.ndarray, lam: float, fixed: np.ndarray
-) -> tuple[np.ndarray, object]:
-    """Residual and tangent with the fixed unknowns replaced by identity equations."""
-    g, H = grad_hess(x, lam)
-    g = np.array(g, dtype=float)
-    if fixed.size:
-        g[fixed] = 0.0
-        if isinstance(H, Banded):
-            H.fix(fixed)
-        elif sp.issparse(H):
-            H = _fix_sparse(H, fixed, x.size)
-        else:
-            H = _fix_dense(H, fixed)
-    return g, H
+@dataclass
+class _Converged:
+    """One converged Newton solve: accepted state and what was measured on the way."""
+
+    x: np.ndarray  # accepted state x_k + dx_k
+    its: int
+    res: float  # max |g(x_k)| at the last evaluated iterate
+    stable: bool | None
+    x_eval: np.ndarray  # x_k
+    factor: tuple  # factorisation of H(x_k)
 
 
-def _newton(
-    grad_hess: Callable,
-    x: np.ndarray,
-    lam: float,
-    fixed: np.ndarray,
-    scale: np.ndarray,
-    xtol: float,
-    max_iter: int,
-    max_step: float | np.ndarray | None,
-    update: Callable | None = None,
-    gtol: float | None = None,
-) -> tuple[np.ndarray | None, int, float, object, str]:
-    """Newton iterations at fixed ``lam``; returns (x or None, iterations, |g|, H, reason)."""
-    x = x.copy()
-    n = x.size
-    for it in range(1, max_iter + 1):
-        g, H = _evaluate(grad_hess, x, lam, fixed)
-        if not np.all(np.isfinite(g)):
-            return None, it, np.inf, None, "non-finite residual"
-        try:
-            dx = -solve_linear(H, g)
-        except (np.linalg.LinAlgError, ValueError) as exc:
-            return None, it, float(np.max(np.abs(g))), None, f"singular tangent ({exc})"
-        if not np.all(np.isfinite(dx)):
-            return None, it, float(np.max(np.abs(g))), None, "singular tangent"
-        size = float(np.max(np.abs(dx) / scale)) if n else 0.0
-        if max_step is not None:
-            over = float(np.max(np.abs(dx) / (scale * max_step))) if n else 0.0
-            if over > 1.0:
-                dx /= over
-        x = update(x, dx) if update is not None else x + dx
-        if size <= xtol:
-            # residual at the accepted point (one extra evaluation keeps the report honest)
-            g2, H2 = _evaluate(grad_hess, x, lam, fixed)
-            res = float(np.max(np.abs(g2))) if n else 0.0
-            if not np.isfinite(res):
-                return None, it, np.inf, None, "non-finite residual"
-            if gtol is not None and res > gtol:
-                return None, it, res, None, f"update converged but residual {res:.3g} > gtol"
-            return x, it, res, H2, ""
-        if size > 1e6:
-            return None, it, float(np.max(np.abs(g))), None, "Newton diverged"
-    return None, max_iter, float(np.max(np.abs(g))), None, f"no convergence in {max_iter} its"
+class _Solver:
+    """Newton iterations at fixed load factor with the options of one ``minimize_path``."""
+
+    def __init__(
+        self,
+        grad_hess: Callable,
+        n: int,
+        fixed: np.ndarray,
+        scale: np.ndarray,
+        xtol: float,
+        gtol: float | None,
+        max_iter: int,
+        max_step: float | np.ndarray | None,
+        update: Callable | None,
+        stability: Callable | None,
+        symmetric: bool | None,
+    ) -> None:
+        self.grad_hess, self.n, self.fixed = grad_hess, n, fixed
+        self.fixed_key = tuple(fixed.tolist())
+        # None: unit scale (the common case skips a multiplication per iteration)
+        self.inv_scale = None if np.all(scale == 1.0) else 1.0 / scale
+        self.xtol, self.gtol, self.max_iter = xtol, gtol, max_iter
+        self.inv_cap = None if max_step is None else 1.0 / (scale * max_step)
+        self.update, self.stability = update, stability
+        # Cholesky in the Newton solves decides positive definiteness on the way
+        self.chol = stability is positive_definite and symmetric is True
+
+    def evaluate(self, x: np.ndarray, lam: float) -> tuple[np.ndarray, object]:
+        """Residual and tangent with the fixed unknowns replaced by identity equations."""
+        g, H = self.grad_hess(x, lam)
+        fixed = self.fixed
+        if fixed.size:
+            g = np.array(g, dtype=float)
+            g[fixed] = 0.0
+            if isinstance(H, Banded):
+                H.fix(self.fixed_key)
+            elif sp.issparse(H):
+                H = _fix_sparse(H, fixed, self.n)
+            else:
+                H = _fix_dense(H, fixed)
+        return g, H
+
+    def newton(self, x: np.ndarray, lam: float) -> tuple[_Converged | None, int, str]:
+        """Newton from ``x`` at factor ``lam``: (result or None, iterations, reason)."""
+        if self.n == 0:
+            return _Converged(x.copy(), 0, 0.0, None, x, ("ge", None, None)), 0, ""
+        gtol, xtol, prev_res = self.gtol, self.xtol, math.inf
+        evaluate = self.evaluate if self.fixed.size else self.grad_hess
+        inv_scale, update, chol = self.inv_scale, self.update, self.chol
+        for it in range(1, self.max_iter + 1):
+            g, H = evaluate(x, lam)
+            res = _absmax(g)
+            if not math.isfinite(res):
+                return None, it, "non-finite residual"
+            try:
+                sol, pd, factor = _factor_solve(H, g, chol)
+            except (np.linalg.LinAlgError, ValueError) as exc:
+                return None, it, f"singular tangent ({exc})"
+            size = _absmax(sol if inv_scale is None else sol * inv_scale)
+            if not math.isfinite(size):
+                return None, it, "singular tangent"
+            dx = -sol
+            if size <= xtol:
+                if gtol is None or res <= gtol:
+                    x_new = update(x, dx) if update is not None else x + dx
+                    if self.stability is None:
+                        st = None
+                    elif chol and pd is not None:
+                        st = pd
+                    else:
+                        st = self.stability(x, lam, H)
+                    return _Converged(x_new, it, res, st, x, factor), it, ""
+                if res > 0.5 * prev_res:
+                    return None, it, f"residual {res:.3g} stalls above gtol {gtol:.3g}"
+            elif size > 1e6:
+                return None, it, "Newton diverged"
+            elif self.inv_cap is not None:
+                over = float((abs(dx) * self.inv_cap).max())
+                if over > 1.0:
+                    dx /= over
+            prev_res = res
+            x = update(x, dx) if update is not None else x + dx
+        return None, self.max_iter, f"no convergence in {self.max_iter} its"
 
 
 def minimize_path(
@@ -281,6 +409,8 @@ def minimize_path(
     stability: Callable | None = positive_definite,
     update: Callable | None = None,
     keep_branch: bool = True,
+    load_gradient: Callable | None = None,
+    symmetric: bool | None = None,
 ) -> PathResult:
     """Follow the equilibrium path through the requested load factors (see module doc).
 
@@ -290,20 +420,15 @@ def minimize_path(
     x0 : (n,) start (and values of the ``fixed`` unknowns).
     factors : (m,) reported load factors, increasing from the first.
     scale : (n,) typical size of each unknown for the convergence test (default ones).
-    xtol : convergence tolerance on the scaled Newton update.
-    gtol : optional extra tolerance on ``max |g|`` at the accepted point.
-    max_iter : Newton iterations per attempt.
-    max_cuts : consecutive step halvings allowed before giving up.
-    max_step : optional cap (scalar or (n,), may contain inf) on ``|dx_i / scale_i|``; a
-        longer Newton update is shortened as a whole (damping).
+    xtol, gtol : tolerances on the scaled Newton update and on ``max |g|`` (optional).
+    max_iter, max_cuts : Newton iterations per attempt; consecutive step halvings allowed.
+    max_step : optional cap (scalar or (n,), may contain inf) on ``|dx_i / scale_i|``.
     fixed : indices of unknowns held at ``x0``.
-    stability : ``(x, lam, H) -> bool | None`` at reported states, or None.
-    update : optional ``(x, dx) -> x_new`` used instead of ``x + dx`` for Newton updates and
-        the predictor (a retraction that keeps kinematic relations exact; it must equal
-        ``x + dx`` to first order so Newton stays quadratic).
-    keep_branch : cut a substep that turns a stable state into an unstable one or whose
-        increment points against the previous one (branch jumping near a bifurcation);
-        accepted once the step reaches the shortest allowed length.
+    stability : ``(x, lam, H) -> bool | None`` at converged states, or None.
+    update : optional retraction ``(x, dx) -> x_new`` (Newton updates, secant predictor).
+    keep_branch : cut substeps that lose stability or turn back (branch jumps).
+    load_gradient : optional ``(x, lam) -> dg/dlam`` (n,) for the tangent predictor.
+    symmetric : True if every ``H`` is symmetric (Cholesky solves).
 
     Returns
     -------
@@ -313,7 +438,12 @@ def minimize_path(
     n = x.size
     fixed = np.asarray(fixed if fixed is not None else [], dtype=int)
     scale = np.ones(n) if scale is None else np.asarray(scale, dtype=float)
+    inv_scale = 1.0 / scale
+    inv_scale_used = not np.all(inv_scale == 1.0)
     factors = np.asarray(factors, dtype=float)
+    solver = _Solver(
+        grad_hess, n, fixed, scale, xtol, gtol, max_iter, max_step, update, stability, symmetric
+    )
 
     out_f: list[float] = []
     out_x: list[np.ndarray] = []
@@ -337,28 +467,35 @@ def minimize_path(
     if factors.size == 0:
         return result(True, "")
 
+    def tangent(c: _Converged, lam: float) -> np.ndarray | None:
+        """dx/dlam at a converged state from the factorisation of its last solve."""
+        if load_gradient is None or n == 0:
+            return None
+        dg = load_gradient(c.x_eval, lam)
+        if fixed.size:
+            dg = np.array(dg, dtype=float)
+            dg[fixed] = 0.0
+        t = _resolve(c.factor, dg)
+        t *= -1.0
+        return t if math.isfinite(t.dot(t)) else None
+
     # the first factor (usually 0): plain Newton from x0
-    xs, its, res, H, why = _newton(
-        grad_hess, x, factors[0], fixed, scale, xtol, max_iter, max_step, update, gtol
-    )
-    if xs is None:
+    conv, its, why = solver.newton(x, float(factors[0]))
+    if conv is None:
         return result(False, f"no equilibrium at factor {factors[0]:.6g}: {why}")
 
-    def record(xk: np.ndarray, lam: float, its: int, cuts: int, res: float, st: object) -> None:
+    def record(c: _Converged, lam: float, its: int, cuts: int) -> None:
         out_f.append(float(lam))
-        out_x.append(xk.copy())
+        out_x.append(c.x)
         out_it.append(its)
         out_cut.append(cuts)
-        out_res.append(res)
-        out_stab.append(st)
+        out_res.append(c.res)
+        out_stab.append(c.stable)
 
-    def assess(xk: np.ndarray, lam: float, H: object) -> bool | None:
-        return stability(xk, lam, H) if stability is not None else None
-
-    st_cur = assess(xs, factors[0], H)
-    record(xs, factors[0], its, 0, res, st_cur)
-    x_prev, lam_prev = None, None  # the converged state before the current one (secant)
-    x_cur, lam_cur, res_cur = xs, float(factors[0]), res
+    record(conv, factors[0], its, 0)
+    x_prev, lam_prev = None, None  # the converged state before the current one
+    cur, lam_cur = conv, float(factors[0])
+    t_cur, t_prev = tangent(cur, lam_cur), None
     dlam = None  # size of the last successful increment (carried to the next reported step)
 
     for target in factors[1:]:
@@ -372,38 +509,64 @@ def minimize_path(
             lam_try = lam_cur + direction * step
             if direction * (target - lam_try) < 1e-9 * step:
                 lam_try = target  # do not leave a sliver before the reported factor
+            x_cur = cur.x
+            s = lam_try - lam_cur
+            dpred, hermite = None, False
             if x_prev is not None and lam_cur != lam_prev:
-                dpred = (lam_try - lam_cur) / (lam_cur - lam_prev) * (x_cur - x_prev)
-                pred = update(x_cur, dpred) if update is not None else x_cur + dpred
-            else:
+                h = lam_cur - lam_prev
+                back_step = x_prev - x_cur
+                dpred = back_step * (-s / h)  # secant
+            if t_cur is not None:
+                if dpred is None:
+                    dpred, hermite = t_cur * s, True
+                else:
+                    # cubic Hermite through the previous and current states and tangents
+                    # (the quadratic through the previous state if its tangent is unknown),
+                    # written as a1 t_cur + a2 (x_prev - x_cur) + a3 t_prev, u = s / h
+                    u = s / h
+                    c2 = u * u
+                    c3 = c2 + c2 * u if t_prev is not None else 0.0
+                    poly = t_cur * (s + h * (c2 + c3)) + back_step * (c2 + 2.0 * c3)
+                    if t_prev is not None:
+                        poly += t_prev * (h * c3)
+                    # next to a bifurcation or limit point the tangent blows up: keep the
+                    # secant when the polynomial runs far beyond it (2-norms, scaled)
+                    if inv_scale_used:
+                        a, b = poly * inv_scale, dpred * inv_scale
+                    else:
+                        a, b = poly, dpred
+                    if a.dot(a) <= 9.0 * b.dot(b):
+                        dpred, hermite = poly, True
+            if dpred is None:
                 pred = x_cur
-            xs, its, res, H, why = _newton(
-                grad_hess, pred, lam_try, fixed, scale, xtol, max_iter, max_step, update, gtol
-            )
+            elif hermite or update is None:
+                # the Hermite polynomial is accurate in x itself: a retraction would add
+                # its own second-order terms to it
+                pred = x_cur + dpred
+            else:
+                pred = update(x_cur, dpred)
+            conv, its, why = solver.newton(pred, lam_try)
             its_total += its
-            if xs is None and x_prev is not None:
-                # the secant predictor can overshoot near a limit: retry from the last state
-                xs, its, res, H, why = _newton(
-                    grad_hess, x_cur, lam_try, fixed, scale, xtol, max_iter, max_step, update, gtol
-                )
+            if conv is None and dpred is not None:
+                # the predictor can overshoot near a limit: retry from the last state
+                conv, its, why = solver.newton(x_cur, lam_try)
                 its_total += its
-            st = assess(xs, lam_try, H) if xs is not None else None
-            can_cut = 0.5 * abs(lam_try - lam_cur) >= abs(span) * 0.5**max_cuts
-            if xs is not None and keep_branch and can_cut:
+            can_cut = 0.5 * abs(s) >= abs(span) * 0.5**max_cuts
+            if conv is not None and keep_branch and can_cut:
                 # Near a bifurcation of an imperfect system Newton likes to jump to another
                 # branch: a stable state followed by an unstable one, or a path that turns
                 # back on itself, is retried with a shorter step; either is accepted once
                 # the step is as short as allowed (a genuine loss of stability or fold).
-                if st_cur is True and st is False:
-                    xs, why = None, "the step left the stable branch"
+                if cur.stable is True and conv.stable is False:
+                    conv, why = None, "the step left the stable branch"
                 elif x_prev is not None and lam_cur != lam_prev:
-                    back = np.dot((xs - x_cur) / scale, (x_cur - x_prev) / scale)
+                    back = np.dot((conv.x - x_cur) * inv_scale, (x_cur - x_prev) * inv_scale)
                     if back < 0:
-                        xs, why = None, "the path turned back (branch jump)"
-            if xs is None:
+                        conv, why = None, "the path turned back (branch jump)"
+            if conv is None:
                 cuts_total += 1
                 consecutive += 1
-                step = 0.5 * abs(lam_try - lam_cur)
+                step = 0.5 * abs(s)
                 # give up after max_cuts halvings in a row, or when the increment has shrunk
                 # below span / 2^max_cuts (a limit point approached through many successes)
                 if consecutive > max_cuts or step < abs(span) * 0.5**max_cuts:
@@ -416,10 +579,11 @@ def minimize_path(
                 continue
             consecutive = 0
             x_prev, lam_prev = x_cur, lam_cur
-            step = abs(lam_try - lam_cur)
-            x_cur, lam_cur, res_cur, st_cur = xs, lam_try, res, st
-            dlam = step
-            if its <= 4:  # easy step: allow a larger increment next time
+            step = abs(s)
+            cur, lam_cur = conv, lam_try
+            t_prev, t_cur = t_cur, tangent(cur, lam_cur)
+            if its <= 4:  # easy step: allow a larger increment next time (also carried on)
                 step *= 2.0
-        record(x_cur, lam_cur, its_total, cuts_total, res_cur, st_cur)
+            dlam = step
+        record(cur, lam_cur, its_total, cuts_total)
     return result(True, "")

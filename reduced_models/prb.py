@@ -1,21 +1,12 @@
-"""Pseudo-rigid-body (PRB) models of a cantilever through the PRB matrix.
+"""Pseudo-rigid-body (PRB) models of a cantilever through the PRB matrix: the registered models.
 
 Every PRB model here is a chain of rigid segments described by a PRB matrix
 ``[[k_theta, k_ex, gamma], ...]`` (see ``prb_tables``): segment i has length gamma_i L (plus an
 axial stretch u_i when k_ex_i is finite), a torsion spring k_theta_i EI/L at its proximal end
-(absent when infinite) and an axial spring k_ex_i EA/L (rigid when infinite).
-
-Equilibrium is the stationary point of the total potential energy
-``V = sum 1/2 K_theta theta^2 + sum 1/2 K_ex u^2 - (fx X + fy Y + m Phi)``
-(dead tip loads; X, Y tip position, Phi tip-link angle), found by Newton's method with the
-analytic gradient and Hessian (vectorised over segments; tridiagonal in absolute link angles)
-along the load ramp with step cutting, through the shared ``reduced_models.continuation``.
-
-Shape and stress (seed 000_265bc60728766176.txt, "Computing Beam Shape and Stress"): the end
-loads are recovered from the spring torques through the Moore-Penrose pseudo-inverse of the
-Jacobian transpose, then the elastica is solved for those loads
-(``reduced_models.elastica.shape_under_tip_load``); without that module the PRB polyline and
-the bending moments at the joints are used instead.
+(absent when infinite) and an axial spring k_ex_i EA/L (rigid when infinite).  The chain
+numerics -- kinematics, energy with analytic gradient and Hessian, the equilibrium path
+through the shared continuation, end-load recovery by pinv(J^T), shape and stress from the
+elastica -- are in ``reduced_models.prb_chain`` (re-exported here).
 """
 
 from __future__ import annotations
@@ -23,317 +14,48 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.linalg import cholesky_banded
 
 from cases.schema import Scene
 from reduced_models import prb_tables as T
 from reduced_models.base import ModelCard, Solution, Step, load_factors, not_applicable
-from reduced_models.continuation import Banded, PathResult, minimize_path
+from reduced_models.prb_chain import (
+    RESIDUAL_TOL,
+    PRBChain,
+    check_matrix,
+    equilibrium_path,
+    recover_tip_loads,
+    recover_tip_loads_batch,
+    shape_and_stress,
+)
 from reduced_models.single_beam import Cantilever, cantilever_of, tip_outputs
+
+__all__ = [
+    "RESIDUAL_TOL",
+    "PRB1R",
+    "PRB2R",
+    "PRB2RPR",
+    "PRB3R",
+    "PRB3RForce",
+    "PRB3RMoment",
+    "PRBChain",
+    "PRBCustom",
+    "PRBFSM",
+    "PRBModel",
+    "PRBShort",
+    "check_matrix",
+    "equilibrium_path",
+    "recover_tip_loads",
+    "shape_and_stress",
+]
 
 _REF = "Venkiteswaran & Su, Precis. Eng. 40:46-54, 2015, doi 10.1016/j.precisioneng.2014.10.002"
 _SEED = "seed 000_265bc60728766176.txt: PRB matrix, Jacobian, shape and stress slides"
-#: largest accepted max |grad V| at a reported state, in units of EI/L
-RESIDUAL_TOL = 1e-8
 
 _COMMON = (
     "rigid segments joined by linear torsion springs (PRB matrix)",
     "dead tip loads only (energy formulation; follower loads are declined)",
     "shape and stress from the elastica under the end loads recovered by pinv(J^T)",
 )
-
-
-def check_matrix(matrix: object) -> np.ndarray:
-    """Validate a PRB matrix: rows ``[k_theta, k_ex, gamma]``, gamma > 0 summing to 1.
-
-    Strings ``"inf"`` are accepted for infinite entries.  Raises ValueError with the reason.
-    """
-    try:
-        m = np.array(
-            [[float(v) if not isinstance(v, str) else float(v.strip()) for v in r] for r in matrix],
-            dtype=float,
-        )
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"PRB matrix must be rows of 3 numbers: {exc}") from None
-    if m.ndim != 2 or m.shape[1] != 3 or m.shape[0] < 1:
-        raise ValueError("PRB matrix must be rows [k_theta, k_ex, gamma]")
-    if np.any(np.isnan(m)) or np.any(m <= 0) or not np.all(np.isfinite(m[:, 2])):
-        raise ValueError("PRB matrix entries must be positive (inf allowed for k_theta, k_ex)")
-    if abs(m[:, 2].sum() - 1.0) > 1e-6:
-        raise ValueError(f"segment lengths gamma must sum to 1 (got {m[:, 2].sum():.6g})")
-    if not np.any(np.isfinite(m[:, 0])):
-        raise ValueError("PRB matrix has no torsion spring (all k_theta infinite)")
-    return m
-
-
-class PRBChain:
-    """Kinematics and energy of one PRB chain in the beam frame (root at the origin).
-
-    Unknowns x = [psi (nj,), u (ne,)]: psi_p is the absolute angle of the links that follow
-    joint p (the seed's "each segment in the frame of the previous one" choice: a spring
-    couples only neighbouring angles, theta_p = psi_p - psi_{p-1}), u_e the stretch of
-    extensible segment e.  Without stretch the Hessian is tridiagonal; long chains hand it to
-    ``continuation`` as a ``Banded`` matrix (linear cost in N).
-
-    Parameters
-    ----------
-    matrix : (S, 3) PRB matrix.
-    L, EI, EA : beam length, flexural rigidity, axial rigidity (EA = inf: inextensible).
-    """
-
-    def __init__(self, matrix: np.ndarray, L: float, EI: float, EA: float = math.inf) -> None:
-        m = np.asarray(matrix, dtype=float)
-        self.matrix, self.L, self.EI, self.EA = m, float(L), float(EI), float(EA)
-        S = len(m)
-        self.gL = m[:, 2] * L
-        self.jidx = np.flatnonzero(np.isfinite(m[:, 0]))
-        self.eidx = np.flatnonzero(np.isfinite(m[:, 1]) & math.isfinite(EA))
-        self.nj, self.ne = len(self.jidx), len(self.eidx)
-        self.n = self.nj + self.ne
-        self.Kt = m[self.jidx, 0] * EI / L
-        self.Ke = m[self.eidx, 1] * EA / L
-        self.Kspring = np.concatenate([self.Kt, self.Ke])
-        # owner[i]: joint whose angle segment i has (-1: welded to the clamp)
-        owner = np.searchsorted(self.jidx, np.arange(S), side="right") - 1
-        self.owner, self.eown = owner, owner[self.eidx]
-        # A (S, nj): segment i has angle psi[owner[i]]; sums over a joint's links are z @ A
-        # (small chains; long chains use add.reduceat, the links of a joint are contiguous)
-        self.A = (owner[:, None] == np.arange(self.nj)[None, :]).astype(float) if S <= 24 else None
-        self.root = owner < 0  # rigid root links (angle 0)
-        self.scale = np.concatenate([np.ones(self.nj), np.full(self.ne, L)])
-        # spring stiffness in psi: sum K_p (psi_p - psi_{p-1})^2 / 2 -> tridiagonal K_psi
-        Kn = np.append(self.Kt[1:], 0.0)
-        self._kd, self._ko = self.Kt + Kn, -self.Kt[1:]
-        self._Kpsi = np.diag(self._kd) + np.diag(self._ko, 1) + np.diag(self._ko, -1)
-        self._small = S <= 24
-        self.banded = self.ne == 0 and self.nj > 12
-
-    # -- kinematics --------------------------------------------------------------------------
-    def _links(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Link vectors z_i = l_i e^{i phi_i} (S,) and unit directions e^{i psi_p} (nj,)."""
-        Ep = np.exp(1j * x[: self.nj])
-        E = np.where(self.root, 1.0 + 0j, Ep[self.owner])
-        if self.ne:
-            ln = self.gL.copy()
-            ln[self.eidx] += x[self.nj :]
-            return ln * E, Ep
-        return self.gL * E, Ep
-
-    def theta(self, x: np.ndarray) -> np.ndarray:
-        """Relative joint rotations theta_p = psi_p - psi_{p-1} (rad), shape (nj,)."""
-        th = x[: self.nj].copy()
-        th[1:] -= x[: self.nj - 1]
-        return th
-
-    def springs(self, x: np.ndarray) -> np.ndarray:
-        """Spring coordinates [theta (nj,), u (ne,)]."""
-        return np.concatenate([self.theta(x), x[self.nj :]])
-
-    def _displacements(self, x: np.ndarray) -> np.ndarray:
-        # z_i - l0_i as l0 (e^{i phi} - 1) + u e^{i phi}, with e^{i phi} - 1 = 2i sin(phi/2)
-        # e^{i phi/2}: exact zero without load and full precision for tiny rotations
-        psi = x[: self.nj]
-        half = np.where(self.root, 0.0, 0.5 * psi[np.maximum(self.owner, 0)])
-        d = self.gL * (2j * np.sin(half) * np.exp(1j * half))
-        if self.ne:
-            d[self.eidx] += x[self.nj :] * np.exp(2j * half[self.eidx])
-        return d
-
-    def tip(self, x: np.ndarray) -> tuple[float, float, float]:
-        """Tip x, y (beam frame, length) and tip-link angle (rad)."""
-        t = self._displacements(x).sum()
-        return float(self.L + t.real), float(t.imag), float(x[self.nj - 1])
-
-    def points(self, x: np.ndarray) -> np.ndarray:
-        """Joint and end points of the chain, shape (S + 1, 2), beam frame."""
-        p = np.concatenate([[0.0], np.cumsum(self._displacements(x))])
-        s = np.concatenate([[0.0], np.cumsum(self.gL)])
-        return np.column_stack([s + p.real, p.imag])
-
-    def jacobian_T(self, x: np.ndarray) -> np.ndarray:
-        """J^T: one row per spring coordinate (theta_p, then u_e), columns d(X, Y, Phi),
-        shape (nj + ne, 3) (seed slide "Computing Beam Shape and Stress")."""
-        z, Ep = self._links(x)
-        T = np.cumsum(z[::-1])[::-1][self.jidx]  # tip minus joint p
-        e = Ep[self.eown] if self.ne else np.zeros(0, complex)
-        e = np.where(self.eown < 0, 1.0 + 0j, e)
-        rows_t = np.column_stack([-T.imag, T.real, np.ones(self.nj)])
-        rows_e = np.column_stack([e.real, e.imag, np.zeros(self.ne)])
-        return np.vstack([rows_t, rows_e])
-
-    def spring_forces(self, x: np.ndarray) -> np.ndarray:
-        """Spring torques and axial forces tau = K [theta, u], shape (nj + ne,)."""
-        return self.Kspring * self.springs(x)
-
-    def strain_energy(self, x: np.ndarray) -> float:
-        """Elastic energy stored in the springs (force * length)."""
-        q = self.springs(x)
-        return float(0.5 * np.dot(self.Kspring * q, q))
-
-    # -- energy, analytic gradient and Hessian --------------------------------------------------
-    def grad_hess(
-        self, x: np.ndarray, f: np.ndarray, dense: bool = False
-    ) -> tuple[np.ndarray, np.ndarray | Banded]:
-        """Gradient (n,) and Hessian of V = U - (fx X + fy Y + m Phi) for dead tip loads f.
-
-        With F = fx - i fy and Z_p = sum of the link vectors of joint p:
-        dW/dpsi_p = -Im(F Z_p) (+ m for the tip link), d2W/dpsi_p^2 = -Re(F Z_p) (no
-        cross terms); dW/du_e = Re(F e^{i psi}), d2W/du_e dpsi = -Im(F e^{i psi}).
-        The Hessian is a ``Banded`` tridiagonal for long inextensible chains unless ``dense``.
-        """
-        z, Ep = self._links(x)
-        F = complex(f[0], -f[1])
-        FZ = F * (z @ self.A if self._small else np.add.reduceat(z, self.jidx))
-        Kth = self.Kt * self.theta(x)
-        gpsi = FZ.imag + Kth
-        gpsi[:-1] -= Kth[1:]
-        gpsi[-1] -= f[2]
-        if self.banded and not dense:
-            ab = np.zeros((3, self.nj))
-            ab[0, 1:] = self._ko
-            ab[1] = self._kd + FZ.real
-            ab[2, :-1] = self._ko
-            return gpsi, Banded(ab, 1, 1)
-        H = self._Kpsi.copy()
-        H.flat[:: self.nj + 1] += FZ.real
-        if not self.ne:
-            return gpsi, H
-        u = x[self.nj :]
-        e = np.where(self.eown < 0, 1.0 + 0j, Ep[np.maximum(self.eown, 0)])
-        Fe = F * e
-        g = np.concatenate([gpsi, self.Ke * u - Fe.real])
-        Hf = np.zeros((self.n, self.n))
-        Hf[: self.nj, : self.nj] = H
-        k = self.nj + np.arange(self.ne)
-        Hf[k, k] = self.Ke
-        own = self.eown >= 0
-        Hf[self.eown[own], k[own]] = Hf[k[own], self.eown[own]] = Fe.imag[own]
-        return g, Hf
-
-    def potential(self, x: np.ndarray, f: np.ndarray) -> float:
-        """Total potential V = U - (fx X + fy Y + m Phi) (force * length)."""
-        X, Y, phi = self.tip(x)
-        return self.strain_energy(x) - (f[0] * X + f[1] * Y + f[2] * phi)
-
-
-def equilibrium_path(
-    chain: PRBChain,
-    f1: np.ndarray,
-    factors: np.ndarray,
-    guided: bool = False,
-    xtol: float = 1e-6,
-) -> PathResult:
-    """Equilibria for loads ``lambda * f1`` at the reported ``factors`` (from the unloaded
-    state) through the shared Newton/continuation (``reduced_models.continuation``).
-
-    ``guided`` holds the tip-link angle at zero (fixed-guided beam; the tip moment is then a
-    reaction and ``f1[2]`` is ignored).  ``xtol`` bounds the last Newton update (rad, or
-    length / L); with quadratic convergence the accepted state is accurate to ~xtol^2, and the
-    residual evaluated there is returned (``PRBModel.solve`` checks it against
-    ``RESIDUAL_TOL``).
-    """
-    f1 = np.asarray(f1, dtype=float)
-    if guided:
-        f1 = np.array([f1[0], f1[1], 0.0])
-
-    def gh(x: np.ndarray, lam: float) -> tuple:
-        return chain.grad_hess(x, lam * f1)
-
-    fixed = [chain.nj - 1] if guided else None
-    return minimize_path(
-        gh,
-        np.zeros(chain.n),
-        factors,
-        scale=chain.scale,
-        xtol=xtol,
-        fixed=fixed,
-        stability=_positive_definite,
-    )
-
-
-def _positive_definite(x: np.ndarray, lam: float, H: np.ndarray | Banded) -> bool:
-    """Stable equilibrium: Cholesky of the (symmetric by construction) Hessian succeeds."""
-    try:
-        if isinstance(H, Banded):
-            cholesky_banded(H.upper(), lower=False, check_finite=False)
-        else:
-            np.linalg.cholesky(H)
-        return True
-    except np.linalg.LinAlgError:
-        return False
-
-
-def recover_tip_loads(
-    chain: PRBChain, x: np.ndarray, f_known: np.ndarray | None = None
-) -> tuple[np.ndarray, int]:
-    """End loads (fx, fy, m) from the spring forces through pinv(J^T) (seed slide).
-
-    With fewer than three independent spring rows (PRB-1R, PRB-2R) the pseudo-inverse only
-    recovers the load components in the row space of J^T.  The seed's remedy turns rigid links
-    into very stiff axial springs; in the stiff limit their forces are the known end load
-    projected on the links, which amounts to completing the null-space component from
-    ``f_known`` when it is given.  Returns ``(f, rank of J^T)``.
-    """
-    JT = chain.jacobian_T(x)
-    tau = chain.spring_forces(x)
-    U, sv, Vt = np.linalg.svd(JT, full_matrices=False)
-    keep = sv > 1e-12 * max(1.0, float(sv[0])) if sv.size else sv > 0
-    rank = int(keep.sum())
-    Vk = Vt[keep]
-    f = Vk.T @ ((U[:, keep].T @ tau) / sv[keep])
-    if rank < 3 and f_known is not None:
-        fk = np.asarray(f_known, dtype=float)
-        f = f + fk - Vk.T @ (Vk @ fk)
-    # components at round-off level (below the equilibrium tolerance) are zero: a tip moment
-    # of 1e-16 would otherwise send the elastica to its slower combined-load route
-    size = np.abs(f) * np.array([1.0, 1.0, 1.0 / chain.L])
-    f[size < 1e-10 * max(float(size.max()), 1e-300)] = 0.0
-    return f, rank
-
-
-def _elastica_shape() -> object | None:
-    try:
-        from reduced_models import elastica
-    except ImportError:
-        return None
-    return getattr(elastica, "shape_under_tip_load", None)
-
-
-def shape_and_stress(
-    scene: Scene, beam: Cantilever, chain: PRBChain, x: np.ndarray, f: np.ndarray
-) -> tuple[dict, float | None, dict]:
-    """Deformed shape (global points) and largest bending stress for recovered end loads f.
-
-    Primary route: the elastica under f (seed).  Fallback (module missing or the elastica
-    fails for these loads): the PRB polyline and the bending moment m + (tip - p) x f at the
-    root and at every joint.  Returns ``(shapes, max_stress, info)``.
-    """
-    mem = scene.member(beam.member)
-    info: dict[str, float] = {}
-    shape_fn = _elastica_shape()
-    kappa = None
-    if shape_fn is not None:
-        try:
-            xy, kappa = shape_fn(chain.L, chain.EI, float(f[0]), float(f[1]), float(f[2]), n=41)
-            xy, kappa = np.asarray(xy, dtype=float), np.asarray(kappa, dtype=float)
-            if not (np.all(np.isfinite(xy)) and np.all(np.isfinite(kappa))):
-                raise ValueError("non-finite elastica shape")
-            tx, ty, _ = chain.tip(x)
-            info["shape_tip_gap"] = float(np.hypot(xy[-1, 0] - tx, xy[-1, 1] - ty) / chain.L)
-            info["shape_from_elastica"] = 1.0
-        except Exception:  # noqa: BLE001 - any elastica failure degrades to the polyline
-            kappa = None
-    if kappa is None:
-        xy = chain.points(x)
-        tip = xy[-1]
-        p = np.vstack([[0.0, 0.0], xy[chain.jidx]])
-        M = f[2] + (tip[0] - p[:, 0]) * f[1] - (tip[1] - p[:, 1]) * f[0]
-        kappa = M / chain.EI
-        info["shape_from_elastica"] = 0.0
-    stress = None
-    if mem.thickness is not None and mem.E is not None:
-        stress = float(mem.E * mem.thickness * np.max(np.abs(kappa)) / 2.0)
-    return {beam.member: beam.rotate_to_global(xy)}, stress, info
 
 
 class PRBModel:
@@ -392,36 +114,44 @@ class PRBModel:
         path = equilibrium_path(chain, f1, load_factors(scene), guided=beam.guided)
         steps = []
         failed = "" if path.ok else path.reason
-        for lam, q, it, st, res, cuts in zip(
-            path.factors, path.states, path.iterations, path.stable, path.residuals, path.cuts
-        ):
-            res = float(res) * chain.L / chain.EI  # max |grad V| in EI/L (forces times L)
-            if not res <= RESIDUAL_TOL:
-                failed = f"residual {res:.2e} EI/L above {RESIDUAL_TOL:g} at factor {lam:.6g}"
-                break
-            x, y, phi = chain.tip(q)
+        # residual max |grad V| in EI/L (forces times L); the path already demanded it
+        res = path.residuals * (chain.L / chain.EI)
+        bad = np.flatnonzero(~(res <= RESIDUAL_TOL))
+        m = len(path.factors) if bad.size == 0 else int(bad[0])
+        if bad.size:
+            failed = (
+                f"residual {res[m]:.2e} EI/L above {RESIDUAL_TOL:g} at factor {path.factors[m]:.6g}"
+            )
+        # per-step quantities for all reported states at once (batched numpy)
+        Q = path.states[:m]
+        lam = path.factors[:m]
+        tips = chain.tips(Q)
+        energy = chain.strain_energy(Q)
+        f_known = None if beam.guided else lam[:, None] * f1
+        loads, rank = recover_tip_loads_batch(chain, Q, f_known)
+        for j in range(m):
+            x, y, phi = tips[j]
             rot = 0.0 if beam.guided else rot_factor * phi
-            f_known = None if beam.guided else lam * f1
-            f, rank = recover_tip_loads(chain, q, f_known)
+            f = loads[j]
             info = {
-                "residual": res,
-                "step_cuts": float(cuts),
+                "residual": float(res[j]),
+                "step_cuts": float(path.cuts[j]),
                 "load_fx": float(f[0]),
                 "load_fy": float(f[1]),
                 "load_m": float(f[2]),
-                "jt_rank": float(rank),
+                "jt_rank": float(rank[j]),
             }
             shapes, stress = {}, None
             if self.shapes:
-                shapes, stress, extra = shape_and_stress(scene, beam, chain, q, f)
+                shapes, stress, extra = shape_and_stress(scene, beam, chain, Q[j], f)
                 info.update(extra)
             steps.append(
                 Step(
-                    factor=float(lam),
-                    outputs=tip_outputs(scene, beam, x, y, rot),
-                    energy=chain.strain_energy(q),
-                    iterations=int(it),
-                    stable=st,
+                    factor=float(lam[j]),
+                    outputs=tip_outputs(scene, beam, float(x), float(y), float(rot)),
+                    energy=float(energy[j]),
+                    iterations=int(path.iterations[j]),
+                    stable=path.stable[j],
                     shapes=shapes,
                     max_stress=stress,
                     info=info,

@@ -30,7 +30,7 @@ from scipy.special import ellipe, ellipeinc, ellipk, ellipkinc
 
 import cases
 from cases.schema import Analysis, Load, Member, Node, Output, Scene, Support
-from reduced_models import prb, prb_fit, registry
+from reduced_models import prb, prb_chain, prb_fit, registry
 from reduced_models import prb_tables as T
 from reduced_models.continuation import Banded
 
@@ -394,7 +394,7 @@ def test_shape_and_stress_from_recovered_loads(monkeypatch):
     assert s.max_stress == pytest.approx(0.1 * 3.0 * exact[0] / 2.0, rel=1e-6)  # root: M = P x
     assert s.info["shape_from_elastica"] == 1.0 and s.info["shape_tip_gap"] < 0.02
     # without the elastica: PRB polyline and the bending moment at the root and the joints
-    monkeypatch.setattr(prb, "_elastica_shape", lambda: None)
+    monkeypatch.setattr(prb_chain, "_elastica_shape", lambda: None)
     s = make("prb-3r").solve(scene).steps[-1]
     xy = s.shapes["beam"]
     assert xy.shape == (5, 2) and s.info["shape_from_elastica"] == 0.0
