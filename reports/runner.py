@@ -10,7 +10,7 @@ A pair record (JSON-level dict built by ``solve_task`` with ``store.record``)::
      "status", "message", "steps": [{"factor", "outputs", "energy", "iterations", "stable",
      "max_stress"}], "shapes": {member: [[x, y], ...]} (last step), "extras", "card",
      "timing": {"median_s", "min_s", "max_s", "spread_s", "n_repeats", "first_s", "total_s"},
-     "warnings", "traceback"}
+     "warnings", "traceback", "exports"}
 
 plus, after ``attach_errors``: ``errors``, ``refchecks``, ``summary_error``,
 ``summary_basis``, ``is_reference``, ``speedup_vs_reference``.
@@ -24,6 +24,9 @@ not repeated (n_repeats = 1, its own time) to keep the run short.
 
 Time limit: ``time_limit`` seconds per pair (SIGALRM in the worker, then the worker is killed
 after ``KILL_GRACE_S``); such pairs are ``failed`` and retried on resume.
+
+Exports: ParaView series and the replay GIF are written by the worker right after the
+timed solves (``reports.exports``); the record's ``exports`` holds their relative paths.
 """
 
 from __future__ import annotations
@@ -49,6 +52,14 @@ from typing import Any, TextIO
 
 from cases.schema import Scene
 from reports import api, errors, store
+from reports.exports import (
+    DEFAULT_EXPORT,
+    NO_EXPORT,  # noqa: F401  (re-exported)
+    QUICK_EXPORT,
+    ExportPolicy,
+    export_outputs,
+    start_render_probe,
+)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -317,6 +328,7 @@ def solve_task(task: dict) -> dict:
         timing = _timing(lambda: None, first, dataclasses.replace(task["timing"], cold_cap_s=0))
     trace = sol.extras.get("traceback") if isinstance(sol.extras, Mapping) else None
     steps, shapes, warnings = store.steps_json(sol)
+    exports, export_warnings = export_outputs(task, sol)
     return store.record(
         base,
         sol.status,
@@ -326,8 +338,9 @@ def solve_task(task: dict) -> dict:
         extras=store.extras_json(dict(sol.extras)),
         card=card,
         timing=timing,
-        warnings=warnings,
+        warnings=warnings + export_warnings,
         traceback=trace,
+        exports=store.jsonable(exports),
     )
 
 
@@ -525,6 +538,8 @@ def run_matrix(
     progress: bool | None = None,
     timing: TimingPolicy | None = None,
     time_limit: float | None | str = "auto",
+    export: ExportPolicy | None | str = "auto",
+    render_shapes: bool | None = None,
 ) -> RunResult:
     """Solve the matrix, store everything under ``out_dir`` and render the report.
 
@@ -533,7 +548,11 @@ def run_matrix(
     starts over); pairs lost to a killed worker or to ``time_limit`` (seconds per pair;
     "auto": ``QUICK_TIME_LIMIT`` / ``DEFAULT_TIME_LIMIT``; None: none; not enforced on Dask)
     are retried.  ``history`` defaults to
-    ``out_dir/history.sqlite``.
+    ``out_dir/history.sqlite``.  ``export``: "auto" (``QUICK_EXPORT`` / ``DEFAULT_EXPORT``),
+    an ``ExportPolicy`` or None (no ParaView files or GIFs).  ``render_shapes``: add the
+    rendered final deformed scene per case to the report (None: unless ``quick``); then the
+    pyvista probe (a child process, ~1.5 s) runs in a thread while the pairs solve, so the
+    report does not wait for it.
     """
     t_start = time.perf_counter()
     out = Path(out_dir)
@@ -543,9 +562,15 @@ def run_matrix(
         partial.unlink(missing_ok=True)
     if time_limit == "auto":
         time_limit = QUICK_TIME_LIMIT if quick else DEFAULT_TIME_LIMIT
+    if export == "auto":
+        export = QUICK_EXPORT if quick else DEFAULT_EXPORT
     tasks, fixed, metas = plan(scenes, models, quick, timing)
     for t in tasks:
         t["time_limit"] = time_limit
+        t["export"], t["out_dir"] = export, str(out.resolve())
+    if render_shapes is None:
+        render_shapes = not quick
+    probe = start_render_probe() if render and render_shapes else None
     wanted = {t["key"] for t in tasks}
     done = {
         r["key"]: r
@@ -570,6 +595,8 @@ def run_matrix(
         "dask": dask,
         "time_limit_s": time_limit,
         "timing": dataclasses.asdict(timing or (QUICK_TIMING if quick else DEFAULT_TIMING)),
+        "export": dataclasses.asdict(export) if export else None,
+        "render_shapes": render_shapes,
     }
     payload = store.assemble(records, metas, config)
     elapsed = time.perf_counter() - t_start
@@ -584,10 +611,12 @@ def run_matrix(
     paths["history"] = hist
     result = RunResult(payload, out, paths, len(todo), len(done), elapsed)
     if render:
+        if probe is not None:
+            probe.join()
         try:
             from reports.render import render_report
 
-            paths.update(render_report(payload, out))
+            paths.update(render_report(payload, out, render=render_shapes))
         except Exception as exc:  # results are safe on disk; say what broke
             result.report_error = f"{type(exc).__name__}: {exc}"
     result.elapsed_s = time.perf_counter() - t_start

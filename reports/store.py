@@ -138,6 +138,7 @@ def record(base: dict, status: str, message: str, **more: Any) -> dict:
     """A pair record with every field present (see ``reports.runner``)."""
     rec = {**base, "status": status, "message": message, "steps": [], "shapes": {}}
     rec.update({"extras": {}, "card": None, "timing": None, "warnings": [], "traceback": None})
+    rec["exports"] = {}  # ParaView series / GIF paths relative to the run directory
     rec.update(more)
     return rec
 

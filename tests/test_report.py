@@ -8,6 +8,7 @@ import re
 import shutil
 import sqlite3
 
+import numpy as np
 import pytest
 
 from reports import cli, compare, runner, store
@@ -138,6 +139,8 @@ def test_rerender_from_results_json(run, capsys):
     assert cli.main(["report", str(run.out_dir)]) == 0
     assert (run.out_dir / "report.html").exists()
     assert (run.out_dir / "figures" / "dummy-a-path.png").exists()
+    # `report` without --pyvista draws the render with matplotlib (no VTK needed)
+    assert (run.out_dir / "figures" / "dummy-a-render.png").read_bytes()[:8] == PNG
 
 
 def test_hooks_error_bars_history_and_pareto_front(tmp_path):
@@ -180,3 +183,104 @@ def test_real_models_on_a_catalog_case(tmp_path):
     assert recs["linear-1"]["summary_basis"] == "path"
     assert recs["linear-1"]["errors"]["per_output"]["tip.uy"] > 2.0
     assert (tmp_path / "figures" / "cantilever-tip-load-path.png").exists()
+
+
+# -- ParaView files, renders and the replay animation ------------------------------------------
+GIF = b"GIF89a"
+
+
+def _nonwhite_fraction(png) -> float:
+    import matplotlib.image as mpimg
+
+    img = mpimg.imread(png)[..., :3]
+    return float((img.min(axis=-1) < 0.9).mean())
+
+
+def test_paraview_series_of_the_reference_hold_its_closed_form_shapes(run):
+    """The reference (dummy-exact: y = uy (3 s^2 - s^3) / 2, uy = -lambda P L^3 / 3EI) is
+    exported per step: the last VTU, the PVD's step count and the XDMF displacement field all
+    give the closed-form tip (1, -0.1); a judged model (dummy-scaled) exports nothing."""
+    import meshio
+
+    out = run.out_dir
+    recs = {(r["case"], r["model"]): r for r in run.payload["results"]}
+    ex = recs[("dummy-a", "dummy-exact")]["exports"]["paraview"]
+    assert ex["n_vtu"] == 9  # 8 load steps + the unloaded state
+    assert recs[("dummy-a", "dummy-scaled")]["exports"] == {}
+    assert not (out / "paraview" / "dummy-a" / "dummy-scaled").exists()
+    pvd = (out / ex["pvd"]).read_text()
+    files = re.findall(r'file="([^"]+)"', pvd)
+    assert len(files) == 9
+    last = meshio.read(out / ex["dir"] / files[-1])
+    assert last.cells[0].type == "line" and last.points.shape == (11, 3)
+    s = np.linspace(0.0, 1.0, 11)
+    exact = np.column_stack([s, -P / 3 * (3 * s**2 - s**3) / 2, 0 * s])
+    np.testing.assert_allclose(last.points, exact, atol=1e-12)
+    with meshio.xdmf.TimeSeriesReader(out / ex["xdmf"]) as reader:
+        points, _ = reader.read_points_cells()
+        assert reader.num_steps == 9
+        _, pdata, _ = reader.read_data(reader.num_steps - 1)
+    np.testing.assert_allclose(points + pdata["displacement"], exact, atol=1e-12)
+    assert pdata["load_factor"][0] == pytest.approx(1.0)
+    # the report links both files
+    for text in ((out / "report.html").read_text(), (out / "report.md").read_text()):
+        assert ex["pvd"] in text and ex["xdmf"] in text and "ParaView files" in text
+
+
+def test_render_of_the_final_scene_is_in_the_report(run):
+    out = run.out_dir
+    html, md = (out / "report.html").read_text(), (out / "report.md").read_text()
+    for case in ("dummy-a", "dummy-b"):
+        png = out / "figures" / f"{case}-render.png"
+        assert png.read_bytes()[:8] == PNG
+        assert f'src="figures/{case}-render.png"' in html and f"(figures/{case}-render.png)" in md
+        assert 0.001 < _nonwhite_fraction(png) < 0.5  # something drawn, not a blank or a blot
+
+
+def test_render_figure_argument_order_and_fallback(tmp_path):
+    """``render_png(path, shapes, reference_shapes, title)``: the old hook passed (shapes,
+    path); the matplotlib backend draws the deformed beam where its closed form says."""
+    s = np.linspace(0.0, 1.0, 11)
+    rec = {"model": "ref", "shapes": {"beam": np.column_stack([s, -0.5 * s**2]).tolist()}}
+    meta = {"name": "c", "undeformed": {"beam": [[0.0, 0.0], [1.0, 0.0]]}}
+    png = figures.render_figure(meta, rec, tmp_path / "r.png", backend="matplotlib")
+    assert png == tmp_path / "r.png" and png.read_bytes()[:8] == PNG
+    assert _nonwhite_fraction(png) > 0.001
+    assert figures.render_figure(meta, {"model": "ref", "shapes": {}}, tmp_path / "n.png") is None
+
+
+def test_replay_writes_series_and_a_small_gif_but_not_in_quick_mode(dummies, tmp_path):
+    """A real replay on the tiny dummy cantilever: full mode writes its settled-state and
+    time-history series plus a GIF that the report embeds; --quick writes the series of the
+    settled states only.  The exported last settled state is the solution's own tip."""
+    import meshio
+    from PIL import Image
+
+    once = runner.TimingPolicy(min_total_s=0.0, max_runs=1, cold_cap_s=0.0, min_runs=1)
+    scene = dummy_scene("dummy-replay")
+    quick = runner.run_matrix([scene], ["replay"], tmp_path / "q", workers=1, quick=True,
+                              timing=once)  # fmt: skip
+    rq = {r["model"]: r for r in quick.payload["results"]}["replay"]
+    assert rq["status"] == "converged", rq["message"]
+    assert set(rq["exports"]) == {"paraview", "export_s"}
+    assert not list((tmp_path / "q" / "figures").glob("*.gif"))
+    assert not list((tmp_path / "q" / "figures").glob("*-render.png"))
+
+    full = runner.run_matrix([scene], ["replay"], tmp_path / "f", workers=1, timing=once)
+    out = tmp_path / "f"
+    rec = {r["model"]: r for r in full.payload["results"]}["replay"]
+    ex = rec["exports"]
+    assert ex["animation"] == "figures/dummy-replay-replay.gif"
+    gif = out / ex["animation"]
+    assert gif.read_bytes()[:6] == GIF
+    with Image.open(gif) as im:
+        assert 2 <= im.n_frames <= runner.DEFAULT_EXPORT.gif_frames
+        assert im.size[0] <= 400  # small: 5 in at the GIF dpi
+    assert 2 <= ex["paraview_frames"]["n_vtu"] <= runner.DEFAULT_EXPORT.max_frames
+    last = meshio.read(out / ex["paraview"]["dir"] / f"dummy-replay_replay_{8:04d}.vtu")
+    tip = rec["steps"][-1]["outputs"]
+    np.testing.assert_allclose(last.points[-1, :2], [tip["tip.x"], tip["tip.y"]], atol=1e-9)
+    html = (out / "report.html").read_text()
+    assert f'<img src="{ex["animation"]}"' in html
+    assert html.index("dummy-replay-history.png") < html.index(ex["animation"])
+    assert ex["paraview_frames"]["pvd"] in html

@@ -4,7 +4,8 @@
 ``md.py`` only format those blocks, so both reports always say the same thing.
 
 Block kinds: ``("h1"|"h2"|"h3"|"p", text)``, ``("table", headers, rows)``,
-``("img", relative_path, alt)``, ``("ul", items)``.
+``("img", relative_path, alt[, width_px])``, ``("ul", items)``,
+``("links", label, [(text, relative_path), ...])``.
 """
 
 from __future__ import annotations
@@ -17,6 +18,13 @@ from typing import Any
 
 Block = tuple
 
+RENDER_WIDTH_PX = 600  # the render is 1200 x 900 px; shown at half size
+PARAVIEW_NOTE = (
+    "ParaView files (reference model and replay): the .pvd lists one .vtu of deformed "
+    "centre lines per step; the .xdmf holds the first step's mesh with a 'displacement' "
+    "field per step (apply Warp By Vector); 'curvature' and 'load_factor' are point fields. "
+    "'frames' series are the replay's time history, the others its settled states."
+)
 DEFINITIONS = (
     "Summary error: the largest deviation from the case's reference path over every load "
     "factor both reached, over the displacement (ux, uy; divided by the length scale L = "
@@ -144,9 +152,14 @@ def _case_blocks(name: str, case: Mapping, recs: Sequence[Mapping], figs: Mappin
         blocks.append(("p", f"Note: {case['note']}."))
     if case.get("description"):
         blocks.append(("p", case["description"]))
-    for kind in ("path", "shapes", "pareto", "history", "render3d"):
+    for kind in ("path", "shapes", "render", "pareto", "history", "animation"):
         if figs.get(kind):
-            blocks.append(("img", figs[kind], f"{name}: {kind}"))
+            width = RENDER_WIDTH_PX if kind == "render" else None
+            blocks.append(("img", figs[kind], f"{name}: {kind}", width))
+    if figs.get("render_error"):
+        blocks.append(("p", f"Render not drawn: {figs['render_error']}."))
+    if figs.get("links"):
+        blocks.append(("links", "ParaView files", figs["links"]))
     out = case.get("primary_output")
     keys = [f"{out}.{q}" for q in ("ux", "uy", "rot")] if out else []
     head = [
@@ -241,6 +254,8 @@ def build_document(payload: Mapping, figures: Mapping[str, Mapping[str, str]]) -
     results = payload["results"]
     blocks: list[Block] = [("h1", "FlexBench report")]
     blocks += _environment_blocks(payload)
+    if any(r.get("exports") for r in results):
+        blocks.append(("p", PARAVIEW_NOTE))
     blocks.append(("h2", "Overview"))
     orows = []
     for name, case in payload["cases"].items():
@@ -361,7 +376,7 @@ def _case_figures(job: tuple) -> dict[str, str | None]:
     """All figures of one case (a picklable job, so cases can render in parallel)."""
     from reports.render import figures as F
 
-    name, case, recs, cmap, out_dir, pyvista = job
+    name, case, recs, cmap, out_dir, backend = job
     figdir = out_dir / "figures"
     ref = case.get("reference")
     ref_rec = next((r for r in recs if r["model"] == ref), None)
@@ -372,6 +387,12 @@ def _case_figures(job: tuple) -> dict[str, str | None]:
         return None if p is None else p.relative_to(out_dir).as_posix()
 
     title = f"{name}: speed vs error"
+    render, render_error = None, None
+    if backend:
+        try:
+            render = F.render_figure(case, ref_rec, figdir / f"{s}-render.png", backend)
+        except Exception as exc:  # the rest of the report must still appear
+            render_error = f"{type(exc).__name__}: {exc}"
     return {
         "path": rel(F.path_figure(case, recs, ref, cmap, figdir / f"{s}-path.png")),
         "shapes": rel(F.shapes_figure(case, recs, ref, cmap, figdir / f"{s}-shapes.png")),
@@ -386,20 +407,50 @@ def _case_figures(job: tuple) -> dict[str, str | None]:
             )
         ),  # fmt: skip
         "history": rel(F.history_figure(case, recs, figdir / f"{s}-history.png")),
-        "render3d": rel(F.pyvista_figure(case, ref_rec, figdir / f"{s}-3d.png"))
-        if pyvista
-        else None,
+        "render": rel(render),
+        "render_error": render_error,
+        "animation": _existing(out_dir, [(r.get("exports") or {}).get("animation") for r in recs]),
+        "links": export_links(recs, out_dir),
     }
 
 
-def render_figures(payload: Mapping, out_dir: Path, pyvista: bool = False) -> dict[str, dict]:
-    """Every PNG of the report under ``out_dir/figures``; returns case -> kind -> rel. path.
+def _existing(out_dir: Path, paths: Sequence[Any]) -> str | None:
+    """The first of ``paths`` (relative to ``out_dir``) that exists on disk."""
+    return next((p for p in paths if isinstance(p, str) and (out_dir / p).is_file()), None)
 
-    Cases render in parallel on a small fork pool when there are several (matplotlib is
-    single-threaded; ~0.1-0.3 s per figure); any pool problem falls back to serial.
+
+def export_links(recs: Sequence[Mapping], out_dir: Path) -> list[tuple[str, str]]:
+    """(text, relative path) of the ParaView files the workers wrote and that still exist."""
+    links = []
+    for r in recs:
+        ex = r.get("exports") or {}
+        for kind, label in (("paraview", "steps"), ("paraview_frames", "frames")):
+            info = ex.get(kind)
+            if not isinstance(info, Mapping):
+                continue
+            for ext in ("pvd", "xdmf"):
+                p = info.get(ext)
+                if isinstance(p, str) and (out_dir / p).is_file():
+                    n = info.get("n_vtu")
+                    more = f", {n} vtu" if ext == "pvd" and n else ""
+                    links.append((f"{r['model']} {label} .{ext}{more}", p))
+    return links
+
+
+def render_figures(payload: Mapping, out_dir: Path, render: str | None = "auto") -> dict[str, dict]:
+    """Every PNG of the report under ``out_dir/figures``; returns case -> kind -> rel. path
+    (plus ``links``: ParaView files, ``animation``: the replay GIF, when the run wrote them).
+
+    ``render``: backend of the final-shape render (``auto``: pyvista when
+    ``fem_reference.export.pyvista_available()``, else matplotlib; ``matplotlib``,
+    ``pyvista``; None: no render).  Cases render in parallel on a small fork pool when there
+    are several (matplotlib is single-threaded; ~0.1-0.3 s per figure) and this process has
+    not loaded VTK itself (the probe runs in a child process, so normally it has not); any
+    pool problem falls back to serial.
     """
     import multiprocessing
     import os
+    import sys
     from concurrent.futures import ProcessPoolExecutor
 
     from reports.render import figures as F
@@ -407,15 +458,19 @@ def render_figures(payload: Mapping, out_dir: Path, pyvista: bool = False) -> di
     (out_dir / "figures").mkdir(parents=True, exist_ok=True)
     cmap = F.colours(sorted({r["model"] for r in payload["results"]}))
     jobs = [
-        (name, case, [r for r in payload["results"] if r["case"] == name], cmap, out_dir, pyvista)
+        (name, case, [r for r in payload["results"] if r["case"] == name], cmap, out_dir, render)
         for name, case in payload["cases"].items()
     ]
+    if render in ("auto", "pyvista"):
+        from fem_reference.export import pyvista_available
+
+        pyvista_available()  # probe once here (cached), not once per forked worker
     procs = min(os.cpu_count() or 1, len(jobs))
     results = None
     if (
         procs > 1
         and len(jobs) >= 4
-        and not pyvista
+        and "vtkmodules" not in sys.modules  # a forked copy of a live VTK is not safe
         and "fork" in multiprocessing.get_all_start_methods()
     ):
         try:
@@ -438,13 +493,21 @@ def render_figures(payload: Mapping, out_dir: Path, pyvista: bool = False) -> di
     return made
 
 
-def render_report(payload: Mapping, out_dir: str | Path, *, pyvista: bool = False) -> dict:
-    """Write ``report.html``, ``report.md`` and ``figures/*.png``; returns their paths."""
+def render_report(
+    payload: Mapping, out_dir: str | Path, *, pyvista: bool | None = None, render: bool = True
+) -> dict:
+    """Write ``report.html``, ``report.md`` and ``figures/*.png``; returns their paths.
+
+    The final deformed scene of each case is rendered unless ``render`` is False: ``pyvista``
+    None (default) or True picks pyvista when it can render here, else matplotlib; False
+    draws it with matplotlib.
+    """
     from reports.render.html import to_html
     from reports.render.md import to_markdown
 
     out = Path(out_dir)
-    figs = render_figures(payload, out, pyvista=pyvista)
+    backend = None if not render else ("matplotlib" if pyvista is False else "auto")
+    figs = render_figures(payload, out, backend)
     blocks = build_document(payload, figs)
     html_path, md_path = out / "report.html", out / "report.md"
     html_path.write_text(to_html(blocks, "FlexBench report"), encoding="utf-8")

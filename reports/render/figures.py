@@ -5,9 +5,10 @@ the reference in black with its error bars when it has an estimate), ``shapes`` 
 shapes at the last step over the undeformed drawing) and ``pareto`` (wall time against summary
 error, Pareto front marked).  Overall: ``pareto`` of per-model aggregates.
 
-Hooks for later issues: ``reference_error_bars`` (fem-auto's ``extras["error_estimate"]``),
-``history_figure`` (replay time histories in ``extras["history"]``) and ``pyvista_figure``
-(``fem_reference.export.render_png`` when importable and asked for).
+Hooks: ``reference_error_bars`` (fem-auto's ``extras["error_estimate"]``),
+``history_figure`` (replay time histories in ``extras["history"]``) and ``render_figure``
+(the reference's final shape through ``fem_reference.export.render_png``: pyvista when it
+can render here, else matplotlib).
 """
 
 from __future__ import annotations
@@ -252,19 +253,35 @@ def history_figure(meta: Mapping, records: Sequence[Mapping], path: Path) -> Pat
     return _save(fig, path)
 
 
-def pyvista_figure(meta: Mapping, ref_record: Mapping | None, path: Path) -> Path | None:
-    """Hook: a pyvista render of the reference's final shape via
-    ``fem_reference.export.render_png(shapes, path)`` when that exists; None otherwise
-    (callers fall back to the matplotlib shapes figure)."""
+def render_figure(
+    meta: Mapping, ref_record: Mapping | None, path: Path, backend: str = "auto"
+) -> Path | None:
+    """Rendered final deformed scene of the reference model over the undeformed scene (grey).
+
+    Drawn by ``fem_reference.export.render_png(path, shapes, reference_shapes, title)``:
+    pyvista off-screen when its cached child-process probe says VTK can render here
+    (``backend="auto"``), else matplotlib.  The other models are not overlaid: ``render_png``
+    has one grey overlay, used for the undeformed scene (the ``shapes`` figure overlays all
+    models).  None when there are no shapes or ``fem_reference.export`` is unavailable.
+    """
     if ref_record is None or not ref_record.get("shapes"):
         return None
     try:
         from fem_reference.export import render_png
-    except Exception:
+    except ImportError:
         return None
-    try:
-        shapes = {k: np.asarray(v, dtype=float) for k, v in ref_record["shapes"].items()}
-        result = render_png(shapes, path)
-    except Exception:
+    shapes = {}
+    for k, v in ref_record["shapes"].items():
+        p = np.asarray([[np.nan if c is None else c for c in q] for q in v], dtype=float)
+        if p.ndim == 2 and len(p) >= 2 and np.isfinite(p).all():
+            shapes[k] = p
+    if not shapes:
         return None
-    return Path(result) if result else (path if path.exists() else None)
+    undeformed = {k: np.asarray(v, dtype=float) for k, v in (meta.get("undeformed") or {}).items()}
+    title = f"{meta.get('name', '')}: {ref_record['model']} (reference), last step"
+    return Path(render_png(path, shapes, undeformed or None, title, backend=backend))
+
+
+def pyvista_figure(meta: Mapping, ref_record: Mapping | None, path: Path) -> Path | None:
+    """Former hook name: ``render_figure`` with the automatic backend."""
+    return render_figure(meta, ref_record, path)

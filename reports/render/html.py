@@ -1,4 +1,4 @@
-"""HTML formatting of the report blocks (one self-contained page; figures are linked PNGs)."""
+"""HTML formatting of the report blocks (one page; figures are linked PNG/GIF files)."""
 
 from __future__ import annotations
 
@@ -48,7 +48,14 @@ def to_html(blocks: Sequence[tuple], title: str) -> str:
             out.append("</table>")
         elif kind == "img":
             src, alt = html.escape(block[1], quote=True), html.escape(block[2], quote=True)
-            out.append(f'<img src="{src}" alt="{alt}" loading="lazy">')
+            width = f' width="{int(block[3])}"' if len(block) > 3 and block[3] else ""
+            out.append(f'<img src="{src}" alt="{alt}"{width} loading="lazy">')
+        elif kind == "links":
+            items = " · ".join(
+                f'<a href="{html.escape(href, quote=True)}">{html.escape(text)}</a>'
+                for text, href in block[2]
+            )
+            out.append(f"<p>{html.escape(block[1])}: {items}</p>")
         elif kind == "ul":
             out.append("<ul>" + "".join(f"<li>{html.escape(i)}</li>" for i in block[1]) + "</ul>")
     out.append("</body></html>")

@@ -30,6 +30,9 @@ def to_markdown(blocks: Sequence[tuple]) -> str:
             out.append("")
         elif kind == "img":
             out += [f"![{_esc(block[2])}]({block[1]})", ""]
+        elif kind == "links":
+            items = " · ".join(f"[{_esc(text)}]({href})" for text, href in block[2])
+            out += [f"{_esc(block[1])}: {items}", ""]
         elif kind == "ul":
             out += [f"- {_esc(i)}" for i in block[1]] + [""]
     return "\n".join(out)
