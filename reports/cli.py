@@ -297,7 +297,7 @@ def cmd_report(args: argparse.Namespace) -> int:
     if "cases" not in payload:
         raise UsageError(f"{args.dir}: results file has no case metadata to render")
     out = Path(args.dir) if Path(args.dir).is_dir() else Path(args.dir).parent
-    paths = render_report(payload, out, pyvista=args.pyvista)
+    paths = render_report(payload, out, pyvista=True if args.pyvista else None)
     print(f"report.html: {paths['report.html']}\nreport.md: {paths['report.md']}")
     return 0
 
@@ -349,7 +349,7 @@ def build_parser() -> argparse.ArgumentParser:
     c.set_defaults(func=cmd_compare)
     rp = sub.add_parser("report", help="re-render the report of a finished run")
     rp.add_argument("dir", help="run directory (or its results.json)")
-    rp.add_argument("--pyvista", action="store_true", help="add pyvista renders if available")
+    rp.add_argument("--pyvista", action="store_true", help="require pyvista renders (default: pyvista when it works, else matplotlib)")
     rp.set_defaults(func=cmd_report)
     sub.add_parser(
         "fit-prb", help="fit a PRB matrix (see flexbench fit-prb --help)", add_help=False
