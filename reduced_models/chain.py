@@ -43,6 +43,7 @@ iteration count grows with N and Newton diverges for N >~ 64.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -429,6 +430,13 @@ class ChainModel:
     family = "chain"
     _card: ModelCard
     extensible = False
+
+    def __init_subclass__(cls, **kwargs: object) -> None:
+        # a class-level card for listings (``flexbench models``) before N is known
+        super().__init_subclass__(**kwargs)
+        template = cls.__dict__.get("_card")
+        if template is not None:
+            cls.card = dataclasses.replace(template, summary=template.summary.format(N="N"))
 
     def __init__(self, n: int = 1, shape_points: int | None = None) -> None:
         if int(n) < 1:
