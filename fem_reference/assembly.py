@@ -1,6 +1,8 @@
 """Scene -> discrete corotational system: meshes, DOF maps, supports, joints, springs, loads.
 
-``build(scene, n_elements)`` returns a ``FEMSystem`` (satisfies ``system.DiscreteSystem``).
+``build(scene, n_elements)`` returns a ``FEMSystem`` (``femsystem.py``; satisfies
+``system.DiscreteSystem``).  ``FEMSystem``, ``MemberMesh``, ``ModelError`` (``femsystem``) and
+``Scatter`` (``scatter``) are re-exported here.
 
 Modelling choices (what the scene format means here)
 ----------------------------------------------------
@@ -33,7 +35,6 @@ Modelling choices (what the scene format means here)
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
@@ -41,340 +42,21 @@ from scipy.sparse.csgraph import reverse_cuthill_mckee
 
 from cases.schema import Member, Scene
 from fem_reference import corotational as cr
-from reduced_models.base import Step
+from fem_reference.femsystem import Evaluation, FEMSystem, MemberMesh, ModelError
+from fem_reference.scatter import BandScatter, Scatter
+
+__all__ = [
+    "DEFAULT_DENSITY",
+    "BandScatter",
+    "Evaluation",
+    "FEMSystem",
+    "MemberMesh",
+    "ModelError",
+    "Scatter",
+    "build",
+]
 
 DEFAULT_DENSITY = {"m-N-Pa": 7850.0, "mm-N-MPa": 7.85e-9}
-
-
-class ModelError(ValueError):
-    """The scene cannot be represented (message names the member/node and the reason)."""
-
-
-# -- sparse scatter ----------------------------------------------------------------------------
-
-
-class Scatter:
-    """Precomputed scatter of small dense blocks (families of k-DOF blocks) into free DOFs.
-
-    A full DOF ``f`` maps to free DOF ``free[f]`` (-1: fixed) with coefficient ``coef[f]``
-    (sliders at an angle map two translations onto one free DOF).  The csr pattern and the
-    map from flattened block entries to csr data are built once; each assembly is a
-    multiply, a ``np.bincount`` and no Python loop over elements.
-    """
-
-    def __init__(self, free: np.ndarray, coef: np.ndarray, families: list[np.ndarray], n: int):
-        self.n = n
-        rows_v, w_v, sel_v, rows_m, cols_m, w_m, sel_m = [], [], [], [], [], [], []
-        off_v = off_m = 0
-        for edofs in families:
-            nb, k = edofs.shape
-            fi, w = free[edofs], coef[edofs]
-            ok = (fi >= 0) & (w != 0.0)
-            sel_v.append(off_v + np.flatnonzero(ok.ravel()))
-            rows_v.append(fi[ok])
-            w_v.append(w[ok])
-            okm = ok[:, :, None] & ok[:, None, :]
-            sel_m.append(off_m + np.flatnonzero(okm.ravel()))
-            rows_m.append(np.broadcast_to(fi[:, :, None], (nb, k, k))[okm])
-            cols_m.append(np.broadcast_to(fi[:, None, :], (nb, k, k))[okm])
-            w_m.append((w[:, :, None] * w[:, None, :])[okm])
-            off_v += nb * k
-            off_m += nb * k * k
-        self.sel_v, self.rows_v = np.concatenate(sel_v), np.concatenate(rows_v)
-        self.w_v = np.concatenate(w_v)
-        self.sel_m, self.w_m = np.concatenate(sel_m), np.concatenate(w_m)
-        rows, cols = np.concatenate(rows_m), np.concatenate(cols_m)
-        keys, self.inv = np.unique(rows.astype(np.int64) * n + cols, return_inverse=True)
-        self.indices = (keys % n).astype(np.int32)
-        self.indptr = np.searchsorted(keys // n, np.arange(n + 1)).astype(np.int32)
-        self.nnz = keys.size
-
-    def vector(self, blocks: list[np.ndarray]) -> np.ndarray:
-        """Sum of blocks (one (nb, k) array per family) into a free vector (n,)."""
-        flat = np.concatenate([b.ravel() for b in blocks])
-        return np.bincount(self.rows_v, flat[self.sel_v] * self.w_v, minlength=self.n)
-
-    def matrix(self, mats: list[np.ndarray]) -> sp.csr_matrix:
-        """Sum of block matrices (one (nb, k, k) array per family) as csr (n, n)."""
-        flat = np.concatenate([m.ravel() for m in mats])
-        data = np.bincount(self.inv, flat[self.sel_m] * self.w_m, minlength=self.nnz)
-        return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
-
-
-# -- the discrete system -----------------------------------------------------------------------
-
-
-@dataclass
-class MemberMesh:
-    """Mesh bookkeeping of one member: its points (node a ... node b) and element range."""
-
-    id: str
-    kind: str
-    points: np.ndarray  # (n_pts,) point indices from node a to node b
-    elements: slice  # slice into the beam element arrays (empty for springs)
-    s: np.ndarray  # (n_pts,) arc-length coordinates
-    thickness: float | None = None
-    E: float | None = None
-    I: float | None = None
-
-
-@dataclass
-class FEMSystem:
-    """Discretised scene; see the module docstring for the modelling choices.
-
-    Public attributes used by the solvers: ``ndof``, ``weights`` (ndof,) arc-length metric
-    (1/Lref^2 for translations, 1 for rotations, divided by ndof: an RMS norm, so arc-length
-    steps mean the same on every mesh), ``is_rotation`` (ndof,) bool,
-    ``preload`` (scale of spring preloads, 1.0 = as specified), ``const_factor`` (load factor
-    of the ``constant`` load group, used by energy analyses).
-    """
-
-    scene: Scene
-    n_elements: int
-    ndof: int
-    free: np.ndarray
-    coef: np.ndarray
-    points: np.ndarray
-    trans: np.ndarray
-    beams: cr.BeamSet
-    beam_dofs: np.ndarray
-    members: list[MemberMesh]
-    spring_dofs: np.ndarray
-    spring_k: np.ndarray
-    spring_l0: np.ndarray
-    spring_X: np.ndarray
-    spring_L: np.ndarray
-    tors_dofs: np.ndarray
-    tors_k: np.ndarray
-    tors_phi: np.ndarray
-    fol_dofs: np.ndarray
-    fol_f0: np.ndarray
-    fol_group: np.ndarray
-    dead: np.ndarray
-    dead_const: np.ndarray
-    out_rot: dict
-    out_point: dict
-    scatter: Scatter
-    weights: np.ndarray
-    is_rotation: np.ndarray
-    mass_blocks: tuple
-    Lref: float
-    fscale: float
-    bandwidth: int = 0
-    preload: float = 1.0
-    const_factor: float = 0.0
-    extra: dict = field(default_factory=dict)
-
-    # -- state helpers ---------------------------------------------------------------------
-    def full(self, u: np.ndarray) -> np.ndarray:
-        """Full DOF displacement vector (nfull + 1,) (last entry: ground, always 0)."""
-        d = np.zeros(self.free.shape[0])
-        m = self.free >= 0
-        d[m] = self.coef[m] * u[self.free[m]]
-        return d
-
-    def _follower_forces(self, d: np.ndarray, group: int) -> tuple[np.ndarray, np.ndarray]:
-        sel = self.fol_group == group
-        th = d[self.fol_dofs[sel, 2]]
-        c, s = np.cos(th), np.sin(th)
-        fx, fy = self.fol_f0[sel, 0], self.fol_f0[sel, 1]
-        f = np.zeros((sel.sum(), 3))
-        f[:, 0], f[:, 1] = c * fx - s * fy, s * fx + c * fy
-        dfdth = np.stack([-s * fx - c * fy, c * fx - s * fy], axis=1)
-        return f, dfdth
-
-    def _load_blocks(self, d: np.ndarray, lam: float) -> tuple[np.ndarray, np.ndarray]:
-        """Follower blocks of the residual's external part and their stiffness (nf, 3, 3)."""
-        nf = self.fol_dofs.shape[0]
-        fb = np.zeros((nf, 3))
-        kb = np.zeros((nf, 3, 3))
-        for group, scale in ((0, lam), (1, self.const_factor)):
-            sel = self.fol_group == group
-            if sel.any() and scale != 0.0:
-                f, dfdth = self._follower_forces(d, group)
-                fb[sel] = scale * f
-                kb[sel, 0:2, 2] = -scale * dfdth
-        return fb, kb
-
-    def _springs(self, d: np.ndarray, tangent: bool) -> tuple:
-        ns = self.spring_dofs.shape[0]
-        if ns == 0:
-            return np.zeros((0, 4)), np.zeros((0, 4, 4)), 0.0
-        dd = d[self.spring_dofs]
-        x = self.spring_X + dd[:, 2:4] - dd[:, 0:2]
-        ln = np.hypot(x[:, 0], x[:, 1])
-        n = x / ln[:, None]
-        l0 = self.spring_L + self.preload * (self.spring_l0 - self.spring_L)
-        T = self.spring_k * (ln - l0)
-        f = np.concatenate([-n * T[:, None], n * T[:, None]], axis=1)
-        e = float(np.sum(0.5 * self.spring_k * (ln - l0) ** 2))
-        if not tangent:
-            return f, None, e
-        nn = n[:, :, None] * n[:, None, :]
-        k2 = self.spring_k[:, None, None] * nn + (T / ln)[:, None, None] * (np.eye(2) - nn)
-        K = np.zeros((ns, 4, 4))
-        K[:, :2, :2] = K[:, 2:, 2:] = k2
-        K[:, :2, 2:] = K[:, 2:, :2] = -k2
-        return f, K, e
-
-    def _torsion(self, d: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-        nt = self.tors_dofs.shape[0]
-        if nt == 0:
-            return np.zeros((0, 2)), np.zeros((0, 2, 2)), 0.0
-        rel = d[self.tors_dofs[:, 0]] - d[self.tors_dofs[:, 1]] - self.preload * self.tors_phi
-        T = self.tors_k * rel
-        f = np.stack([T, -T], axis=1)
-        K = self.tors_k[:, None, None] * np.array([[1.0, -1.0], [-1.0, 1.0]])
-        return f, K, float(np.sum(0.5 * self.tors_k * rel**2))
-
-    # -- DiscreteSystem protocol -----------------------------------------------------------
-    def external(self, u: np.ndarray) -> np.ndarray:
-        """f_ext(u) at load factor 1 (the lam-scaled group only), (ndof,)."""
-        d = self.full(u)
-        f = self.dead.copy()
-        if self.fol_dofs.shape[0]:
-            ff, _ = self._follower_forces(d, 0)
-            np.add.at(f, self.fol_dofs[self.fol_group == 0, 0], ff[:, 0])
-            np.add.at(f, self.fol_dofs[self.fol_group == 0, 1], ff[:, 1])
-        return self._full_to_free(f)
-
-    def _full_to_free(self, f: np.ndarray) -> np.ndarray:
-        m = (self.free >= 0) & (self.coef != 0.0)
-        return np.bincount(self.free[m], f[m] * self.coef[m], minlength=self.ndof)
-
-    def _assemble(self, u: np.ndarray, lam: float, tangent: bool):
-        d = self.full(u)
-        de = d[self.beam_dofs]
-        if tangent:
-            fe, Ke, _ = cr.forces_and_tangent(self.beams, de)
-        else:
-            fe, _ = cr.forces(self.beams, de)
-            Ke = None
-        fs, Ks, _ = self._springs(d, tangent)
-        ft, Kt, _ = self._torsion(d)
-        fl, Kl = self._load_blocks(d, lam)
-        r = self.scatter.vector([fe, fs, ft, -fl])
-        r -= self._full_to_free(lam * self.dead + self.const_factor * self.dead_const)
-        if not tangent:
-            return r, None
-        return r, self.scatter.matrix([Ke, Ks, Kt, Kl])
-
-    def residual(self, u: np.ndarray, lam: float) -> np.ndarray:
-        """r(u, lam) = f_int(u) - f_const(u) - lam f_ext(u), (ndof,)."""
-        return self._assemble(u, lam, False)[0]
-
-    def residual_and_tangent(self, u: np.ndarray, lam: float) -> tuple[np.ndarray, sp.csr_matrix]:
-        """r(u, lam) and K = dr/du (material + geometric + follower-load stiffness)."""
-        return self._assemble(u, lam, True)
-
-    def mass(self) -> sp.csr_matrix:
-        """Consistent mass matrix on the free DOFs (see module docstring), (ndof, ndof)."""
-        return self.scatter.matrix(list(self.mass_blocks))
-
-    def strain_energy(self, u: np.ndarray) -> float:
-        """Elastic energy in beams, linear springs and torsion springs."""
-        d = self.full(u)
-        st = cr.local_state(self.beams, d[self.beam_dofs])
-        return float(
-            np.sum(cr.energy(self.beams, st)) + self._springs(d, False)[2] + self._torsion(d)[2]
-        )
-
-    def length_scale(self) -> float:
-        """Largest member length."""
-        return self.Lref
-
-    def residual_floor(self) -> float:
-        """Round-off level of the scaled residual norm: eps times the stiffest axial element
-        stiffness times the coordinate magnitude, times sqrt(ndof) and a safety factor 10."""
-        k = float(np.max(self.beams.ka, initial=0.0))
-        k = max(k, float(np.max(self.spring_k, initial=0.0)))
-        xmax = float(np.max(np.abs(self.points), initial=0.0)) + self.Lref
-        return 10.0 * np.finfo(float).eps * k * xmax * math.sqrt(max(self.ndof, 1))
-
-    def force_scale(self) -> float:
-        """A force magnitude for residual tolerances (loads, preloads or stiffness based)."""
-        return self.fscale
-
-    def output_functional(self, key: str) -> tuple[int, float, float]:
-        """Output ``name.q`` as ``offset + coef * u[index]`` (index -1: fixed value)."""
-        name, q = key.rsplit(".", 1)
-        if name not in self.out_point:
-            raise KeyError(key)
-        p = self.out_point[name]
-        if q in ("x", "y", "ux", "uy"):
-            f = self.trans[p, 0 if q in ("x", "ux") else 1]
-            off = self.points[p, 0 if q == "x" else 1] if q in ("x", "y") else 0.0
-        elif q == "rot":
-            f, off = self.out_rot[name], 0.0
-            if f is None:
-                return -1, 0.0, 0.0
-        else:
-            raise KeyError(key)
-        return int(self.free[f]), float(self.coef[f]), float(off)
-
-    def node_dofs(self, node_id: str) -> tuple[int | None, int | None, int | None]:
-        """Free DOF indices (ux, uy, rot) of a scene node; None where fixed or absent.
-
-        For a slider both translations may map to the same free DOF (with coefficients)."""
-        p = self.extra["nodes"][node_id]
-        r = self.extra["node_rot"](node_id)
-        out = []
-        for f in (self.trans[p, 0], self.trans[p, 1], r):
-            ok = f is not None and self.free[f] >= 0 and self.coef[f] != 0.0
-            out.append(int(self.free[f]) if ok else None)
-        return tuple(out)
-
-    def driver_functional(self) -> tuple[int, float, float]:
-        """Driver coordinate (driver units: length or degrees) as ``scale * coef * u[index]``;
-        returns (index, coef * scale, 0.0); index -1 if a support fixes it."""
-        f = self.extra["driver_dof"]
-        if f is None:
-            raise ModelError("scene has no driver")
-        return int(self.free[f]), float(self.coef[f] * self.extra["driver_scale"]), 0.0
-
-    def outputs(self, u: np.ndarray) -> dict[str, float]:
-        """All node outputs of the scene at state u."""
-        d = self.full(u)
-        out: dict[str, float] = {}
-        for name, p in self.out_point.items():
-            ux, uy = d[self.trans[p, 0]], d[self.trans[p, 1]]
-            r = self.out_rot[name]
-            out[f"{name}.x"] = float(self.points[p, 0] + ux)
-            out[f"{name}.y"] = float(self.points[p, 1] + uy)
-            out[f"{name}.ux"] = float(ux)
-            out[f"{name}.uy"] = float(uy)
-            out[f"{name}.rot"] = float(d[r]) if r is not None else 0.0
-        return out
-
-    def shapes(self, u: np.ndarray) -> dict[str, np.ndarray]:
-        """Deformed points of every member, {id: (n, 2)} from node a to node b."""
-        d = self.full(u)
-        disp = d[self.trans]
-        return {m.id: self.points[m.points] + disp[m.points] for m in self.members}
-
-    def max_stress(self, u: np.ndarray) -> float | None:
-        """max |E t kappa / 2| over flexible members with a thickness, or None."""
-        d = self.full(u)
-        st = cr.local_state(self.beams, d[self.beam_dofs])
-        kap = cr.end_curvatures(self.beams, st)
-        vals = [
-            m.E * m.thickness * float(np.max(kap[m.elements])) / 2.0
-            for m in self.members
-            if m.kind == "flexible" and m.thickness is not None and m.E is not None
-        ]
-        return max(vals) if vals else None
-
-    def step(self, u: np.ndarray, lam: float, iterations: int, stable: bool | None) -> Step:
-        """Outputs, shapes, strain energy and max stress of state u as a ``Step``."""
-        return Step(
-            factor=float(lam),
-            outputs=self.outputs(u),
-            energy=self.strain_energy(u),
-            iterations=int(iterations),
-            stable=stable,
-            shapes=self.shapes(u),
-            max_stress=self.max_stress(u),
-        )
 
 
 # -- builder -----------------------------------------------------------------------------------
@@ -406,7 +88,8 @@ def build(
     *,
     rigid_factor: float = 1e6,
     driver_load: bool = False,
-) -> FEMSystem:
+    check_only: bool = False,
+) -> FEMSystem | None:
     """Discretise ``scene`` with ``n_elements`` corotational elements per flexible member.
 
     Parameters
@@ -417,6 +100,8 @@ def build(
     driver_load : energy analyses: the scene loads form the *constant* group (applied at
         ``system.const_factor``) and a unit force/torque at the driver coordinate is the
         lam-scaled load, so lam is the driver reaction.
+    check_only : only check that the scene is representable (raise ``ModelError`` or return
+        None); skips the scikit-fem element matrices, DOF numbering and scatters.
 
     Raises
     ------
@@ -498,6 +183,8 @@ def build(
         else:
             EI = rigid_factor * Kref * L
             EA = 12.0 * EI / L**2
+        if check_only:  # element matrices cannot fail: skip scikit-fem
+            continue
         k_a, k_b, l0 = cr.local_matrices(mesh, EA, EI)
         rho = _density(scene, m)
         A = (
@@ -652,6 +339,8 @@ def build(
             dead[driver_dof] += 1.0
     elif driver_load:
         raise ModelError("driver_load needs analysis.driver")
+    if check_only:
+        return None
 
     # -- supports -> free DOF map
     fixed: set[int] = set()
@@ -706,8 +395,7 @@ def build(
     new_of_old[perm] = np.arange(ndof)
     free = np.where(free >= 0, new_of_old[np.maximum(free, 0)], -1)
     scatter = Scatter(free, coef, fam, ndof)
-    rows = np.repeat(np.arange(ndof), np.diff(scatter.indptr))
-    bandwidth = int(np.max(np.abs(rows - scatter.indices), initial=0))
+    bandwidth = scatter.bandwidth()
     is_rotation = np.ones(ndof, dtype=bool)
     m_ = free >= 0
     is_rotation[free[m_][~is_rot_full[m_]]] = False
@@ -734,7 +422,7 @@ def build(
         fscale = Kref / Lref
     out_point = {o.name: nodes[o.node] for o in scene.outputs}
     out_rot = {o.name: node_rot(o.node) for o in scene.outputs}
-    return FEMSystem(
+    system = FEMSystem(
         scene=scene,
         n_elements=n_elements,
         ndof=ndof,
@@ -778,3 +466,5 @@ def build(
             "driver_scale": driver_scale,
         },
     )
+    system.fast  # noqa: B018 - build the fast-path index maps now, not inside a timed solve
+    return system

@@ -14,13 +14,22 @@ the rotating chord frame:
 Global internal force ``f = B^T [N, M1, M2]`` and the consistent tangent
 ``K = B^T K_l B + z z^T N / ln + (r z^T + z r^T)(M1 + M2) / ln^2`` with
 ``r = [-c, -s, 0, c, s, 0]``, ``z = [s, -c, 0, -s, c, 0]`` (Battini & Pacoste 2002, Eq. 25-30).
-Every array carries the element index first; there is no Python loop over elements.
+There is no Python loop over elements.
+
+Two layouts: the public ``forces`` / ``forces_and_tangent`` / ``local_state`` take and return
+element-major arrays ((ne, 6), (ne, 6, 6)); the hot-loop kernel ``kernel_forces`` /
+``kernel_tangent`` works *entry-major* ((6, ne) displacements and forces, (36, ne) tangents:
+one contiguous row per entry), which the band scatter (``scatter.BandScatter``) consumes
+directly.  The tangent is written in closed form from 11 distinct rows (``_K_SYMBOLIC``), so no
+6x6 products are formed; at tens of elements the cost is the number of numpy calls, which the
+kernel keeps to a few dozen.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
+from types import SimpleNamespace
 
 import numpy as np
 import skfem
@@ -60,6 +69,40 @@ class BeamSet:
         row sums (ne, 2)."""
         return self.kb.sum(axis=(1, 2)), self.kb.sum(axis=1), self.kb.sum(axis=2)
 
+    @cached_property
+    def packed(self) -> SimpleNamespace:
+        """Contiguous (ne,) copies of every constant the kernel reads (one column each), so
+        the hot loop works on unit-stride vectors: ``X, Y, L0, ka, k11, k12, k21, k22, kb_all``
+        and the scaled column/row sums ``c1, c2`` (``sum_i kb_ij``), ``r1, r2``
+        (``sum_j kb_ij``), the same four stacked as ``cr`` (4, ne), ``kpp`` (4, ne) the kb
+        entries (11, 12, 21, 22), ``X21T`` (2, ne) and ``X21T2 = 2 X21T``, the kb columns
+        ``kcol1 = (k11, k21)``, ``kcol2 = (k12, k22)``; ``sym`` is True when every kb is
+        symmetric (then c = r)."""
+        kb_all, kb_col, kb_row = self.kb_sums
+        c = np.ascontiguousarray
+        return SimpleNamespace(
+            X=c(self.X21[:, 0]),
+            Y=c(self.X21[:, 1]),
+            L0=c(self.L0),
+            ka=c(self.ka),
+            k11=c(self.kb[:, 0, 0]),
+            k12=c(self.kb[:, 0, 1]),
+            k21=c(self.kb[:, 1, 0]),
+            k22=c(self.kb[:, 1, 1]),
+            kb_all=c(kb_all),
+            c1=c(kb_col[:, 0]),
+            c2=c(kb_col[:, 1]),
+            r1=c(kb_row[:, 0]),
+            r2=c(kb_row[:, 1]),
+            sym=bool(np.array_equal(self.kb[:, 0, 1], self.kb[:, 1, 0])),
+            cr=np.stack([kb_col[:, 0], kb_col[:, 1], kb_row[:, 0], kb_row[:, 1]]),
+            X21T=np.ascontiguousarray(self.X21.T),
+            X21T2=np.ascontiguousarray(2.0 * self.X21.T),
+            kcol1=np.ascontiguousarray(self.kb[:, :, 0].T),  # (k11, k21)
+            kcol2=np.ascontiguousarray(self.kb[:, :, 1].T),  # (k12, k22)
+            kpp=self.kb.reshape(-1, 4).T.copy(),
+        )
+
 
 @dataclass(frozen=True)
 class LocalState:
@@ -74,6 +117,29 @@ class LocalState:
     N: np.ndarray
     M1: np.ndarray
     M2: np.ndarray
+    cs: np.ndarray | None = None  # (2, ne) = (c, s) stacked, when the kernel has it
+
+
+def _chord(p: SimpleNamespace, dT: np.ndarray) -> LocalState:
+    """Chord-frame state from entry-major element displacements ``dT`` (6, ne).
+
+    Pairs of quantities are computed as (2, ne) arrays (x and y, the two end rotations and
+    moments): at a few dozen elements the cost is the number of numpy calls, not their size.
+    """
+    d21 = dT[3:5] - dT[0:2]  # (2, ne) chord displacement
+    x21 = p.X21T + d21
+    ln = np.hypot(x21[0], x21[1])
+    cs = x21 / ln
+    # rigid chord rotation from the undeformed chord (atan2 of cross and dot products)
+    xy = p.X21T * x21
+    yx = p.X21T * x21[::-1]
+    alpha = np.arctan2(yx[0] - yx[1], xy[0] + xy[1])
+    # ln - L0 without cancellation: (ln^2 - L0^2) / (ln + L0), ln^2 - L0^2 = (2 X21 + d21).d21
+    t = (p.X21T2 + d21) * d21
+    ul = (t[0] + t[1]) / (ln + p.L0)
+    th = wrap_angle(dT[2::3] - alpha)  # rows 2 and 5: the two end rotations
+    M = p.kcol1 * th[0] + p.kcol2 * th[1]  # (2, ne): kb @ (th1, th2)
+    return LocalState(ln, cs[0], cs[1], ul, th[0], th[1], p.ka * ul, M[0], M[1], cs)
 
 
 def local_state(beams: BeamSet, de: np.ndarray) -> LocalState:
@@ -84,87 +150,117 @@ def local_state(beams: BeamSet, de: np.ndarray) -> LocalState:
     beams : element constants.
     de : (ne, 6) element displacements ``[u1, v1, th1, u2, v2, th2]`` (length, rad).
     """
-    d21 = de[:, 3:5] - de[:, 0:2]
-    x21 = beams.X21 + d21
-    ln = np.hypot(x21[:, 0], x21[:, 1])
-    c = x21[:, 0] / ln
-    s = x21[:, 1] / ln
-    X, Y = beams.X21[:, 0], beams.X21[:, 1]
-    # rigid chord rotation from the undeformed chord (atan2 of cross and dot products)
-    alpha = np.arctan2(X * x21[:, 1] - Y * x21[:, 0], X * x21[:, 0] + Y * x21[:, 1])
-    # ln - L0 without cancellation: (ln^2 - L0^2) / (ln + L0), ln^2 - L0^2 = 2 X21.d21 + |d21|^2
-    ul = (2.0 * (X * d21[:, 0] + Y * d21[:, 1]) + np.einsum("ij,ij->i", d21, d21)) / (ln + beams.L0)
-    th1 = wrap_angle(de[:, 2] - alpha)
-    th2 = wrap_angle(de[:, 5] - alpha)
-    N = beams.ka * ul
-    M1 = beams.kb[:, 0, 0] * th1 + beams.kb[:, 0, 1] * th2
-    M2 = beams.kb[:, 1, 0] * th1 + beams.kb[:, 1, 1] * th2
-    return LocalState(ln, c, s, ul, th1, th2, N, M1, M2)
+    return _chord(beams.packed, np.ascontiguousarray(de.T))
 
 
-def _rz(st: LocalState) -> tuple[np.ndarray, np.ndarray]:
-    ne = st.c.shape[0]
-    r = np.zeros((ne, 6))
-    z = np.zeros((ne, 6))
-    r[:, 0], r[:, 1], r[:, 3], r[:, 4] = -st.c, -st.s, st.c, st.s
-    z[:, 0], z[:, 1], z[:, 3], z[:, 4] = st.s, -st.c, -st.s, st.c
-    return r, z
+def kernel_forces(beams: BeamSet, dT: np.ndarray) -> tuple[np.ndarray, LocalState]:
+    """Internal element forces in entry-major layout, (6, ne), and the local state.
+
+    ``dT`` (6, ne) holds the element displacements ``[u1, v1, th1, u2, v2, th2]`` row by row
+    (the layout the assembly gathers, so every operation runs on contiguous (ne,) rows).
+    ``f = r N - z (M1 + M2) / ln + M1 e_3 + M2 e_6``: with ``q = (M1 + M2) / ln`` the
+    translational entries are ``fx1 = -c N - s q``, ``fy1 = c q - s N`` and their negatives
+    at node 2.
+    """
+    st = _chord(beams.packed, dT)
+    cs = st.cs
+    q = (st.M1 + st.M2) / st.ln
+    f = np.empty((6, st.ln.shape[0]))
+    # (fx1, fy1) = -(c, s) N + (-s, c) q
+    np.multiply(cs[::-1], q, out=f[0:2])
+    f[0] *= -1.0
+    f[0:2] -= cs * st.N
+    np.negative(f[0:2], out=f[3:5])
+    f[2] = st.M1
+    f[5] = st.M2
+    return f, st
+
+
+# Symbolic element tangent (Battini & Pacoste 2002, expanded): rows/columns are the element
+# DOFs (u1, v1, th1, u2, v2, th2); "-x" is the negative of x.  ``c1s`` = s * sum_i kb_i1 / ln,
+# ``r1c`` = c * sum_j kb_1j / ln, ... (see ``kernel_tangent``).
+_K_SYMBOLIC = (
+    ("T00", "T01", "-c1s", "-T00", "-T01", "-c2s"),
+    ("T01", "T11", "c1c", "-T01", "-T11", "c2c"),
+    ("-r1s", "r1c", "k11", "r1s", "-r1c", "k12"),
+    ("-T00", "-T01", "c1s", "T00", "T01", "c2s"),
+    ("-T01", "-T11", "-c1c", "T01", "T11", "-c2c"),
+    ("-r2s", "r2c", "k21", "r2s", "-r2c", "k22"),
+)
+# rows of the base array computed by ``kernel_tangent`` (pairs are filled by one operation)
+_K_BASE = ("T00", "T11", "T01", "c1s", "c2s", "c1c", "c2c", "r1s", "r2s", "r1c", "r2c")
+
+
+def _k_rows(sym: bool) -> np.ndarray:
+    """Row of ``[base; -base; kb entries]`` feeding each of the 36 tangent entries."""
+    pos = {name: i for i, name in enumerate(_K_BASE)}
+    if sym:  # kb symmetric: row sums equal column sums
+        for k in ("1s", "2s", "1c", "2c"):
+            pos["r" + k] = pos["c" + k]
+    nb = len(_K_BASE)
+    pos.update({"k11": 2 * nb, "k12": 2 * nb + 1, "k21": 2 * nb + 2, "k22": 2 * nb + 3})
+    rows = []
+    for name in (x for row in _K_SYMBOLIC for x in row):
+        rows.append(pos[name[1:]] + nb if name.startswith("-") else pos[name])
+    return np.array(rows)
+
+
+_K_ROWS = {True: _k_rows(True), False: _k_rows(False)}
+
+
+def kernel_tangent(beams: BeamSet, st: LocalState) -> np.ndarray:
+    """Consistent tangents of all elements in entry-major layout, (36, ne): row ``6 a + b``
+    holds ``K[a, b]`` of every element (closed form, no 6x6 products).
+
+    With ``e = (c, s)``, ``n = (s, -c)`` the translational blocks are ``[[T, -T], [-T, T]]``,
+    ``T = ka e e^T + (sum(kb)/ln^2 + N/ln) n n^T - (M1 + M2)/ln^2 (e n^T + n e^T)``; the
+    rotation couplings are ``K[t, p_j] = -(kb_1j + kb_2j)/ln [n, -n]`` and
+    ``K[p_i, t] = -(kb_i1 + kb_i2)/ln [n, -n]^T``; ``K_pp = kb`` (Battini & Pacoste 2002).
+    The 11 distinct (ne,) rows are computed once, negated once and gathered into the 36
+    entries with one ``take`` (layout ``_K_SYMBOLIC``).
+    """
+    p = beams.packed
+    c, s = st.c, st.s
+    cs2 = st.cs if st.cs is not None else np.stack([c, s])  # (2, ne): (c, s)
+    ne = c.shape[0]
+    inv_l = 1.0 / st.ln
+    sq = cs2 * cs2  # (c^2, s^2)
+    csx = c * s
+    czz = (p.kb_all * inv_l + st.N) * inv_l
+    g = (st.M1 + st.M2) * (inv_l * inv_l)
+    g2cs = 2.0 * g * csx
+    nb = len(_K_BASE)
+    base = np.empty((2 * nb + 4, ne))
+    # (T00, T11) = ka (c^2, s^2) + czz (s^2, c^2) -+ 2 g c s
+    np.multiply(p.ka, sq, out=base[0:2])
+    base[0:2] += czz * sq[::-1]
+    base[0] -= g2cs
+    base[1] += g2cs
+    base[2] = (p.ka - czz) * csx + g * (sq[0] - sq[1])
+    cl = p.cr * inv_l  # (4, ne): column sums 1, 2 and row sums 1, 2 of kb, over ln
+    k = 4 if not p.sym else 2
+    sc = base[3 : 3 + 2 * k].reshape(2, k, ne)  # [s * cl[:k], c * cl[:k]] (rows c1s c2s ...)
+    np.multiply(cl[:k], s, out=sc[0])
+    np.multiply(cl[:k], c, out=sc[1])
+    if not p.sym:  # base rows 3..10 are c1s c2s r1s r2s c1c c2c r1c r2c: reorder to _K_BASE
+        base[3:11] = base[[3, 4, 7, 8, 5, 6, 9, 10]]
+    np.negative(base[:nb], out=base[nb : 2 * nb])
+    base[2 * nb :] = p.kpp
+    return base[_K_ROWS[p.sym]]
 
 
 def forces(beams: BeamSet, de: np.ndarray) -> tuple[np.ndarray, LocalState]:
     """Global internal element forces, (ne, 6), and the local state."""
-    st = local_state(beams, de)
-    r, z = _rz(st)
-    f = r * st.N[:, None] - z * ((st.M1 + st.M2) / st.ln)[:, None]
-    f[:, 2] += st.M1
-    f[:, 5] += st.M2
-    return f, st
+    fT, st = kernel_forces(beams, np.ascontiguousarray(de.T))
+    return fT.T.copy(), st
 
 
 def forces_and_tangent(beams: BeamSet, de: np.ndarray) -> tuple[np.ndarray, np.ndarray, LocalState]:
-    """Internal forces (ne, 6), consistent tangents (ne, 6, 6) and the local state.
-
-    ``B^T K_l B`` with ``b_i = e_{p_i} - z / ln`` (p = rotation slots 2, 5) is expanded so that
-    only three 4x4 outer products on the translational slots are formed:
-    ``K_tt = ka r r^T + (sum(kb)/ln^2 + N/ln) z z^T + (M1 + M2)/ln^2 (r z^T + z r^T)``,
-    ``K_t,p_j = -(kb_1j + kb_2j)/ln z``, ``K_p_i,t = -(kb_i1 + kb_i2)/ln z^T``, ``K_pp = kb``.
-    """
-    st = local_state(beams, de)
-    ne = st.c.shape[0]
-    inv_l = 1.0 / st.ln
-    msum = st.M1 + st.M2
-    c, s = st.c, st.s
-    r4 = np.stack([-c, -s, c, s], axis=1)
-    z4 = np.stack([s, -c, -s, c], axis=1)
-    f = np.empty((ne, 6))
-    ft = r4 * st.N[:, None] - z4 * (msum * inv_l)[:, None]
-    f[:, 0:2], f[:, 3:5] = ft[:, 0:2], ft[:, 2:4]
-    f[:, 2] = st.M1
-    f[:, 5] = st.M2
-    kb = beams.kb
-    kb_all, kb_col, kb_row = beams.kb_sums
-    czz = (kb_all * inv_l + st.N) * inv_l
-    crz = msum * inv_l * inv_l
-    # translational 4x4 block: ka r r^T + czz z z^T + crz (r z^T + z r^T)
-    a = r4[:, :, None] * (beams.ka[:, None] * r4 + crz[:, None] * z4)[:, None, :]
-    Ktt = a + a.transpose(0, 2, 1)
-    Ktt -= r4[:, :, None] * (beams.ka[:, None] * r4)[:, None, :]
-    Ktt += z4[:, :, None] * (czz[:, None] * z4)[:, None, :]
-    K = np.empty((ne, 6, 6))
-    K[:, 0:2, 0:2] = Ktt[:, 0:2, 0:2]
-    K[:, 0:2, 3:5] = Ktt[:, 0:2, 2:4]
-    K[:, 3:5, 0:2] = Ktt[:, 2:4, 0:2]
-    K[:, 3:5, 3:5] = Ktt[:, 2:4, 2:4]
-    col = -(kb_col * inv_l[:, None])  # (ne, 2): -sum_i kb_ij / ln
-    row = -(kb_row * inv_l[:, None])  # (ne, 2): -sum_j kb_ij / ln
-    for j, p in enumerate((2, 5)):
-        zc = z4 * col[:, j, None]
-        zr = z4 * row[:, j, None]
-        K[:, 0:2, p], K[:, 3:5, p] = zc[:, 0:2], zc[:, 2:4]
-        K[:, p, 0:2], K[:, p, 3:5] = zr[:, 0:2], zr[:, 2:4]
-    K[:, 2, 2], K[:, 2, 5] = kb[:, 0, 0], kb[:, 0, 1]
-    K[:, 5, 2], K[:, 5, 5] = kb[:, 1, 0], kb[:, 1, 1]
-    return f, K, st
+    """Internal forces (ne, 6), consistent tangents (ne, 6, 6) and the local state
+    (``kernel_forces`` and ``kernel_tangent`` in element-major layout)."""
+    fT, st = kernel_forces(beams, np.ascontiguousarray(de.T))
+    KT = kernel_tangent(beams, st)
+    return fT.T.copy(), KT.T.reshape(-1, 6, 6).copy(), st
 
 
 def energy(beams: BeamSet, st: LocalState) -> np.ndarray:

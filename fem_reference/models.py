@@ -137,16 +137,16 @@ class Runner:
         a, sysm = self.scene.analysis, self.system
         if "arc_length" in self.o:
             return float(self.o["arc_length"])
-        lu = S._lu(sysm, sysm.residual_and_tangent(st.u, st.lam)[1])
-        t = lu.solve(sysm.external(st.u))
-        cand = [S._Scaler(sysm).unorm(t) * abs(a.factor_end) / max(a.steps, 1), 0.05]
+        t = S.tangent_lu(sysm, st.u, st.lam).solve(sysm.external(st.u))
+        sc = S.Scaler.of(sysm)
+        cand = [sc.unorm(t) * abs(a.factor_end) / max(a.steps, 1), 0.05]
         if a.stop_output:  # the stop output should be reached in about ``steps`` steps
             i, c, off = sysm.output_functional(a.stop_output)
             if i >= 0:
                 dv = abs(a.stop_value - off - c * st.u[i]) / abs(c)
                 ti = abs(c * t[i])  # stop output per unit factor along the initial tangent
                 if ti > 0:
-                    cand.append(dv / max(a.steps, 1) * S._Scaler(sysm).unorm(t) / ti)
+                    cand.append(dv / max(a.steps, 1) * sc.unorm(t) / ti)
         return min(cand)
 
     # -- analyses --------------------------------------------------------------------------
@@ -311,11 +311,15 @@ class FEM:
         """None, or why the FE reference cannot represent ``scene``."""
         if scene.analysis.kind == "sweep":
             return "sweep analyses are expanded into single scenes by the runner"
+        if getattr(self, "_checked", (None,))[0] is scene:  # scenes are frozen: same answer
+            return self._checked[1]
         try:
-            build(scene, 1)
+            build(scene, 1, check_only=True)
+            reason = None
         except (ModelError, KeyError) as err:
-            return f"not representable: {err}"
-        return None
+            reason = f"not representable: {err}"
+        self._checked = (scene, reason)
+        return reason
 
     def runner(self, scene: Scene) -> tuple[Runner, str, str]:
         """Run and return the runner (states kept) with status and message."""

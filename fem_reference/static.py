@@ -5,11 +5,9 @@ and the stability test.
 All solvers work on converged ``State`` objects and raise ``SolveError`` (with a reason) when
 they cannot reach the requested point; they never return an unconverged state.
 
-Convergence (``Options``): a state is converged when the scaled force residual
-``||r_s|| <= rtol * fscale * max(|lam|, 1)`` (moments divided by the length scale) *and* the
-energy norm of the last correction ``|du . r| <= etol * |du_0 . r_0|``; a correction at
-round-off level (``||du||_W < 1e-13``) with ``||r_s||`` within 1e4 of the tolerance also counts
-(1000-element meshes with EA L^2/EI ~ 1e5 have a residual floor near 1e-10 of the load).
+The Newton core (``Options``, ``State``, ``SolveError``, ``newton``, convergence test) lives
+in ``newton.py``, arc-length in ``arclength.py``, the banded linear algebra in ``banded.py``;
+all their public names are re-exported here.  Convergence: see ``newton``.
 References: Crisfield, Non-linear FE analysis of solids and structures, Vol. 1 (1991), Ch. 9;
 Feng, Peric & Owen (1996) for the predictor sign; Ritto-Correa & Camotim (2008) for root
 choice.
@@ -18,7 +16,7 @@ choice.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 
 import numpy as np
 import scipy.linalg as sla
@@ -26,176 +24,67 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.optimize import minimize_scalar
 
+from fem_reference.arclength import ArcLength
+from fem_reference.banded import (
+    BAND_MAX,
+    BandedLU,
+    SingularTangent,
+    band_stability,
+    csr_to_band,
+    hold_dof,
+    inf_norm,
+    inverse_iteration,
+    symmetric_upper_band,
+)
+from fem_reference.banded import factor as _band_factor
+from fem_reference.newton import (
+    Options,
+    Scaler,
+    SolveError,
+    State,
+    converged,
+    lu_of,
+    newton,
+    tangent_lu,
+)
 from fem_reference.system import DiscreteSystem
 
+__all__ = [
+    "ArcLength",
+    "Options",
+    "SolveError",
+    "State",
+    "displacement_control",
+    "load_control",
+    "newton",
+    "reach_factor",
+    "refine_extremum",
+    "stability",
+    "tangent_lu",
+    "Scaler",
+]
 
-class SolveError(RuntimeError):
-    """The solver could not reach the requested equilibrium (message says why).
-
-    ``state`` is the last converged state reached before the failure (or None)."""
-
-    def __init__(self, message: str, state: State | None = None, iterations: int = 0):
-        super().__init__(message)
-        self.state = state
-        self.iterations = iterations
-
-
-@dataclass(frozen=True)
-class Options:
-    """Solver settings (all dimensionless)."""
-
-    rtol: float = 1e-9
-    etol: float = 1e-16
-    max_iter: int = 25
-    max_cuts: int = 8
-    grow: float = 2.0
-    arc_iter_goal: int = 5
-    arc_max_steps: int = 2000
-    max_rot_step: float = 0.6  # rad per Newton correction before damping
-    max_trans_step: float = 0.3  # x length scale per Newton correction before damping
-
-
-@dataclass
-class State:
-    """A converged equilibrium: displacements, load factor and bookkeeping."""
-
-    u: np.ndarray
-    lam: float
-    iterations: int = 0
-    cuts: int = 0
-    residual: float = 0.0
-    lu: object | None = field(default=None, repr=False)
-    info: dict = field(default_factory=dict)
-
-
-class _BandedLU:
-    """LAPACK banded LU (dgbtrf/dgbtrs) of a csr matrix with half-bandwidth ``bw``."""
-
-    def __init__(self, K: sp.csr_matrix, bw: int):
-        n = K.shape[0]
-        rows = np.repeat(np.arange(n), np.diff(K.indptr))
-        ab = np.zeros((3 * bw + 1, n))
-        ab[2 * bw + rows - K.indices, K.indices] = K.data
-        self.lu, self.piv, info = sla.lapack.dgbtrf(ab, bw, bw, overwrite_ab=True)
-        if info > 0:
-            raise SolveError("singular tangent (zero pivot in banded LU)")
-        self.bw = bw
-
-    def solve(self, b: np.ndarray) -> np.ndarray:
-        x, info = sla.lapack.dgbtrs(self.lu, self.bw, self.bw, b, self.piv)
-        return x
+# names of the former single-module layout, kept for callers and tests
+_Scaler = Scaler
+_converged = converged
+_lu = lu_of
 
 
 def _factor(K: sp.csr_matrix, bw: int | None = None) -> object:
-    """LU of the tangent: banded LAPACK when the (RCM-ordered) band is narrow, else SuperLU."""
-    if bw is not None and K.shape[0] > 30 and bw <= 48:
-        return _BandedLU(K, bw)
+    """LU of a csr tangent: banded LAPACK when the (RCM-ordered) band is narrow, else SuperLU;
+    ``SolveError`` if singular."""
     try:
-        lu = spla.splu(K.tocsc())
-    except RuntimeError as e:  # exactly singular
-        raise SolveError(f"singular tangent ({e})") from None
-    return lu
+        return _band_factor(K, bw)
+    except SingularTangent as err:
+        raise SolveError(str(err)) from None
 
 
-def _lu(system: DiscreteSystem, K: sp.csr_matrix) -> object:
-    return _factor(K, getattr(system, "bandwidth", None))
-
-
-class _Scaler:
-    def __init__(self, system: DiscreteSystem):
-        self.sys = system
-        self.rs = np.where(system.is_rotation, 1.0 / system.length_scale(), 1.0)
-        self.w = system.weights
-        rf = getattr(system, "residual_floor", None)
-        self.floor = float(rf()) if callable(rf) else 0.0
-
-    def rnorm(self, r: np.ndarray) -> float:
-        return float(np.linalg.norm(r * self.rs))
-
-    def unorm(self, du: np.ndarray) -> float:
-        return float(math.sqrt(np.dot(du * du, self.w)))
-
-    def ftol(self, lam: float, opts: Options) -> float:
-        floor = self.floor
-        return max(opts.rtol * self.sys.force_scale() * max(abs(lam), 1.0), floor)
-
-    def damp(self, du: np.ndarray, opts: Options) -> np.ndarray:
-        rot = self.sys.is_rotation
-        mr = float(np.max(np.abs(du[rot]), initial=0.0))
-        mt = float(np.max(np.abs(du[~rot]), initial=0.0)) / self.sys.length_scale()
-        a = min(1.0, opts.max_rot_step / max(mr, 1e-300), opts.max_trans_step / max(mt, 1e-300))
-        return du * a
-
-
-def _converged(rn: float, tol: float, e: float, e0: float, dun: float, etol: float) -> bool:
-    if rn <= tol and e <= e0 * etol + 1e-300:
-        return True
-    if rn <= tol and e0 == 0.0:
-        return True
-    return dun < 1e-13 and rn <= 1e4 * tol
-
-
-def newton(
-    system: DiscreteSystem,
-    u0: np.ndarray,
-    lam: float,
-    opts: Options,
-    constraint: tuple[int, float, float] | None = None,
-) -> State:
-    """Newton-Raphson at fixed ``lam`` (or with a linear constraint, see below).
-
-    ``constraint = (index, coef, value)`` switches to displacement control: ``lam`` becomes an
-    unknown and ``coef * u[index] = value`` is enforced by bordering.
-    Raises ``SolveError`` on divergence, a singular tangent or ``max_iter``.
-    """
-    sc = _Scaler(system)
-    u = u0.copy()
-    e0, e, dun, rref, lu = 0.0, 0.0, np.inf, 0.0, None
-    rot = system.is_rotation
-    for it in range(opts.max_iter + 1):
-        r, K = system.residual_and_tangent(u, lam)
-        rn = sc.rnorm(r)
-        rref = max(rref, rn) if it <= 1 else rref
-        if it >= 3 and rn > 1e3 * rref:  # early exit: the step will be cut anyway
-            raise SolveError(f"Newton diverging (|r| grew {rn / rref:.1e}x)", iterations=it)
-        g = 0.0
-        if constraint is not None:
-            i, c, v = constraint
-            g = c * u[i] - v
-        tol = sc.ftol(lam, opts)
-        if not np.isfinite(rn):
-            raise SolveError("non-finite residual", iterations=it)
-        gok = constraint is None or abs(g) <= 1e-12 * (abs(v) + system.length_scale())
-        if it > 0 and gok and _converged(rn, tol, e, e0, dun, opts.etol):
-            return State(u, lam, it, 0, rn, lu)
-        if it == 0 and rn <= tol * 1e-3 and gok:
-            return State(u, lam, 0, 0, rn, None)
-        if it == opts.max_iter:
-            break
-        lu = _lu(system, K)
-        du = lu.solve(-r)
-        if constraint is not None:
-            dt = lu.solve(system.external(u))
-            if abs(c * dt[i]) < 1e-300:
-                raise SolveError("displacement control: controlled DOF does not respond to load")
-            dl = -(g + c * du[i]) / (c * dt[i])
-            du = du + dl * dt
-            lam = lam + dl
-        if not np.all(np.isfinite(du)):
-            raise SolveError("non-finite Newton correction", iterations=it)
-        if it >= 1 and np.max(np.abs(du[rot]), initial=0.0) > math.pi:
-            raise SolveError("Newton diverging (rotation correction > pi)", iterations=it)
-        e = abs(float(np.dot(du, r)))
-        if it == 0:
-            e0 = e
-        if constraint is None:
-            du = sc.damp(du, opts)
-        dun = sc.unorm(du)
-        u = u + du
-    raise SolveError(
-        f"Newton did not converge in {opts.max_iter} iterations (|r|={rn:.3e})",
-        iterations=opts.max_iter,
-    )
+def _BandedLU(K: sp.csr_matrix, bw: int) -> BandedLU:  # noqa: N802 - former class name
+    """Banded LU of a csr matrix; ``SolveError`` if singular."""
+    try:
+        return BandedLU.from_csr(K, bw)
+    except SingularTangent as err:
+        raise SolveError(str(err)) from None
 
 
 def load_control(
@@ -203,24 +92,36 @@ def load_control(
 ) -> State:
     """March the load factor from ``st.lam`` to exactly ``target`` with adaptive steps.
 
-    Steps start at ``h0``, double after easy steps and are cut by 4 after a failure (at most
-    ``opts.max_cuts`` consecutive cuts).  Predictor: tangent (``K du = f_ext dlam``).
+    Steps start at ``st.h_next`` (the step size reached by the previous call on this branch)
+    or ``h0``, double after easy steps (at most 6 iterations) and are cut by 4 after a failure
+    (at most ``opts.max_cuts`` consecutive cuts).  Predictor: the tangent ``t = K^-1 f_ext``
+    plus, once a previous converged point ``(lam_p, u_p)`` is known, the quadratic term that
+    makes the predicted path pass through it,
+    ``u(lam + h) = u + h t + (u_p - u + t h_p) (h / h_p)^2`` with ``h_p = lam - lam_p``
+    (error O(h^3) instead of O(h^2): on slender meshes with a large EA L^2/EI the O(h^2)
+    stretch of the tangent predictor makes Newton diverge).
     """
-    u, lam, lu = st.u, st.lam, st.lu
+    u, lam, lu, prev = st.u, st.lam, st.lu, st.prev
     total = abs(target - lam)
     if total == 0.0:
         return replace(st, iterations=0, cuts=0)
+    sc = Scaler.of(system)
     sgn = 1.0 if target > lam else -1.0
-    h, iters, cuts, streak = min(h0, total), 0, 0, 0
+    h = min(st.h_next if st.h_next else h0, total)
+    iters, cuts, streak, res = 0, 0, 0, st.residual
     while abs(target - lam) > 1e-14 * max(abs(target), 1.0):
         dl = sgn * min(h, abs(target - lam))
         lt = target if abs(target - (lam + dl)) < 1e-12 * max(1.0, abs(target)) else lam + dl
         try:
             if lu is None:
-                lu = _lu(system, system.residual_and_tangent(u, lam)[1])
-            up = u + (lt - lam) * lu.solve(system.external(u))
-            up = _Scaler(system).damp(up - u, opts) + u
-            new = newton(system, up, lt, opts)
+                lu = tangent_lu(system, u, lam)
+            hh = lt - lam
+            t = lu.solve(system.external(u))
+            du = hh * t
+            if prev is not None and (lam - prev[0]) * hh > 0.0:
+                hp = lam - prev[0]
+                du += (prev[1] - u + t * hp) * ((hh / hp) ** 2)
+            new = newton(system, u + sc.damp(du, opts), lt, opts)
         except SolveError as err:
             iters += err.iterations
             cuts += 1
@@ -229,15 +130,16 @@ def load_control(
             lu = None
             # (a step that keeps failing close to a limit point would creep towards it forever)
             if streak > opts.max_cuts or h < 1e-5 * total:
-                last = State(u, lam, iters, cuts)
+                last = State(u, lam, iters, cuts, prev=prev)
                 raise SolveError(f"load control stalled at factor {lam:.6g}: {err}", last) from None
             continue
         iters += new.iterations
         streak = 0
-        u, lam, lu = new.u, lt, new.lu
+        prev = (lam, u)
+        u, lam, lu, res = new.u, lt, new.lu, new.residual
         if new.iterations <= 6:
             h = min(h * opts.grow, total)
-    return State(u, lam, iters, cuts, new.residual, lu)
+    return State(u, lam, iters, cuts, res, lu, prev=prev, h_next=h)
 
 
 def displacement_control(
@@ -264,7 +166,7 @@ def displacement_control(
         dv = sgn * min(h, abs(target - v))
         vt = target if abs(target - (v + dv)) < 1e-12 * (abs(target) + 1.0) else v + dv
         try:
-            lu = _lu(system, system.residual_and_tangent(u, lam)[1])
+            lu = tangent_lu(system, u, lam)
             t = lu.solve(system.external(u))
             if abs(c * t[i]) > 1e-300:  # tangent predictor scaled to the requested increment
                 dl = (vt - v) / (c * t[i])
@@ -289,107 +191,6 @@ def displacement_control(
     return State(u, lam, iters, cuts, res)
 
 
-class ArcLength:
-    """Crisfield's cylindrical arc-length continuation in the metric ``system.weights``.
-
-    ``step()`` returns the next converged ``State`` on the path (cutting ``ds`` on failure).
-    The predictor sign follows the previous increment (Feng et al.), so limit points and
-    snap-backs are passed; of the two corrector roots the one closest in direction to the
-    current increment is taken, a complex pair falls back to the linearised (normal-plane)
-    correction.
-    """
-
-    def __init__(
-        self,
-        system: DiscreteSystem,
-        st: State,
-        ds: float,
-        opts: Options,
-        direction: float = 1.0,
-        ds_max: float | None = None,
-    ):
-        self.sys, self.opts, self.sc = system, opts, _Scaler(system)
-        self.u, self.lam, self.ds = st.u.copy(), st.lam, ds
-        self.ds_max = ds_max if ds_max is not None else 1e3 * ds
-        self.ds_min = ds * 1e-7
-        self.du_prev: np.ndarray | None = None
-        self.direction = direction
-
-    def _dot(self, a: np.ndarray, b: np.ndarray) -> float:
-        return float(np.dot(a * self.sc.w, b))
-
-    def _try(self, ds: float) -> State:
-        sys, opts = self.sys, self.opts
-        r, K = sys.residual_and_tangent(self.u, self.lam)
-        lu = _lu(sys, K)
-        t = lu.solve(sys.external(self.u))
-        tn = math.sqrt(max(self._dot(t, t), 1e-300))
-        sgn = (
-            self.direction
-            if self.du_prev is None
-            else math.copysign(1.0, self._dot(t, self.du_prev) or self.direction)
-        )
-        dl = sgn * ds / tn
-        Du, Dl = dl * t - lu.solve(r), dl
-        e0 = 1e-300
-        for it in range(1, opts.max_iter + 1):
-            u, lam = self.u + Du, self.lam + Dl
-            r, K = sys.residual_and_tangent(u, lam)
-            rn = self.sc.rnorm(r)
-            if not np.isfinite(rn):
-                raise SolveError("non-finite residual")
-            lu = _lu(sys, K)
-            dr = -lu.solve(r)
-            if (
-                it > 1
-                and rn <= self.sc.ftol(lam, opts)
-                and (abs(np.dot(dr, r)) <= opts.etol * e0 or self.sc.unorm(dr) < 1e-12)
-            ):
-                return State(u, lam, it, 0, rn, lu)
-            dt = lu.solve(sys.external(u))
-            a = self._dot(dt, dt)
-            b = 2.0 * self._dot(Du + dr, dt)
-            c = self._dot(Du + dr, Du + dr) - ds * ds
-            disc = b * b - 4.0 * a * c
-            if disc >= 0.0 and a > 0.0:
-                q = -0.5 * (b + math.copysign(math.sqrt(disc), b))
-                roots = [q / a, c / q] if q != 0.0 else [0.0]
-                best = max(roots, key=lambda x: self._dot(Du + dr + x * dt, Du))
-            else:  # normal-plane (Ramm) correction
-                den = self._dot(Du, dt)
-                if den == 0.0:
-                    raise SolveError("arc-length: degenerate corrector")
-                best = -self._dot(Du, dr) / den
-            step = dr + best * dt
-            if it == 1:
-                e0 = max(abs(float(np.dot(step, r))), 1e-300)
-            Du, Dl = Du + step, Dl + best
-            if self.sc.unorm(Du) > 10.0 * ds + 1e-300:
-                raise SolveError("arc-length corrector diverged")
-        raise SolveError("arc-length corrector did not converge")
-
-    def step(self) -> State:
-        """Next converged point (raises ``SolveError`` when ``ds`` falls below ds_min)."""
-        cuts = 0
-        while True:
-            try:
-                st = self._try(self.ds)
-                break
-            except SolveError as err:
-                cuts += 1
-                self.ds *= 0.25
-                if self.ds < self.ds_min:
-                    raise SolveError(
-                        f"arc-length stalled at factor {self.lam:.6g}: {err}"
-                    ) from None
-        self.du_prev = st.u - self.u
-        self.u, self.lam = st.u, st.lam
-        ratio = math.sqrt(self.opts.arc_iter_goal / max(st.iterations, 1))
-        self.ds = min(self.ds * min(max(ratio, 0.5), 2.0), self.ds_max)
-        st.cuts = cuts
-        return st
-
-
 def reach_factor(
     system: DiscreteSystem,
     st: State,
@@ -409,9 +210,8 @@ def reach_factor(
         first = err
         base = err.state or st
     sgn = 1.0 if target > base.lam else -1.0
-    sc = _Scaler(system)
-    lu = _lu(system, system.residual_and_tangent(base.u, base.lam)[1])
-    t = lu.solve(system.external(base.u))
+    sc = Scaler.of(system)
+    t = tangent_lu(system, base.u, base.lam).solve(system.external(base.u))
     ds0 = ds or min(sc.unorm(t) * max(abs(h0), 1e-12) * 0.5, 0.05)
     arc = ArcLength(system, base, ds0, opts, direction=sgn, ds_max=max(8 * ds0, 0.1))
     prev, iters, cuts = base, 0, 0
@@ -443,20 +243,7 @@ def reach_factor(
 def _inverse_iteration(lu: object, n: int, tol: float = 1e-10, max_it: int = 80) -> float:
     """Eigenvalue of smallest magnitude of a symmetric matrix from its factorisation
     (inverse iteration with Rayleigh quotients; nan if it does not settle)."""
-    x = np.cos(np.arange(n) * 0.7071) + 0.5  # deterministic start, not orthogonal to modes
-    x /= np.linalg.norm(x)
-    mu = math.nan
-    for _ in range(max_it):
-        y = lu.solve(x)
-        ny = float(np.linalg.norm(y))
-        if not np.isfinite(ny) or ny == 0.0:
-            return math.nan
-        new = float(np.dot(x, y)) / float(np.dot(y, y))
-        x = y / ny
-        if abs(new - mu) <= tol * abs(new):
-            return new
-        mu = new
-    return math.nan
+    return inverse_iteration(lu.solve, n, None, tol, max_it)[0]
 
 
 def stability(
@@ -469,43 +256,52 @@ def stability(
     """Stability of the state from the symmetric part of the tangent on the free DOFs.
 
     The tangent is scaled by ``D = diag(Lref for translations, 1 for rotations)`` so every
-    eigenvalue has units force*length.  ``stable`` = positive definite: a banded Cholesky
-    (LAPACK dpbtrf) on the RCM band, else the inertia of an LDL^T-type SuperLU factorisation
-    (symmetric mode, diagonal pivots).  ``min_eig`` (the lowest eigenvalue): dense
-    ``eigvalsh`` up to ``dense_max`` DOFs; for a positive definite tangent inverse iteration
-    (the smallest-magnitude eigenvalue is the lowest); otherwise shift-invert ``eigsh``.
+    eigenvalue has units force*length.  ``stable`` = positive definite.  Up to ``dense_max``
+    DOFs: dense ``eigvalsh``.  Narrow bands (``banded.band_stability``): banded Cholesky
+    ``dpbtrf`` decides, inverse iteration on the Cholesky factor (warm-started from the
+    previous state's mode) gives ``min_eig``, bisection counts the negative eigenvalues of an
+    indefinite matrix.  Otherwise the inertia of an LDL^T-type SuperLU factorisation
+    (symmetric mode, diagonal pivots) and shift-invert ``eigsh``.  ``exclude``: a prescribed
+    (driver) coordinate, held fixed.
 
     Returns ``{'stable': bool, 'min_eig': float, 'n_neg': int}``.
     """
+    n = system.ndof - (exclude is not None)
+    if n <= 0:
+        return {"stable": True, "min_eig": math.nan, "n_neg": 0}
+    scale = np.where(system.is_rotation, 1.0, system.length_scale())
+    bw = getattr(system, "bandwidth", None)
+    fast = hasattr(system, "tangent_band") and hasattr(system, "evaluate")
+    if n > dense_max and bw is not None and bw <= BAND_MAX:
+        if fast:
+            ab = system.tangent_band(system.evaluate(u, lam))
+        else:
+            ab = csr_to_band(system.residual_and_tangent(u, lam)[1].tocsr(), bw)
+        up = symmetric_upper_band(ab, bw, scale)
+        if exclude is not None:  # decoupled, above every eigenvalue: inertia of the rest
+            hold_dof(up, bw, exclude, 2.0 * inf_norm(up, bw) + 1.0)
+        warm = getattr(system, "_flex_eig_warm", None)
+        if warm is None:
+            warm = {}
+            try:
+                system._flex_eig_warm = warm
+            except AttributeError:  # pragma: no cover
+                pass
+        res = band_stability(up, bw, warm)
+        if res is not None:
+            return res
     _, K = system.residual_and_tangent(u, lam)
-    D = sp.diags(np.where(system.is_rotation, 1.0, system.length_scale()))
+    D = sp.diags(scale)
     Ks = (D @ (0.5 * (K + K.T)) @ D).tocsr()
-    if exclude is not None:  # a prescribed (driver) coordinate: stability with it held
+    if exclude is not None:
         keep = np.ones(Ks.shape[0], dtype=bool)
         keep[exclude] = False
         Ks = Ks[keep][:, keep].tocsr()
-    n = Ks.shape[0]
-    if n == 0:
-        return {"stable": True, "min_eig": math.nan, "n_neg": 0}
     if n <= dense_max:
         w = sla.eigvalsh(Ks.toarray())
         tol = 1e-11 * max(abs(w[-1]), 1e-300)
         n_neg = int(np.sum(w < -tol))
         return {"stable": n_neg == 0, "min_eig": float(w[0]), "n_neg": n_neg}
-    Ks.sort_indices()
-    rows = np.repeat(np.arange(n), np.diff(Ks.indptr))
-    bw = int(np.max(np.abs(rows - Ks.indices), initial=0))
-    if bw <= 48:
-        up = rows <= Ks.indices
-        ab = np.zeros((bw + 1, n))
-        ab[bw + rows[up] - Ks.indices[up], Ks.indices[up]] = Ks.data[up]
-        _, info = sla.lapack.dpbtrf(ab, lower=0)
-        if info == 0:
-            try:
-                lu = _BandedLU(Ks, bw)
-            except SolveError:
-                return {"stable": False, "min_eig": 0.0, "n_neg": 0}
-            return {"stable": True, "min_eig": _inverse_iteration(lu, n), "n_neg": 0}
     try:
         ldl = spla.splu(
             Ks.tocsc(),
@@ -538,7 +334,7 @@ def refine_extremum(system: DiscreteSystem, a: State, b: State, c: State, opts: 
     extreme one).  The controlling DOF is the one moving most (metric W) across the bracket;
     lam(v) along it is maximised/minimised with Brent's method, each evaluation a
     displacement-control Newton solve from the nearest path state."""
-    sc = _Scaler(system)
+    sc = Scaler.of(system)
     span = np.abs(c.u - a.u) * np.sqrt(sc.w)
     i = int(np.argmax(span))
     va, vc = a.u[i], c.u[i]
