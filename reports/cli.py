@@ -349,7 +349,11 @@ def build_parser() -> argparse.ArgumentParser:
     c.set_defaults(func=cmd_compare)
     rp = sub.add_parser("report", help="re-render the report of a finished run")
     rp.add_argument("dir", help="run directory (or its results.json)")
-    rp.add_argument("--pyvista", action="store_true", help="require pyvista renders (default: pyvista when it works, else matplotlib)")
+    rp.add_argument(
+        "--pyvista",
+        action="store_true",
+        help="require pyvista renders (default: pyvista when it works, else matplotlib)",
+    )
     rp.set_defaults(func=cmd_report)
     sub.add_parser(
         "fit-prb", help="fit a PRB matrix (see flexbench fit-prb --help)", add_help=False
