@@ -28,7 +28,8 @@ import numpy as np
 from scipy.integrate import cumulative_trapezoid
 
 from reduced_models.base import ModelCard
-from reduced_models.chain import ChainModel, SegmentLaw
+from reduced_models.chain import SegmentLaw
+from reduced_models.chain_model import ChainModel
 from reduced_models.linear import hermite_shape
 
 # Awtar, Slocum & Sevincer (2007), Eq. (7)-(8); Awtar & Sen (2010) -- also PARAMETERS.md

@@ -1,4 +1,4 @@
-"""Chained-segment kinematics and the shared solver of the linear-N, bcm and cbcm-N models.
+"""Chained-segment kinematics and mixed Lagrangian of the linear-N, bcm and cbcm-N models.
 
 A beam of length L is split into N equal segments of length h = L/N.  Following DAS-2D
 (seed 000, "Multiple Segment Models", "Analytical Hessian") and Ma & Chen (2016), each
@@ -39,21 +39,20 @@ follower force turns with phi_N (residual Newton with the unsymmetric Jacobian, 
 not assessed).  Newton updates go through ``ChainProblem.update``, which rebuilds node
 positions from the updated segment deformations (forward kinematics): without it the
 iteration count grows with N and Newton diverges for N >~ 64.
+
+The shared Model-protocol layer (``ChainModel``: ``applies_to``/``solve``) lives in
+``reduced_models.chain_model`` and stays importable from here.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.linalg import lapack
 
-from cases.schema import Scene
-from reduced_models import single_beam
-from reduced_models.base import ModelCard, Solution, Step, load_factors, not_applicable
-from reduced_models.continuation import Banded, minimize_path
+from reduced_models.linalg import Banded
 
 NB = 4  # unknowns per node: X, Y, phi, p
 HALF_BAND = 2 * NB - 1  # block-tridiagonal with 4x4 blocks -> 7 off-diagonals
@@ -411,175 +410,11 @@ def chain_shape(nodes: np.ndarray, xl: np.ndarray, yl: np.ndarray, h: float) -> 
     return np.concatenate([pts, nodes[..., -1:, :2]], axis=-2)
 
 
-class ChainModel:
-    """A chained-segment energy model of a single beam (base of LinearChain and ChainedBCM).
+def __getattr__(name: str) -> object:
+    # ``ChainModel`` moved to ``chain_model`` (which imports this module); re-exported lazily
+    # so that ``from reduced_models.chain import ChainModel`` keeps working without a cycle.
+    if name == "ChainModel":
+        from reduced_models.chain_model import ChainModel
 
-    Subclasses set ``law`` (SegmentLaw), ``family``, ``_card`` (ModelCard template) and
-    implement ``shape(ux, y, a, p, k, sigma) -> (xl, yl, kappa)`` (each (N, s), segment
-    units; called once with the segments of all reported steps) and
-    ``warning_flags(ux, y, a, p, k) -> [(message, (m,) bool)]`` ((m, N) segment arrays).
-
-    Parameters
-    ----------
-    n : number of segments.
-    shape_points : sample points per segment for shapes and stress (default: about 48 per
-        beam, at least 5 per segment).
-    """
-
-    law: SegmentLaw
-    family = "chain"
-    _card: ModelCard
-    extensible = False
-
-    def __init_subclass__(cls, **kwargs: object) -> None:
-        # a class-level card for listings (``flexbench models``) before N is known
-        super().__init_subclass__(**kwargs)
-        template = cls.__dict__.get("_card")
-        if template is not None:
-            cls.card = dataclasses.replace(template, summary=template.summary.format(N="N"))
-
-    def __init__(self, n: int = 1, shape_points: int | None = None) -> None:
-        if int(n) < 1:
-            raise ValueError("segment count must be >= 1")
-        self.N = int(n)
-        self.shape_points = shape_points or max(5, math.ceil(48 / self.N) + 1)
-        self.name = f"{self.family}-{self.N}"
-        self.card = ModelCard(
-            name=self.name,
-            family=self._card.family,
-            summary=self._card.summary.format(N=self.N),
-            assumptions=self._card.assumptions,
-            validity=self._card.validity,
-            references=self._card.references,
-        )
-
-    # -- subclass hooks --------------------------------------------------------------------
-    def shape(
-        self,
-        ux: np.ndarray,
-        y: np.ndarray,
-        a: np.ndarray,
-        p: np.ndarray,
-        k: float,
-        sigma: np.ndarray,
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Local segment shapes from segment states (each (N,)) at positions sigma (s,).
-
-        Returns xl, yl (segment units, xl[:, 0] = 0) and curvature kappa (1/h), each (N, s).
-        """
-        raise NotImplementedError
-
-    def warning_flags(
-        self, ux: np.ndarray, y: np.ndarray, a: np.ndarray, p: np.ndarray, k: float
-    ) -> list[tuple[str, np.ndarray]]:
-        """Validity-range violations: (message, (m,) bool per reported step) pairs for
-        segment states given as (m, N) arrays (none here)."""
-        return []
-
-    # -- Model protocol --------------------------------------------------------------------
-    def applies_to(self, scene: Scene) -> str | None:
-        """None if ``scene`` is a clamped beam with tip loads, else the reason."""
-        beam = single_beam.cantilever_of(scene)
-        if isinstance(beam, str):
-            return beam
-        if not (math.isfinite(beam.EI) and beam.EI > 0 and beam.L > 0):
-            return "flexible member needs finite positive E and I"
-        return None
-
-    def problem(self, beam: single_beam.Cantilever) -> ChainProblem:
-        """The normalised chain problem of a cantilever."""
-        L, EI = beam.L, beam.EI
-        h = L / self.N
-        k = EI / (beam.EA * h**2) if (self.extensible and math.isfinite(beam.EA)) else 0.0
-        loads = (beam.fx * L**2 / EI, beam.fy * L**2 / EI, beam.m * L / EI)
-        return ChainProblem(self.law, self.N, k, loads, beam.follower, beam.guided)
-
-    def solve(self, scene: Scene) -> Solution:
-        """Equilibrium path by load continuation (see ``continuation.minimize_path``)."""
-        reason = self.applies_to(scene)
-        if reason:
-            return not_applicable(scene, self.name, reason)
-        beam = single_beam.cantilever_of(scene)
-        prob = self.problem(beam)
-        factors = load_factors(scene)
-        res = minimize_path(
-            prob.grad_hess,
-            prob.x0,
-            factors,
-            scale=prob.scale,
-            fixed=prob.fixed,
-            max_step=prob.max_step,
-            stability=prob.stability,
-            update=prob.update,
-            load_gradient=prob.load_gradient,
-        )
-        L, EI, N, k = beam.L, beam.EI, self.N, prob.k
-        # every per-step quantity for all reported states at once: (m, N) segment arrays
-        m = len(res.factors)
-        nodes, p = prob.split(res.states)  # (m, N + 1, 3), (m, N)
-        xi, eta, a, _, _ = local_coords(nodes, prob.h)
-        ux = xi - 1.0
-        flat = (ux.ravel(), eta.ravel(), a.ravel(), p.ravel(), k)
-        energy = EI / L * N * self.law.energy(*flat).reshape(m, N).sum(axis=1)
-        sigma = np.linspace(0.0, 1.0, self.shape_points)
-        xl, yl, kappa = (v.reshape(m, N, sigma.size) for v in self.shape(*flat, sigma))
-        pts = beam.rotate_to_global(chain_shape(nodes, xl, yl, prob.h) * L)  # (m, P, 2)
-        kmax = np.abs(kappa).max(axis=(1, 2), initial=0.0) * N / L
-        loads = prob.tip_loads(res.states) * np.array([EI / L**2, EI / L**2, EI / L])
-        ymax = np.abs(eta).max(axis=1, initial=0.0)
-        flags = self.warning_flags(ux, eta, a, p, k)
-        steps = []
-        a_cfg = scene.analysis
-        v0 = None
-        for j in range(m):
-            lam = float(res.factors[j])
-            tip = nodes[j, -1]
-            outputs = single_beam.tip_outputs(scene, beam, tip[0] * L, tip[1] * L, tip[2])
-            steps.append(
-                Step(
-                    factor=lam,
-                    outputs=outputs,
-                    energy=float(energy[j]),
-                    iterations=int(res.iterations[j]),
-                    stable=res.stable[j],
-                    shapes={beam.member: pts[j]},
-                    max_stress=single_beam.stress_from_curvature(scene, beam, kmax[j : j + 1]),
-                    info={
-                        "tip.fx": float(loads[j, 0]),
-                        "tip.fy": float(loads[j, 1]),
-                        "tip.m": float(loads[j, 2]),
-                        "residual": float(res.residuals[j]),
-                        "cuts": float(res.cuts[j]),
-                        "max_segment_y": float(ymax[j]),
-                    },
-                )
-            )
-            # a "path" analysis stops once its stop output reaches the stop value
-            if a_cfg.kind == "path" and a_cfg.stop_output and a_cfg.stop_value is not None:
-                v = outputs.get(a_cfg.stop_output)
-                v0 = v if v0 is None else v0
-                if (
-                    v is not None
-                    and j > 0
-                    and (v - a_cfg.stop_value) * (v0 - a_cfg.stop_value) <= 0
-                ):
-                    break
-        m = len(steps)
-        # warning -> first reported factor it appeared at
-        first = sorted((int(np.argmax(f[:m])), w) for w, f in flags if np.any(f[:m]))
-        warned = {w: f"{w} (from factor {res.factors[j]:.4g})" for j, w in first}
-        all_nodes, all_p = nodes[:m] * np.array([L, L, 1.0]), p[:m]
-        extras: dict[str, object] = {
-            "nodes": all_nodes,
-            "axial": all_p,
-            "k": prob.k,
-        }
-        if warned:
-            extras["validity_warning"] = True
-            extras["validity_message"] = "; ".join(warned.values())
-        if not res.ok:
-            return Solution(scene.name, self.name, "failed", res.reason, tuple(steps), extras)
-        msg = f"{len(steps)} steps, {int(res.iterations.sum())} Newton iterations"
-        if warned:
-            msg += "; outside validity range: " + "; ".join(warned.values())
-        return Solution(scene.name, self.name, "converged", msg, tuple(steps), extras)
+        return ChainModel
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -19,7 +19,8 @@ from __future__ import annotations
 import numpy as np
 
 from reduced_models.base import ModelCard
-from reduced_models.chain import ChainModel, SegmentLaw
+from reduced_models.chain import SegmentLaw
+from reduced_models.chain_model import ChainModel
 
 G_LINEAR = np.array([[12.0, -6.0], [-6.0, 4.0]])
 LINEAR_LAW = SegmentLaw(G=G_LINEAR, P=np.zeros((2, 2)), Q=np.zeros((2, 2)))

@@ -26,7 +26,8 @@ import math
 import numpy as np
 
 from cases.schema import Scene
-from reduced_models.continuation import Banded, PathResult, minimize_path
+from reduced_models.continuation import PathResult, minimize_path
+from reduced_models.linalg import Banded
 from reduced_models.single_beam import Cantilever
 
 __all__ = [
