@@ -285,6 +285,14 @@ class PRB3R(PRBModel):
     """Su's PRB-3R (gamma 0.10/0.35/0.40/0.15) with one of the three stiffness sets."""
 
     kset = "average"
+    # class-level card for listings; instances replace it with the chosen stiffness set
+    card = ModelCard(
+        name="prb-3r",
+        family="prb",
+        summary="Su's 3R model (gamma 0.10/0.35/0.40/0.15), one of Su's three stiffness sets",
+        assumptions=_COMMON,
+        references=("Su, J. Mechanisms Robotics 1(2):021008, 2009, doi 10.1115/1.3046148",),
+    )
 
     def __init__(self, stiffness: str | None = None, shapes: bool = True) -> None:
         kset = stiffness or self.kset
@@ -348,6 +356,14 @@ class PRB2RPR(PRBModel):
 
 class PRBFSM(PRBModel):
     """Finite segment model: N elements, a spring N EI/L at each element centre (or end)."""
+
+    card = ModelCard(
+        name="prb-fsm-N",
+        family="prb",
+        summary="finite segment model: N rigid elements, springs N EI/L at element centres",
+        assumptions=_COMMON,
+        references=("Howell & Midha, J. Mech. Des. 116:280-290, 1994, doi 10.1115/1.2919359",),
+    )
 
     def __init__(self, n: int, placement: str = "mid", shapes: bool = True) -> None:
         super().__init__(T.fsm_matrix(int(n), placement), shapes)
