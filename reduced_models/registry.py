@@ -54,7 +54,8 @@ DEFAULT_NAMES: tuple[str, ...] = (
 )
 
 
-def _factory(target: str) -> Callable[..., Model]:
+def factory(target: str) -> Callable[..., Model]:
+    """Import a ``"module:Factory"`` registry target."""
     module, attr = target.split(":")
     return getattr(importlib.import_module(module), attr)
 
@@ -75,26 +76,36 @@ def register(name: str, target: str, default_names: tuple[str, ...] = ()) -> Non
     DEFAULT_NAMES = tuple(dict.fromkeys(DEFAULT_NAMES + default_names))
 
 
-def parse(name: str) -> tuple[str, int | None]:
-    """Split ``"cbcm-4"`` into ``("cbcm-N", 4)``; plain names give ``(name, None)``."""
-    if name in MODELS:
+def parse(name: str, table: dict[str, str] | None = None) -> tuple[str, int | None]:
+    """Split ``"cbcm-4"`` into ``("cbcm-N", 4)``; plain names give ``(name, None)``.
+
+    ``table`` is the registry to look in (default ``MODELS``; ``reports`` passes the merged
+    registry of every package).
+    """
+    table = MODELS if table is None else table
+    if name in table:
         return name, None
     m = _PARAM.match(name)
-    if m and f"{m['family']}-N" in MODELS:
+    if m and f"{m['family']}-N" in table:
         n = int(m["n"])
         if n < 1:
-            raise UnknownModelError(f"model {name!r}: segment count must be >= 1")
+            raise UnknownModelError(f"model {name!r}: N must be a positive integer")
         return f"{m['family']}-N", n
     raise UnknownModelError(
-        f"unknown model {name!r}; known: {', '.join(sorted(MODELS))} (N = positive integer)"
+        f"unknown model {name!r}; known: {', '.join(sorted(table))} (N = positive integer)"
     )
+
+
+def build(name: str, target: str, n: int | None, options: dict | None = None) -> Model:
+    """Instantiate a parsed model (``n`` as first positional argument, options as kwargs)."""
+    make_ = factory(target)
+    kwargs = dict(options or {})
+    model = make_(n, **kwargs) if n is not None else make_(**kwargs)
+    model.name = name
+    return model
 
 
 def make(name: str, options: dict | None = None) -> Model:
     """Build a model from its registry name (``options`` from the case, e.g. a PRB matrix)."""
     family, n = parse(name)
-    factory = _factory(MODELS[family])
-    kwargs = dict(options or {})
-    model = factory(n, **kwargs) if n is not None else factory(**kwargs)
-    model.name = name
-    return model
+    return build(name, MODELS[family], n, options)

@@ -11,11 +11,8 @@ bad options -- still raises, so the CLI can say so).
 from __future__ import annotations
 
 import importlib
-import re
 import time
 import traceback
-from collections.abc import Callable
-from typing import Any
 
 from cases.schema import Scene
 from reduced_models import registry as _registry
@@ -23,8 +20,6 @@ from reduced_models.base import Model, ModelCard, Solution, not_applicable
 from reports.errors import SPEED_BASELINES  # noqa: F401  (re-exported)
 
 UnknownModelError = _registry.UnknownModelError
-
-_PARAM = re.compile(r"^(?P<family>[a-z0-9-]+?)-(?P<n>\d+)$")
 
 
 # problems met while importing optional registries (shown by ``flexbench models``)
@@ -79,33 +74,12 @@ def resolve(name: str, table: dict[str, str] | None = None) -> tuple[str, int | 
         For a name no registry knows, or ``family-0``.
     """
     table = registry_table() if table is None else table
-    if name in table:
-        return name, None, table[name]
-    m = _PARAM.match(name)
-    if m and f"{m['family']}-N" in table:
-        n = int(m["n"])
-        if n < 1:
-            raise UnknownModelError(f"model {name!r}: N must be a positive integer")
-        key = f"{m['family']}-N"
-        return key, n, table[key]
-    raise UnknownModelError(
-        f"unknown model {name!r}; known: {', '.join(sorted(table))} (N = positive integer)"
-    )
+    key, n = _registry.parse(name, table)
+    return key, n, table[key]
 
 
-def factory(target: str) -> Callable[..., Model]:
-    """Import ``"module:Factory"``."""
-    module, attr = target.split(":")
-    return getattr(importlib.import_module(module), attr)
-
-
-def build(name: str, target: str, n: int | None, options: dict[str, Any] | None) -> Model:
-    """Instantiate a resolved model (``n`` as first positional argument, options as kwargs)."""
-    make = factory(target)
-    kwargs = dict(options or {})
-    model = make(n, **kwargs) if n is not None else make(**kwargs)
-    model.name = name
-    return model
+factory = _registry.factory
+build = _registry.build
 
 
 def make_model(name: str, scene: Scene | None = None, options: dict | None = None) -> Model:
