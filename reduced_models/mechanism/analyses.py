@@ -111,9 +111,8 @@ class Run:
         d = self.solver.driver_index()
         for k, v in enumerate(vals):
             if k:
-                st = follow(
-                    self.solver, st, float(vals[k - 1]), float(v), apply, "driver", lam_free
-                )
+                t0 = float(vals[k - 1])
+                st = follow(self.solver, st, t0, float(v), apply, "driver", lam_free, rate=scale)
             if lam_free:
                 self.record(st, st.lam, False)
             else:
