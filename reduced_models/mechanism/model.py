@@ -27,7 +27,7 @@ from reduced_models.mechanism.system import SceneError, build
 from reduced_models.prb_chain import check_matrix
 from reduced_models.single_beam import cantilever_of
 
-ANALYSES = ("load", "distance", "energy", "kinematics", "synthesis")
+ANALYSES = ("load", "path", "distance", "energy", "kinematics", "synthesis")
 _PRB_FIXED = {
     "prb-short": lambda o: T.PRB_SHORT,
     "prb-2r": lambda o: T.PRB_2R,

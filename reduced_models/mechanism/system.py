@@ -218,6 +218,7 @@ class MechanismSystem:
             self._cat = (np.concatenate(gis or z), np.concatenate(his or z))
         g = np.bincount(self._cat[0], np.concatenate(gvs or [np.zeros(0)]), minlength=N)
         H = np.bincount(self._cat[1], np.concatenate(hvs or [np.zeros(0)]), minlength=N * N)
+        g, H = g.astype(float, copy=False), H.astype(float, copy=False)  # empty -> int
         if lam != 0.0:
             g[self.red] += lam * self.loads.lin  # fixed entries land in the dump slot
         vals, r0 = [], 0
