@@ -58,8 +58,17 @@ class Closure:
         # curvature pairs (angle, stretch); without a stretch the angle repeats (zero block)
         self.cidx = np.column_stack([self.ang, np.where(self.has_u, self.u, self.ang)])
         self._pattern()
+        self._last: tuple | None = None
 
     def _seg(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        hit = self._last
+        if hit is not None and hit[0] is q:  # values/jacobian/curvature at the same state
+            return hit[1]
+        out = self._seg_eval(q)
+        self._last = (q, out)
+        return out
+
+    def _seg_eval(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         psi = self.alpha + q[self.ang]
         ell = self.len + np.where(self.has_u, q[np.maximum(self.u, 0)], 0.0)
         return np.cos(psi), np.sin(psi), ell

@@ -74,6 +74,7 @@ class MechanismSystem:
         self.n = lay.n
         self.free = lay.free()
         self.constraints = [c for c in self.constraints if c.m] + [self.linear]
+        self._m_fixed = sum(c.m for c in self.constraints[:-1])
         kind = np.array(lay.kind)
         Lref = lay.Lref
         k = [abs(t.stiffness) for t in self.scene.torsion_springs]
@@ -107,10 +108,12 @@ class MechanismSystem:
         self.red[self.free] = np.arange(nf)
         self._maps: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._cmap: tuple | None = None
+        self._m_fixed = sum(c.m for c in self.constraints[:-1])
 
     @property
     def m(self) -> int:
-        return sum(c.m for c in self.constraints)
+        """Number of constraint rows (closures + linear rows, drivers included)."""
+        return self._m_fixed + len(self.linear.rows)
 
     # -- evaluation --------------------------------------------------------------------------
     def strain_energy(self, q: np.ndarray) -> float:
