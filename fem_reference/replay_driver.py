@@ -23,6 +23,7 @@ import numpy as np
 
 from cases.schema import Scene
 from fem_reference.assembly import build
+from fem_reference.driver_post import post_process
 from reduced_models.base import Solution, Step
 
 #: settling tolerance of driver replays (see ``solve_energy``)
@@ -129,4 +130,4 @@ def solve_energy(scene: Scene, n_elements: int, options: object) -> Solution:
     if sol.status == "converged":
         res = max(st.info["residual"] for st in sol.steps)
         msg = f"settled {len(sol.steps)} driver positions; max residual {res:.2e}"
-    return Solution(sol.case, sol.model, sol.status, msg, sol.steps, extras)
+    return post_process(scene, Solution(sol.case, sol.model, sol.status, msg, sol.steps, extras))

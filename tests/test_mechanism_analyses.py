@@ -128,3 +128,15 @@ def test_replay_moves_the_driver_and_matches_fem():
     T_rep, T_fe = rep.path("driver.torque"), fe.path("driver.torque")
     np.testing.assert_allclose(T_rep, T_fe, rtol=0, atol=1e-5 * np.max(np.abs(T_fe)))
     assert [p["stable"] for p in rep.extras["probes"]] == [s.stable for s in fe.steps]
+
+
+@pytest.mark.parametrize("model", ["kinetostatic", "fem-16"])
+def test_toggle_ma_closed_form(model):
+    """ma = F_out / F_in = -1 / (2 tan alpha), sin alpha = y_B / L (virtual work)."""
+    sol = reports.solve(M.toggle(), model)
+    assert sol.status == "converged", sol.message
+    alpha = np.arcsin(sol.path("knee.y") / 0.1)
+    exact = -1.0 / (2.0 * np.tan(alpha))
+    tol = 1e-9 if model == "kinetostatic" else 2e-3  # FE: finite differences along 40 steps
+    np.testing.assert_allclose(sol.path("ma"), exact, rtol=tol)
+    np.testing.assert_allclose(sol.path("driver.force"), -20.0 * np.tan(alpha), rtol=1e-6)
