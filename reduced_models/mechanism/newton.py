@@ -59,6 +59,7 @@ class Solver:
         self.cs = None
         self._irs = None
         self._stab_key: tuple | None = None
+        self.memo: tuple | None = None  # last (path kind, t, x, dx) for the Hermite predictor
 
     def driver_index(self) -> int | None:
         """Row of the driver in the stacked constraint vector (None without a driver)."""
@@ -224,21 +225,25 @@ def follow(
     ``rate``: d(solver parameter)/dt (driver in degrees: pi/180)."""
     t, h, cuts, its = t0, t1 - t0, 0, 0
     nf = solver.nf
+    d = solver.driver_index() if lam_free else None
     while (t1 - t) * (t1 - t0) > 1e-14 * max(abs(t1 - t0), 1e-300):
         step = h if abs(h) < abs(t1 - t) else t1 - t
         try:
             dx = solver.tangent(st, wrt, lam_free) * rate
-            pred = State(st.q.copy(), st.mu.copy(), st.lam)
-            pred.q[solver.f] += step * dx[:nf]
-            pred.mu = pred.mu + step * dx[nf:]
+            x = np.concatenate([st.q[solver.f], st.mu])
             if lam_free:
-                d = solver.driver_index()
-                pred.lam = st.lam + step * dx[nf + d]
+                x[nf + d] = st.lam  # the load factor sits in the driver multiplier's slot
+            xp = _predict(solver, (wrt, lam_free), t, x, dx, t + step)
+            pred = State(st.q.copy(), xp[nf:].copy(), st.lam)
+            pred.q[solver.f] = xp[:nf]
+            if lam_free:
+                pred.lam = float(xp[nf + d])
                 pred.mu[d] = 0.0
             pred = set_t(pred, t + step)
             try:
                 new = solver.newton(pred, lam_free)
             except SolveError:
+                solver.memo = None
                 new = solver.newton(set_t(State(st.q, st.mu, st.lam), t + step), lam_free)
         except SolveError as err:
             cuts += 1
@@ -246,9 +251,32 @@ def follow(
                 raise SolveError(f"step cut {max_cuts} times near t = {t:.6g}: {err}") from None
             h = step / 2.0
             continue
+        solver.memo = ((wrt, lam_free), t, x, dx)
         its += new.iterations
         st, t = new, t + step
         if new.iterations <= 4:
             h = 2.0 * step
     st.iterations = its
     return st
+
+
+def _predict(
+    solver: Solver, kind: tuple, t: float, x: np.ndarray, dx: np.ndarray, t_new: float
+) -> np.ndarray:
+    """Predictor: cubic Hermite through the previous and the current converged state and
+    their tangents (extrapolated to ``t_new``), else the tangent line.  The Hermite cubic is
+    dropped when it runs more than 3x further than the tangent line (a tangent blowing up
+    near a limit or bifurcation point)."""
+    line = x + (t_new - t) * dx
+    memo = getattr(solver, "memo", None)
+    if memo is None or memo[0] != kind or memo[1] == t or len(memo[2]) != len(x):
+        return line
+    _, t0, x0, dx0 = memo
+    H = t - t0
+    tau = (t_new - t0) / H
+    h00, h10 = 2 * tau**3 - 3 * tau**2 + 1, tau**3 - 2 * tau**2 + tau
+    h01, h11 = -2 * tau**3 + 3 * tau**2, tau**3 - tau**2
+    cubic = h00 * x0 + h10 * H * dx0 + h01 * x + h11 * H * dx
+    if np.linalg.norm(cubic - x) > 3.0 * np.linalg.norm(line - x):
+        return line
+    return cubic
