@@ -19,8 +19,8 @@ import pytest
 
 import cases
 import reports
+from reduced_models.mechanism.builder import build
 from reduced_models.mechanism.model import member_spec
-from reduced_models.mechanism.system import build
 from tests import mech_scenes as M
 
 

@@ -23,7 +23,8 @@ from reduced_models.base import Model, ModelCard, Solution, not_applicable
 from reduced_models.bcm import BCM_LAW
 from reduced_models.linear import LINEAR_LAW
 from reduced_models.mechanism import analyses
-from reduced_models.mechanism.system import SceneError, build
+from reduced_models.mechanism.builder import build
+from reduced_models.mechanism.system import SceneError
 from reduced_models.prb_chain import check_matrix
 from reduced_models.single_beam import cantilever_of
 
