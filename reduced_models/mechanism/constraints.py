@@ -59,6 +59,8 @@ class Closure:
         self.cidx = np.column_stack([self.ang, np.where(self.has_u, self.u, self.ang)])
         self._pattern()
         self._last: tuple | None = None
+        self.any_u = bool(np.any(self.has_u))
+        self.cidx1 = self.ang[:, None]
 
     def _seg(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         hit = self._last
@@ -107,6 +109,8 @@ class Closure:
         c, s, ell = self._seg(q)
         mx, my = mu[2 * self.chain], mu[2 * self.chain + 1]
         u = self.has_u
+        if not self.any_u:  # rigid segments only: the (angle, angle) entries
+            return self.cidx1, (ell * (mx * c + my * s))[:, None, None]
         idx = self.cidx
         H = np.zeros((len(c), 2, 2))
         H[:, 0, 0] = ell * (mx * c + my * s)

@@ -81,9 +81,10 @@ class ChainTerm:
     def strain(self, q: np.ndarray) -> np.ndarray:
         """Strain energy per segment (S,) at the current axial forces."""
         ux, y, a, p, _, _ = self.coords(q)
-        w, Gw, _, Qw = self._forms(y, a, p)
-        wQw = np.einsum("ni,ni->n", w, Qw)
-        return self.w * (0.5 * np.einsum("ni,ni->n", w, Gw) + 0.5 * p * p * (self.k - wQw))
+        G, Q = self.law.G, self.law.Q
+        wGw = G[0, 0] * y * y + (G[0, 1] + G[1, 0]) * y * a + G[1, 1] * a * a
+        wQw = Q[0, 0] * y * y + (Q[0, 1] + Q[1, 0]) * y * a + Q[1, 1] * a * a
+        return self.w * (0.5 * wGw + 0.5 * p * p * (self.k - wQw))
 
     def energy(self, q: np.ndarray) -> float:
         """Value of the mixed Lagrangian (= strain energy at stationary p)."""

@@ -59,6 +59,7 @@ class Solver:
         self.cs = None
         self._irs = None
         self._stab_key: tuple | None = None
+        self._cap: np.ndarray | None = None
         self.memo: tuple | None = None  # last (path kind, t, x, dx) for the Hermite predictor
 
     def driver_index(self) -> int | None:
@@ -99,8 +100,12 @@ class Solver:
         q, mu, lam = st.q.copy(), st.mu.copy(), st.lam
         s, f, nf = self.s, self.f, self.nf
         d = self.driver_index()
-        kind = np.array(s.lay.kind)[f]
-        cap = np.where(kind == "r", 0.5, np.where(kind == "p", np.inf, 0.25 * s.lay.Lref))
+        if self._cap is None:  # damping: at most 0.5 rad / 0.25 L per update, none in p
+            kind = np.array(s.lay.kind)[f]
+            self._cap = 1.0 / np.where(
+                kind == "r", 0.5, np.where(kind == "p", np.inf, 0.25 * s.lay.Lref)
+            )
+        icap = self._cap
         prev = np.inf
         for it in range(self.max_iter + 1):
             cur = State(q, mu, lam)
@@ -115,7 +120,7 @@ class Solver:
             dx = _solve(K, -R)
             if not np.all(np.isfinite(dx)):
                 raise SolveError("singular KKT matrix (mechanism at a singular configuration)")
-            big = float(np.max(np.abs(dx[:nf]) / cap, initial=0.0))
+            big = float(np.max(np.abs(dx[:nf]) * icap, initial=0.0))
             if big > 1.0:
                 dx /= big
             q = q.copy()
