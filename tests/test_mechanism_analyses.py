@@ -140,3 +140,23 @@ def test_toggle_ma_closed_form(model):
     tol = 1e-9 if model == "kinetostatic" else 2e-3  # FE: finite differences along 40 steps
     np.testing.assert_allclose(sol.path("ma"), exact, rtol=tol)
     np.testing.assert_allclose(sol.path("driver.force"), -20.0 * np.tan(alpha), rtol=1e-6)
+
+
+def test_bistable_equilibria_and_barrier_match_fem():
+    """Crank driven -120 deg: stable - unstable - stable; reduced-Hessian verdicts at the
+    refined zero-force points agree with the FE force slope, positions and barrier with FE."""
+    scene = M.fourbar(M.ENERGY.replace("stop = 120.0", "stop = -120.0").replace("= 120", "= 60"))
+    red, fe = reports.solve(scene, "cbcm-4"), reports.solve(scene, "fem-16")
+    eq_r, eq_f = red.extras["equilibria"], fe.extras["equilibria"]
+    assert (
+        [e["kind"] for e in eq_r]
+        == [e["kind"] for e in eq_f]
+        == [
+            "stable",
+            "unstable",
+            "stable",
+        ]
+    )
+    for a, b in zip(eq_r, eq_f):
+        assert a["coordinate"] == pytest.approx(b["coordinate"], abs=0.1)
+    assert red.extras["barrier"] == pytest.approx(fe.extras["barrier"], rel=5e-3)
