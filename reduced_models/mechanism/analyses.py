@@ -54,7 +54,8 @@ class Run:
                 iterations=int(st.iterations),
                 stable=stable,
                 shapes=s.shapes(st.q),
-                info={"residual": float(st.residual), "min_eig": low, "load_factor": st.lam},
+                max_stress=s.max_stress(st.q),
+                info={"residual": float(st.residual), "min_pivot": low, "load_factor": st.lam},
             )
         )
 

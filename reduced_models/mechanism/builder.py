@@ -43,7 +43,7 @@ def build(scene: Scene, spec_of: Callable[[Member], tuple]) -> MechanismSystem:
     sysm = MechanismSystem(lay)
     closure: list = [[], [], [], [], [], []]  # ends, chain, len, ang, u, alpha
     chain_rows: dict[int, list] = {}
-    joints: list[list] = [[], [], []]
+    joints: list[list] = [[], [], [], []]
     for m in scene.members:
         L, alpha = member_frame(scene, m)
         xa, xb = lay.node_dof[m.a], lay.node_dof[m.b]
@@ -128,9 +128,17 @@ def _add_chain(
     k = EI / (m.E * m.A * h * h) if extensible and m.A is not None else 0.0
     key = id(law)
     chain_rows.setdefault(key, [])
-    mi = len(sysm.shape_of)
+    sfac = m.E * m.thickness / 2.0 if m.thickness is not None else np.nan
     chain_rows[key].append(
-        (law, dofs, np.full(N, h), np.full(N, EI), np.full(N, k), np.full(N, alpha), np.full(N, mi))
+        (
+            law,
+            dofs,
+            np.full(N, h),
+            np.full(N, EI),
+            np.full(N, k),
+            np.full(N, alpha),
+            np.full(N, sfac),
+        )
     )
     xs = np.array(nodes_x)
     sysm.shape_of[m.id] = lambda q: np.column_stack([q[xs], q[xs + 1]])
@@ -167,6 +175,7 @@ def _add_prb(
             joints[0].append(owner)
             joints[1].append(prev)
             joints[2].append(matrix[i, 0] * EI / L)
+            joints[3].append(m.thickness / (2.0 * m.I) if m.thickness is not None else np.nan)
             prev = owner
         u = -1
         if math.isfinite(matrix[i, 1]) and math.isfinite(EA):
@@ -175,6 +184,7 @@ def _add_prb(
             joints[0].append(u)
             joints[1].append(lay.ground)  # held at 0: 1/2 K u^2
             joints[2].append(matrix[i, 1] * EA / L)
+            joints[3].append(np.nan)
         for lst, v in zip(closure[1:], (c, matrix[i, 2] * L, owner, u, alpha)):
             lst.append(v)
     seg = np.flatnonzero(np.array(closure[1]) == c)

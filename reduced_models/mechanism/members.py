@@ -42,7 +42,8 @@ class ChainTerm:
     dofs : (S, 7) global indices [X0, Y0, phi0, X1, Y1, phi1, p] per segment.
     h, EI, k, alpha : (S,) segment length, flexural rigidity, axial compliance EI/(EA h^2)
         (0: inextensible), drawn direction of the member (rad).
-    member : (S,) member index of each segment (for reporting).
+    sfac : (S,) E t / 2 of the segment's member (bending stress per curvature; NaN when the
+        thickness is unknown).
     """
 
     def __init__(
@@ -53,13 +54,13 @@ class ChainTerm:
         EI: ArrayLike,
         k: ArrayLike,
         alpha: ArrayLike,
-        member: ArrayLike,
+        sfac: ArrayLike,
     ) -> None:
         self.law = law
         self.dofs = np.asarray(dofs, dtype=np.int64).reshape(-1, 7)
         self.h, self.EI, self.k = (np.asarray(v, float) for v in (h, EI, k))
         self.alpha = np.asarray(alpha, float)
-        self.member = np.asarray(member, dtype=np.int64)
+        self.sfac = np.asarray(sfac, float)  # E t / 2 per segment (NaN: thickness unknown)
         self.w = self.EI / self.h  # energy scale EI/h per segment
         self._gpq = np.hstack([law.G.T, law.P.T, law.Q.T])
 
@@ -77,6 +78,13 @@ class ChainTerm:
         w = np.column_stack([y, a])
         M = w @ self._gpq  # [G w | P w | Q w] in one product
         return w, M[:, 0:2], M[:, 2:4], M[:, 4:6]
+
+    def max_stress(self, q: np.ndarray) -> float:
+        """Largest |sigma| = E t |kappa| / 2 at the segment ends (cubic Hermite curvature
+        (6 y - 2 a) / h at the root, (4 a - 6 y) / h at the tip); NaN if unknown."""
+        _, y, a, _, _, _ = self.coords(q)
+        k = np.maximum(np.abs(6 * y - 2 * a), np.abs(4 * a - 6 * y)) / self.h
+        return float(np.max(self.sfac * k, initial=-np.inf)) if self.sfac.size else np.nan
 
     def strain(self, q: np.ndarray) -> np.ndarray:
         """Strain energy per segment (S,) at the current axial forces."""
@@ -165,10 +173,19 @@ class JointTerm:
     """Quadratic springs on differences of unknowns: 1/2 K (q[i] - q[j])^2 (j may be the
     held ground unknown); PRB joints (psi_p - psi_{p-1}) and PRB axial springs (u - 0)."""
 
-    def __init__(self, i: ArrayLike, j: ArrayLike, K: ArrayLike) -> None:
+    def __init__(
+        self, i: ArrayLike, j: ArrayLike, K: ArrayLike, sfac: ArrayLike | None = None
+    ) -> None:
         self.dofs = np.column_stack([np.asarray(i, np.int64), np.asarray(j, np.int64)])
         self.K = np.asarray(K, float)
         self.offset = np.zeros(len(self.K))
+        # bending stress per joint moment, t / (2 I) (NaN: not a PRB joint or t unknown)
+        self.sfac = np.full(len(self.K), np.nan) if sfac is None else np.asarray(sfac, float)
+
+    def max_stress(self, q: np.ndarray) -> float:
+        """Largest |M| t / (2 I) over the joints (PRB joint moments); NaN if unknown."""
+        d = q[self.dofs[:, 0]] - q[self.dofs[:, 1]] - self.offset
+        return float(np.nanmax(np.abs(self.K * d) * self.sfac, initial=-np.inf))
 
     def energy(self, q: np.ndarray) -> float:
         d = q[self.dofs[:, 0]] - q[self.dofs[:, 1]] - self.offset

@@ -124,6 +124,8 @@ class MechanismModel:
                 "dead loads only; a flexible member loaded inside is split at the load point",
                 "prb-1r in a mechanism: Howell's average gamma 0.85, K_Theta 2.65",
                 "PRB members: the end-b section turns with the last PRB link",
+                "bending stress: chained segments from the cubic Hermite curvature at segment "
+                "ends; PRB members from the joint moments (M t / 2I, coarse)",
             ),
             validity="that of the member model in each flexible member",
             references=("DAS-2D seed 000_265bc60728766176.txt, 'Solver- Kinetostatic Analysis'",),

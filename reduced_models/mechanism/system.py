@@ -112,6 +112,13 @@ class MechanismSystem:
         e = sum(t.energy(q) for t in self.terms if not isinstance(t, ChainTerm))
         return float(e + sum(float(ch.strain(q).sum()) for ch in self.chains))
 
+    def max_stress(self, q: np.ndarray) -> float | None:
+        """Largest bending stress over flexible members (chained segments: curvature at the
+        segment ends; PRB: joint moments), None when no thickness is known."""
+        vals = [t.max_stress(q) for t in self.terms if hasattr(t, "max_stress")]
+        vals = [v for v in vals if np.isfinite(v)]
+        return max(vals) if vals else None
+
     def potential(self, q: np.ndarray, lam: float) -> float:
         """Total potential Pi(q; lam) (mixed Lagrangian value for chained segments)."""
         e = sum(t.energy(q) for t in self.terms)
