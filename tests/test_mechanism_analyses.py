@@ -160,3 +160,18 @@ def test_bistable_equilibria_and_barrier_match_fem():
     for a, b in zip(eq_r, eq_f):
         assert a["coordinate"] == pytest.approx(b["coordinate"], abs=0.1)
     assert red.extras["barrier"] == pytest.approx(fe.extras["barrier"], rel=5e-3)
+
+
+@pytest.mark.parametrize("case", ["lee-frame", "shallow-arch-snap"])
+def test_path_limit_loads_match_fem(case):
+    """Arc-length through the limit points; the refined extrema against fem-auto's."""
+    scene = cases.load(case)
+    red, fe = reports.solve(scene, "cbcm-8"), reports.solve(scene, "fem-auto")
+    assert red.status == "converged", red.message
+    lr = [(p["kind"], p["factor"]) for p in red.extras["limit_points"]]
+    lf = [(p["kind"], p["factor"]) for p in fe.extras["limit_points"]]
+    assert [k for k, _ in lr] == [k for k, _ in lf]
+    for (_, a), (_, b) in zip(lr, lf):
+        assert a == pytest.approx(b, rel=5e-3)
+    marked = [s.factor for s in red.steps if "limit_point" in s.info]
+    assert marked == [f for _, f in lr], "refined extrema are inserted as steps"
