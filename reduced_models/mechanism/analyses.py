@@ -65,7 +65,6 @@ class Run:
         i = s.driver_dof
         base = float(s.q0[i]) if drv.kind == "displacement" else 0.0
         s.driver_row = s.linear.add([i], [1.0], base, "driver")
-        s.constraints = s.constraints  # linear rows live in the last family
         self.solver = Solver(s, self.solver.tol, self.solver.max_iter)
         return s.driver_row, base, s.driver_scale
 
