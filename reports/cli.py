@@ -5,6 +5,7 @@
     flexbench cases                          list the catalog (name, title, tags)
     flexbench models                         list the registry with each model's card summary
     flexbench solve CASE --model M [--json]  solve one case (catalog name or .toml path)
+    flexbench recommend CASE [--tol 1%] [--json]   cheapest model within the tolerance
     flexbench run [--cases GLOB] [--models LIST] [--out DIR] [--quick] [--workers N]
                   [--dask ADDRESS] [--history PATH] [--fresh] [--no-report] [--time-limit S]
     flexbench compare BASE CURRENT [--abs-tol X] [--rel-factor F]   exit 1 on regression
@@ -185,6 +186,18 @@ def cmd_solve(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_recommend(args: argparse.Namespace) -> int:
+    from reports.recommend import ToleranceError, format_text, parse_tolerance, recommend
+
+    try:
+        tol = parse_tolerance(args.tol)
+        result = recommend(_load(args.case), tol)
+    except ToleranceError as exc:
+        raise UsageError(str(exc)) from None
+    print(json.dumps(result.as_json(), allow_nan=False) if args.json else format_text(result))
+    return 0
+
+
 def select_cases(patterns: str | None) -> list[Any]:
     """Scenes for ``--cases``: comma-separated catalog globs or .toml paths/globs."""
     import cases
@@ -321,6 +334,13 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--model", "-m", required=True, help="registry name, e.g. elastica, linear-8")
     s.add_argument("--json", action="store_true", help="print the contract JSON object")
     s.set_defaults(func=cmd_solve)
+    rc = sub.add_parser("recommend", help="the cheapest model within a tolerance for one case")
+    rc.add_argument("case", help="catalog name or path to a .toml case file")
+    rc.add_argument(
+        "--tol", default="1%", help="path error allowed: 1%%, 1e-3 or tip.uy=0.5%%,tip.rot=1e-3"
+    )
+    rc.add_argument("--json", action="store_true", help="print the contract JSON object")
+    rc.set_defaults(func=cmd_recommend)
     r = sub.add_parser("run", help="run the case x model matrix and render the report")
     r.add_argument("--cases", help="comma-separated catalog globs or .toml paths (default: all)")
     r.add_argument("--models", help="comma-separated model names (default: case list + defaults)")
