@@ -6,6 +6,7 @@
     flexbench models                         list the registry with each model's card summary
     flexbench solve CASE --model M [--json]  solve one case (catalog name or .toml path)
     flexbench recommend CASE [--tol 1%] [--json]   cheapest model within the tolerance
+    flexbench teach [--out DIR] [--quick]    teaching page: atlases, cards, worked advice
     flexbench run [--cases GLOB] [--models LIST] [--out DIR] [--quick] [--workers N]
                   [--dask ADDRESS] [--history PATH] [--fresh] [--no-report] [--time-limit S]
     flexbench compare BASE CURRENT [--abs-tol X] [--rel-factor F]   exit 1 on regression
@@ -198,6 +199,19 @@ def cmd_recommend(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_teach(args: argparse.Namespace) -> int:
+    import cases
+    from reports.render import teaching
+
+    names = [s.name for s in select_cases(args.cases)] if args.cases else cases.catalog_names()
+    small = {"n_mag": 20, "n_ang": 21} if args.quick else {}
+    tols = ("1%",) if args.quick else ("1%", "0.1%")
+    data = teaching.build_data(names, tols, workers=args.workers, progress=print, **small)
+    path = teaching.write_page(data, Path(args.out) / "teaching.html")
+    print(f"teaching.html: {path} ({data['seconds']:.1f} s; atlases {data['atlas_seconds']} s)")
+    return 0
+
+
 def select_cases(patterns: str | None) -> list[Any]:
     """Scenes for ``--cases``: comma-separated catalog globs or .toml paths/globs."""
     import cases
@@ -341,6 +355,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     rc.add_argument("--json", action="store_true", help="print the contract JSON object")
     rc.set_defaults(func=cmd_recommend)
+    te = sub.add_parser("teach", help="write the teaching page (atlases, which model to use)")
+    te.add_argument("--out", default="out", help="output directory (default: out)")
+    te.add_argument("--cases", help="catalog globs for the worked recommendations (default: all)")
+    te.add_argument("--quick", action="store_true", help="20 x 21 atlases, 1 %% only")
+    te.add_argument("--workers", type=int, default=2, help="processes for the atlases")
+    te.set_defaults(func=cmd_teach)
     r = sub.add_parser("run", help="run the case x model matrix and render the report")
     r.add_argument("--cases", help="comma-separated catalog globs or .toml paths (default: all)")
     r.add_argument("--models", help="comma-separated model names (default: case list + defaults)")
