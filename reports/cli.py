@@ -252,6 +252,17 @@ def cmd_run(args: argparse.Namespace) -> int:
                 "--dask needs dask[distributed] (pip install flexbench[dask])"
             ) from None
     scenes = select_cases(args.cases)
+    tol = None
+    if args.tol is not None:
+        from reports.recommend import ToleranceError, parse_tolerance
+
+        try:
+            tol = parse_tolerance(args.tol)
+        except ToleranceError as exc:
+            raise UsageError(str(exc)) from None
+        if tol.per_output or tol.default is None:
+            raise UsageError("--tol for run takes one value (e.g. 1%), not per-output values")
+        tol = tol.default
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise UsageError(f"--out {out}: exists and is not a directory")
@@ -267,6 +278,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             fresh=args.fresh,
             render=not args.no_report,
             time_limit="auto" if args.time_limit is None else (args.time_limit or None),
+            tolerance=tol,
         )
     except KeyboardInterrupt:
         print(
@@ -378,6 +390,7 @@ def build_parser() -> argparse.ArgumentParser:
         f" --quick {QUICK_TIME_LIMIT:g})",
     )
     r.add_argument("--no-report", action="store_true", help="results only, no HTML/MD/PNG")
+    r.add_argument("--tol", help="grade every model against this tolerance (default: per family)")
     r.set_defaults(func=cmd_run)
     c = sub.add_parser("compare", help="regression check of CURRENT against BASE")
     c.add_argument("base", help="BASE results.json (or its directory)")
