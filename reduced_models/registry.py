@@ -54,6 +54,9 @@ DEFAULT_NAMES: tuple[str, ...] = (
     "prb-2rpr",
     "prb-fsm-4",
     "prb-fsm-16",
+    "linear-auto",
+    "cbcm-auto",
+    "prb-fsm-auto",
 )
 
 

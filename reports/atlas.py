@@ -67,7 +67,9 @@ class Atlas:
     error, pos, locus : model -> (a, m) summary error, tip position error / L, locus error /
         deflection (NaN where the model declined or failed).
     status : model -> (a,) statuses of the direction's run; message : model -> first reason.
-    seconds : model -> CPU seconds of its whole atlas; single_s : model -> one 20-step solve.
+    seconds : model -> CPU seconds of its whole atlas; single_s : model -> CPU seconds of one
+        ordinary 20-step solve of a single state (per-state cost ratio = single_s /
+        (seconds / states)).
     """
 
     family: str
@@ -80,6 +82,7 @@ class Atlas:
     status: dict[str, list[str]] = field(default_factory=dict)
     message: dict[str, str] = field(default_factory=dict)
     seconds: dict[str, float] = field(default_factory=dict)
+    single_s: dict[str, float] = field(default_factory=dict)
 
 
 def scene_for(family: str, magnitude: float, angle_deg: float, steps: int) -> Scene:
@@ -131,42 +134,65 @@ def _locus_distance(pts: np.ndarray, path: np.ndarray) -> np.ndarray:
     return np.min(np.where(np.isfinite(d), d, np.inf), axis=1)
 
 
+def _model_block(
+    family: str, name: str, n_mag: int, n_ang: int, dense: np.ndarray
+) -> dict[str, object]:
+    """One model's atlas arrays against the dense reference (a worker's unit of work)."""
+    mags, angles = grid(family, n_mag, n_ang)
+    ref = dense[:, FINE - 1 :: FINE]
+    scenes = [scene_for(family, mags[-1], a, n_mag) for a in angles]
+    t0 = time.process_time()
+    sols = [api.solve(s, name) for s in scenes]
+    seconds = time.process_time() - t0
+    # one ordinary 20-step solve of a single state, for the per-state cost ratio
+    t0 = time.process_time()
+    api.solve(scene_for(family, mags[-1], angles[len(angles) // 2], 20), name)
+    single = time.process_time() - t0
+    tips = np.stack([_tips(sol, n_mag) for sol in sols])
+    d = tips - ref
+    paths = np.concatenate([np.zeros((len(angles), 1, 2)), dense[:, :, :2]], axis=1)
+    defl = np.linalg.norm(ref[:, :, :2], axis=-1)
+    locus = np.stack([_locus_distance(tips[i, :, :2], paths[i]) for i in range(len(angles))])
+    return {
+        "pos": np.hypot(d[..., 0], d[..., 1]),
+        "error": np.max(np.abs(d), axis=-1),
+        "locus": locus / np.where(defl > 0, defl, np.nan),
+        "status": [s.status for s in sols],
+        "message": next((s.message for s in sols if s.status != "converged"), ""),
+        "seconds": seconds,
+        "single_s": single,
+    }
+
+
 def compute(
     family: str = "force",
     models: Sequence[str] = MODELS,
     n_mag: int = 40,
     n_ang: int = 41,
+    workers: int = 1,
     progress: Callable[[str], None] | None = None,
 ) -> Atlas:
-    """The atlas of ``models`` for one family (see module docstring)."""
+    """The atlas of ``models`` for one family (see module docstring); ``workers`` > 1 spreads
+    the models over that many processes."""
     mags, angles = grid(family, n_mag, n_ang)
-    scenes = [scene_for(family, mags[-1], a, n_mag) for a in angles]
     # the elastica on a grid FINE times denser: its tip path is the locus the models are
     # measured against (chord error of the polyline ~ 1/FINE^2)
-    fine = [
-        dataclasses.replace(s, analysis=dataclasses.replace(s.analysis, steps=FINE * n_mag))
-        for s in scenes
-    ]
+    fine = [scene_for(family, mags[-1], a, FINE * n_mag) for a in angles]
     dense = np.stack([_tips(api.solve(s, "elastica"), FINE * n_mag) for s in fine])
-    ref = dense[:, FINE - 1 :: FINE]
-    atlas = Atlas(family, mags, angles, ref)
-    paths = np.concatenate([np.zeros((len(angles), 1, 2)), dense[:, :, :2]], axis=1)
-    defl = np.linalg.norm(ref[:, :, :2], axis=-1)
-    for name in models:
-        t0 = time.process_time()
-        sols = [api.solve(s, name) for s in scenes]
-        atlas.seconds[name] = time.process_time() - t0
-        tips = np.stack([_tips(sol, n_mag) for sol in sols])
-        d = tips - ref
-        atlas.pos[name] = np.hypot(d[..., 0], d[..., 1])
-        atlas.error[name] = np.max(np.abs(d), axis=-1)
-        atlas.locus[name] = np.stack(
-            [_locus_distance(tips[i, :, :2], paths[i]) for i in range(len(angles))]
-        ) / np.where(defl > 0, defl, np.nan)
-        atlas.status[name] = [s.status for s in sols]
-        atlas.message[name] = next((s.message for s in sols if s.status != "converged"), "")
+    atlas = Atlas(family, mags, angles, dense[:, FINE - 1 :: FINE])
+    args = [(family, name, n_mag, n_ang, dense) for name in models]
+    if workers > 1 and len(models) > 1:
+        import concurrent.futures as cf
+
+        with cf.ProcessPoolExecutor(min(workers, len(models))) as pool:
+            blocks = list(pool.map(_model_block, *zip(*args)))
+    else:
+        blocks = [_model_block(*a) for a in args]
+    for name, b in zip(models, blocks):
+        for key in ("error", "pos", "locus", "status", "message", "seconds", "single_s"):
+            getattr(atlas, key)[name] = b[key]
         if progress:
-            progress(f"{family} atlas: {name} {atlas.seconds[name]:.2f} s")
+            progress(f"{family} atlas: {name} {b['seconds']:.2f} s CPU")
     return atlas
 
 

@@ -32,13 +32,22 @@ def test_family_defaults_separate_good_from_bad_reduced_models():
     assert grading.grade(rec("x", "prb", None))["verdict"] == "-"
 
 
+def test_prb1r_warns_past_howells_theta_max():
+    from reports import atlas, solve
+
+    far = solve(cases.load("cantilever-tip-load"), "prb-1r")  # Theta reaches ~71 deg
+    assert far.extras["validity_warning"] and "64.3 deg" in far.extras["validity_message"]
+    near = solve(atlas.scene_for("force", 2.0, 90.0, 10), "prb-1r")  # Theta ~ 35 deg
+    assert near.ok and not near.extras.get("validity_warning")
+
+
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     out = tmp_path_factory.mktemp("grade")
     scene = cases.load("cantilever-tip-load")
     return runner.run_matrix(
         [scene],
-        ["elastica", "bcm", "prb-1r"],
+        ["elastica", "bcm", "prb-1r", "cbcm-auto"],
         out,
         quick=True,
         workers=1,
@@ -63,3 +72,4 @@ def test_warnings_and_grades_in_html_markdown_csv(run):
         rows = {r["model"]: r for r in csv.DictReader(fh)}
     assert rows["bcm"]["grade"] == "exceeds" and "BCM range" in rows["bcm"]["validity_warning"]
     assert rows["elastica"]["grade"] == "reference" and not rows["elastica"]["validity_warning"]
+    assert "chose N = " in md and "chose N = " in html  # the fidelity cbcm-auto chose

@@ -182,6 +182,12 @@ def _case_blocks(name: str, case: Mapping, recs: Sequence[Mapping], figs: Mappin
         per = (r.get("errors") or {}).get("per_output") or {}
         notes = [] if r["status"] == "converged" else [r.get("message") or ""]
         notes += r.get("warnings") or []
+        fid = (r.get("extras") or {}).get("fidelity")
+        if isinstance(fid, Mapping):  # *-auto models: the N they chose for their target
+            notes.append(
+                f"chose N = {fid.get('n')} (tried {fid.get('sequence')}; estimate "
+                f"{fmt_num(fid.get('estimate'))}, target {fmt_num(fid.get('target'))})"
+            )
         if (r.get("grade") or {}).get("validity_warning"):
             notes.append("⚠ " + r["grade"]["validity_warning"])
         err = r.get("errors") or {}
