@@ -79,12 +79,49 @@ def shapes(case: str, models: Sequence[str] = SHAPE_MODELS) -> dict:
     return data
 
 
+def atlas_png(at: atlas.Atlas, model: str) -> str:
+    """A matplotlib map of one model's atlas with the 0.1/1/5 % contours and its claims'
+    regions (dashed) and failing points (x), as a base64 PNG data URI."""
+    import base64
+    import io
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    err = np.asarray(at.error[model], dtype=float)
+    fig, ax = plt.subplots(figsize=(3.6, 3.0), dpi=90)
+    X, Y = np.meshgrid(at.mags, at.angles)
+    pcm = ax.pcolormesh(X, Y, np.log10(np.clip(err, 1e-6, None)), vmin=-4, vmax=0, cmap="viridis")
+    fig.colorbar(pcm, ax=ax, label="log10 error")
+    if np.isfinite(err).sum() > 3 and len(at.angles) > 1:
+        cs = ax.contour(X, Y, err, levels=list(atlas.CONTOURS), colors="w", linewidths=0.8)
+        ax.clabel(cs, fmt={v: f"{v * 100:g}%" for v in atlas.CONTOURS}, fontsize=6)
+    for k, c in enumerate(c for c in atlas.CLAIMS if c.model == model and c.family == at.family):
+        region = c.region(at).astype(float)
+        if region.any() and len(at.angles) > 1:
+            ax.contour(X, Y, region, levels=[0.5], colors=["r", "orange"][k % 2], linestyles="--")
+        bad = c.region(at) & ~(getattr(at, c.metric)[model] <= c.accuracy)
+        ax.plot(X[bad], Y[bad], "x", color=["r", "orange"][k % 2], ms=3)
+    ax.set_xlabel("PL^2/EI" if at.family != "moment" else "ML/EI")
+    ax.set_ylabel("load angle (deg)")
+    ax.set_title(f"{model}: {at.family}", fontsize=9)
+    buf = io.BytesIO()
+    fig.tight_layout()
+    fig.savefig(buf, format="png")
+    plt.close(fig)
+    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode()
+
+
 def atlas_data(at: atlas.Atlas) -> dict:
     """Embeddable atlas: grid, each model's error and the claims on it."""
     claims = [c for c in atlas.CLAIMS if c.family == at.family]
     out = {"mags": _r(at.mags), "angles": _r(at.angles), "models": {}}
     for name, err in at.error.items():
         entry: dict[str, Any] = {"error": _r(err, 3), "claims": [], "message": at.message[name]}
+        if at.family == "force":
+            entry["png"] = atlas_png(at, name)
         for c in (c for c in claims if c.model == name):
             res = atlas.check_claim(c, at)
             metric = getattr(at, c.metric)[name]
@@ -243,6 +280,8 @@ function atlasBlock(fam, model) {
   const cv = el("canvas", {width: 240, height: fam === "moment" ? 24 : 240});
   cv.dataset.fam = fam; cv.dataset.model = model; cv.className = "atlas";
   div.append(el("b", {}, `${model}: ${fam}`), el("br"), cv);
+  if (A.models[model].png) div.append(el("br"), el("img", {src: A.models[model].png,
+    alt: `${model} atlas with 0.1/1/5 % contours`, width: 260}));
   const ax = fam === "moment" ? "end moment ML/EI 0 to 2 pi (left to right)" :
     `x: load magnitude 0 to 10 (PL^2/EI); y: angle 0 (tension, bottom) to 180 deg (compression)`;
   div.append(el("div", {}, ax));
