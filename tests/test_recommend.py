@@ -148,3 +148,33 @@ def test_says_plainly_when_nothing_qualifies(monkeypatch):
     assert rec.recommended is None
     assert "no model qualifies" in rec.reason and "factor" in rec.reason
     assert re.search(r"tip\.(ux|uy|rot) error", rec.reason)
+
+
+def test_answers_every_catalog_case():
+    for name in cases.catalog_names():
+        rec = recommend(name, "1%", cost=unknowns)
+        out = json.loads(json.dumps(rec.as_json(), allow_nan=False))
+        assert out["reason"] and out["candidates"], name
+        assert out["recommended"] is None or any(
+            c["model"] == out["recommended"] and c["qualifies"] for c in out["candidates"]
+        )
+
+
+def test_mechanism_recommendation_remeasured_against_fem_auto():
+    """A mechanism scene (every single-beam model declines): the FE mesh recommended is
+    within the tolerance of fem-auto, re-measured here over the coupler outputs."""
+    scene = cases.load("das2d-ex2-parallelogram")
+    for tol in (1e-2, 1e-3):
+        rec = recommend(scene, tol, cost=unknowns)
+        assert rec.recommended and rec.recommended.startswith("fem-"), rec.reason
+        assert "every reduced model declines" in rec.reason
+        ref, sol = reports.solve(scene, "fem-auto"), reports.solve(scene, rec.recommended)
+        L = max(scene.member_length(m.id) for m in scene.members)
+        worst = 0.0
+        for a, b in zip(sol.steps, ref.steps, strict=True):
+            assert a.factor == pytest.approx(b.factor)
+            for key, v in b.outputs.items():
+                q = key.rsplit(".", 1)[-1]
+                if q in ("ux", "uy", "rot"):
+                    worst = max(worst, abs(a.outputs[key] - v) / (1.0 if q == "rot" else L))
+        assert worst <= tol
