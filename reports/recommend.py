@@ -151,6 +151,7 @@ class Candidate:
     warning: str = ""
     rank: int = 0
     errors: dict[str, float] = field(default_factory=dict)
+    profile: list[tuple[float, float]] = field(default_factory=list)  # (factor, error / tol)
 
     def as_json(self) -> dict[str, Any]:
         """The contract's candidate object (plus ``worst_output``, ``qualifies``, ...)."""
@@ -295,6 +296,7 @@ def judge(
         )
         return
     _, key, e, t = max(judged)
+    cand.profile = _profile(steps, ref_steps, [(k, tk) for _, k, _, tk in judged], meta)
     cand.worst_output, cand.worst_error, cand.tolerance = key, e, t
     cand.at_factor = pe["per_output_at"].get(key)
     coverage = pe["coverage"] or 0.0
@@ -304,6 +306,28 @@ def judge(
         cand.message = f"path covers {coverage:.0%} of the reference's"
     else:
         cand.qualifies = all(e + uncertainty <= t for _, _, e, t in judged)
+
+
+def _profile(
+    steps: list[dict], ref_steps: list[dict], keys: list[tuple[str, float]], meta: Mapping
+) -> list[tuple[float, float]]:
+    """(factor, largest error / tolerance over the judged outputs) at every model step whose
+    factor the reference also reports (load and driver analyses); [] otherwise."""
+    ref = {round(float(s["factor"]), 9): s for s in ref_steps}
+    length = float(meta["length_scale"])
+    scale = {k: errors._scale(k, errors.values(ref_steps, k), length) for k, _ in keys}
+    out = []
+    for s in steps:
+        r = ref.get(round(float(s["factor"]), 9))
+        if r is None:
+            continue
+        worst = 0.0
+        for k, t in keys:
+            a, b = s["outputs"].get(k), r["outputs"].get(k)
+            if k != "factor" and a is not None and b is not None:
+                worst = max(worst, abs(a - b) / scale[k] / t)
+        out.append((float(s["factor"]), worst))
+    return out if len(out) >= 2 else []
 
 
 def reference_of(scene: Scene) -> tuple[str | None, Solution | None, float | None, str]:

@@ -176,8 +176,15 @@ def build_data(
     for case in cases_for_advice:
         for tol in tolerances:
             rec = recommend(case, tol)
+            curves = {c.model: _r(c.profile, 3) for c in rec.candidates if c.profile}
             advice.append(
-                {"case": case, "tol": tol, "recommended": rec.recommended, "text": format_text(rec)}
+                {
+                    "case": case,
+                    "tol": tol,
+                    "recommended": rec.recommended,
+                    "text": format_text(rec),
+                    "profiles": curves,
+                }
             )
             if progress:
                 progress(f"recommend {case} {tol}: {rec.recommended}")
@@ -236,7 +243,8 @@ _JS = r"""
 const D = JSON.parse(document.getElementById("data").textContent);
 const errs = [];
 window.addEventListener("error", e => errs.push(String(e.message)));
-const COLORS = ["#1f77b4","#ff7f0e","#2ca02c","#d62728","#9467bd","#8c564b","#e377c2","#17becf"];
+const COLORS = ["#1f77b4","#ff7f0e","#2ca02c","#d62728","#9467bd","#8c564b","#e377c2",
+  "#17becf","#bcbd22","#7f7f7f","#393b79","#e7969c","#637939","#8c6d31","#d6616b","#7b4173"];
 const el = (tag, attrs, text) => { const e = document.createElement(tag);
   Object.assign(e, attrs || {}); if (text !== undefined) e.textContent = text; return e; };
 const pct = x => (x * 100).toPrecision(3) + " %";
@@ -307,6 +315,25 @@ function costChart(fam) {
   return cv;
 }
 
+function profileChart(a) {
+  // error / tolerance of every candidate along the load factor or driver (log scale)
+  const names = Object.keys(a.profiles || {}); if (!names.length) return null;
+  const div = el("div"), cv = el("canvas", {width: 560, height: 220}), ctx = cv.getContext("2d");
+  const all = names.flatMap(n => a.profiles[n]);
+  const f0 = Math.min(...all.map(p => p[0])), f1 = Math.max(...all.map(p => p[0]));
+  const X = f => 40 + 500 * (f - f0) / (f1 - f0 || 1);
+  const Y = r => 200 - 180 * (Math.log10(Math.max(r, 1e-3)) + 3) / 6;  // 1e-3 .. 1e3
+  ctx.strokeStyle = "#b00"; line(ctx, [[40, Y(1)], [540, Y(1)]]);
+  ctx.font = "10px sans-serif"; ctx.fillText("error = tolerance", 44, Y(1) - 3);
+  names.forEach((n, k) => { ctx.strokeStyle = COLORS[k % COLORS.length];
+    line(ctx, a.profiles[n].map(p => [X(p[0]), Y(p[1] || 1e-3)])); });
+  div.append(el("div", {}, "Error / tolerance along the path (log scale, 1e-3 to 1e3; " +
+    "x: load factor or driver coordinate)"), cv);
+  names.forEach((n, k) => div.append(el("span",
+    {style: `color:${COLORS[k % COLORS.length]};margin-right:.8em`}, n)));
+  return div;
+}
+
 function build() {
   const root = document.getElementById("root");
   D.families.forEach(F => {
@@ -329,7 +356,9 @@ function build() {
   root.append(el("h2", {}, "Which model should I use? (flexbench recommend, per catalog case)"));
   D.advice.forEach(a => {
     const verdict = a.recommended || "no model qualifies";
-    root.append(el("h3", {}, `${a.case} at ${a.tol}: ${verdict}`), el("pre", {}, a.text));
+    root.append(el("h3", {}, `${a.case} at ${a.tol}: ${verdict}`));
+    const pc = profileChart(a); if (pc) root.append(pc);
+    root.append(el("pre", {}, a.text));
   });
   const load = document.getElementById("load");
   load.max = D.shapes.factors.length - 1; load.value = load.max;
