@@ -188,7 +188,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
 
 
 def cmd_recommend(args: argparse.Namespace) -> int:
-    from reports.recommend import ToleranceError, format_text, parse_tolerance, recommend
+    from reports.recommend import format_text, recommend
+    from reports.tolerance import ToleranceError, parse_tolerance
 
     try:
         tol = parse_tolerance(args.tol)
@@ -254,7 +255,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     scenes = select_cases(args.cases)
     tol = None
     if args.tol is not None:
-        from reports.recommend import ToleranceError, parse_tolerance
+        from reports.tolerance import ToleranceError, parse_tolerance
 
         try:
             tol = parse_tolerance(args.tol)

@@ -43,6 +43,7 @@ from typing import Any
 from cases.schema import Scene
 from reduced_models.base import Solution
 from reports import api, errors, store
+from reports.tolerance import Tolerance, ToleranceError, parse_tolerance, pct
 
 # member N of each parametrised ladder (the FE starts at 2 elements per member)
 LADDER_N: dict[str, tuple[int, ...]] = {
@@ -59,79 +60,6 @@ EXCLUDED = ("elastica-bvp", "replay")
 RANK = {"prb-short": 1, "prb-1r": 1, "bcm": 3, "prb-2r": 2, "prb-3r": 3, "prb-2rpr": 3}
 TIE = 0.10
 JUDGED = ("ux", "uy", "rot")
-
-
-class ToleranceError(ValueError):
-    """A ``--tol`` text that cannot be read (one-line message)."""
-
-
-@dataclass(frozen=True)
-class Tolerance:
-    """Allowed path error: one value for every judged output and/or values per output key.
-
-    ``default`` None with ``per_output`` given judges only the named outputs.
-    """
-
-    default: float | None = 0.01
-    per_output: Mapping[str, float] = field(default_factory=dict)
-
-    def of(self, key: str) -> float | None:
-        """Tolerance of output ``key`` (None: not judged)."""
-        return self.per_output.get(key, self.default)
-
-    def as_json(self) -> float | dict[str, float]:
-        """A float when one value applies everywhere, else ``{"*": default, key: value}``."""
-        if not self.per_output and self.default is not None:
-            return self.default
-        out = {} if self.default is None else {"*": self.default}
-        return {**out, **self.per_output}
-
-    def text(self) -> str:
-        """Human form: ``1 %`` or ``tip.uy 0.5 %, tip.rot 0.1 %``."""
-        parts = [] if self.default is None else [_pct(self.default)]
-        parts += [f"{k} {_pct(v)}" for k, v in self.per_output.items()]
-        return ", ".join(parts)
-
-
-def _pct(x: float) -> str:
-    return f"{x * 100:.3g} %"
-
-
-def _value(text: str) -> float:
-    t = text.strip()
-    scale = 1.0
-    if t.endswith("%"):
-        t, scale = t[:-1].strip(), 0.01
-    try:
-        v = float(t) * scale
-    except ValueError:
-        raise ToleranceError(f"--tol: {text.strip()!r} is not a number (e.g. 1%, 1e-3)") from None
-    if not (math.isfinite(v) and v > 0):
-        raise ToleranceError(f"--tol: {text.strip()!r} must be a positive finite number")
-    return v
-
-
-def parse_tolerance(text: str | float | Tolerance) -> Tolerance:
-    """``"1%"``, ``"1e-3"``, ``"tip.uy=0.5%,tip.rot=1e-3"`` or ``"1%,tip.rot=1e-3"``."""
-    if isinstance(text, Tolerance):
-        return text
-    if isinstance(text, (int, float)):
-        return Tolerance(_value(str(text)))
-    default, per = None, {}
-    for tok in (t for t in str(text).split(",") if t.strip()):
-        if "=" in tok:
-            key, _, val = tok.partition("=")
-            key = key.strip()
-            if not re.fullmatch(r"[A-Za-z0-9_.\-]+", key):
-                raise ToleranceError(f"--tol: bad output name {key!r}")
-            per[key] = _value(val)
-        elif default is not None:
-            raise ToleranceError("--tol: more than one tolerance without an output name")
-        else:
-            default = _value(tok)
-    if default is None and not per:
-        raise ToleranceError("--tol: empty tolerance")
-    return Tolerance(default, per)
 
 
 @dataclass
@@ -403,7 +331,7 @@ def recommend(
         c.ratio_to_reference = c.cpu_s / ref_cpu if c.cpu_s and ref_cpu else None
     best, reason = _verdict(cands, tol, cost)
     if unc:
-        reason += f"; the reference's own error estimate {_pct(unc)} is added to every error"
+        reason += f"; the reference's own error estimate {pct(unc)} is added to every error"
     if ref_note:
         reason += f" (reference note: {ref_note})"
     rec = Recommendation(scene.name, tol, best, reason, ref_name, ref_cpu, cands, skipped)
@@ -478,7 +406,7 @@ def _verdict(
     pick = min(tied, key=lambda c: (c.rank, cost(c.model, c.cpu_s)))
     reason = (
         f"{pick.model} is the cheapest model within {tol.text()}: worst error "
-        f"{_pct(pick.worst_error)} ({pick.worst_output} at factor {pick.at_factor:.3g}), "
+        f"{pct(pick.worst_error)} ({pick.worst_output} at factor {pick.at_factor:.3g}), "
         f"{pick.cpu_s * 1e3:.3g} ms CPU"
     )
     if len(tied) > 1:
@@ -502,12 +430,12 @@ def _closeness(c: Candidate) -> float:
 def _miss(c: Candidate) -> str:
     if c.worst_error is None:
         return f"{c.model} ({c.status}: {c.message})"
-    why = f"{c.worst_output} error {_pct(c.worst_error)} at factor {c.at_factor:.3g}"
+    why = f"{c.worst_output} error {pct(c.worst_error)} at factor {c.at_factor:.3g}"
     if c.status != "converged":
         why += f", {c.status}: {c.message}"
     elif c.worst_error <= (c.tolerance or 0.0):
         why += f", {c.message}"
-    return f"{c.model} ({why} > {_pct(c.tolerance)})"
+    return f"{c.model} ({why} > {pct(c.tolerance)})"
 
 
 def _declines(cands: list[Candidate]) -> str:
@@ -531,7 +459,7 @@ def format_text(rec: Recommendation) -> str:
     ]
     order = sorted(rec.candidates, key=lambda c: (not c.qualifies, c.cpu_s or math.inf))
     for c in order:
-        err = "-" if c.worst_error is None else _pct(c.worst_error)
+        err = "-" if c.worst_error is None else pct(c.worst_error)
         at = "-" if c.at_factor is None else f"{c.at_factor:.3g}"
         ms = "-" if c.cpu_s is None else f"{c.cpu_s * 1e3:.3g}"
         ratio = "-" if c.ratio_to_reference is None else f"{c.ratio_to_reference:.3g}"

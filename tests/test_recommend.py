@@ -21,7 +21,8 @@ import cases
 import reports
 from reduced_models import elastica
 from reports import cli
-from reports.recommend import TIE, ToleranceError, ladders, parse_tolerance, recommend
+from reports.recommend import TIE, ladders, recommend
+from reports.tolerance import ToleranceError, parse_tolerance
 
 CASES = ("cantilever-tip-load", "cantilever-inclined-compression", "pure-moment-rollup")
 
