@@ -35,6 +35,9 @@ _ENTRIES: dict[str, str] = {
     "prb-custom": "reduced_models.prb:PRBCustom",
     "kinetostatic": "reduced_models.mechanism.model:Kinetostatic",
     "mixed": "reduced_models.mechanism.model:Mixed",
+    "linear-auto": "reduced_models.auto:LinearAuto",
+    "cbcm-auto": "reduced_models.auto:CBCMAuto",
+    "prb-fsm-auto": "reduced_models.auto:PRBFSMAuto",
 }
 # single-beam families: scenes that are not a plain cantilever go to the mechanism assembler
 _SINGLE_BEAM = tuple(
@@ -59,6 +62,9 @@ DEFAULT_NAMES: tuple[str, ...] = (
     "prb-fsm-16",
     "kinetostatic",
     "mixed",
+    "linear-auto",
+    "cbcm-auto",
+    "prb-fsm-auto",
 )
 
 
