@@ -12,6 +12,7 @@ elastica -- are in ``reduced_models.prb_chain`` (re-exported here).
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -54,7 +55,8 @@ _SEED = "seed 000_265bc60728766176.txt: PRB matrix, Jacobian, shape and stress s
 _COMMON = (
     "rigid segments joined by linear torsion springs (PRB matrix)",
     "dead tip loads only (energy formulation; follower loads are declined)",
-    "shape and stress from the elastica under the end loads recovered by pinv(J^T)",
+    "shape: the PRB's own pivots and rigid links; stress from the bending moment of the end "
+    "loads recovered from the PRB's spring forces by pinv(J^T), at the root, pivots and tip",
 )
 
 
@@ -127,24 +129,9 @@ class PRBModel:
         lam = path.factors[:m]
         tips = chain.tips(Q)
         energy = chain.strain_energy(Q)
-        f_known = None if beam.guided else lam[:, None] * f1
-        loads, rank = recover_tip_loads_batch(chain, Q, f_known)
         for j in range(m):
             x, y, phi = tips[j]
             rot = 0.0 if beam.guided else rot_factor * phi
-            f = loads[j]
-            info = {
-                "residual": float(res[j]),
-                "step_cuts": float(path.cuts[j]),
-                "load_fx": float(f[0]),
-                "load_fy": float(f[1]),
-                "load_m": float(f[2]),
-                "jt_rank": float(rank[j]),
-            }
-            shapes, stress = {}, None
-            if self.shapes:
-                shapes, stress, extra = shape_and_stress(scene, beam, chain, Q[j], f)
-                info.update(extra)
             steps.append(
                 Step(
                     factor=float(lam[j]),
@@ -152,16 +139,14 @@ class PRBModel:
                     energy=float(energy[j]),
                     iterations=int(path.iterations[j]),
                     stable=path.stable[j],
-                    shapes=shapes,
-                    max_stress=stress,
-                    info=info,
+                    info={"residual": float(res[j]), "step_cuts": float(path.cuts[j])},
                 )
             )
         extras = {
             "prb_matrix": matrix.tolist(),
             "tip_angle_factor": rot_factor,
             # chain coordinates [psi (rad), u (length)] per reported step (mechanism assembly)
-            "prb_states": [list(map(float, q)) for q in path.states[: len(steps)]],
+            "prb_states": [list(map(float, q)) for q in Q],
         }
         if failed:
             return Solution(scene.name, self.name, "failed", failed, tuple(steps), extras)
@@ -169,6 +154,31 @@ class PRBModel:
         if np.any(np.isfinite(matrix[:, 1])) and chain.ne == 0:
             msg += "; axial springs treated as rigid (EA not given)"
         return Solution(scene.name, self.name, "converged", msg, tuple(steps), extras)
+
+    def postprocess(self, scene: Scene, sol: Solution) -> Solution:
+        """Shapes and stress of the reported states from the PRB itself (not timed as solve).
+
+        Shape: the PRB's own pivots and rigid links (its tip is the reported tip).  End loads
+        from the spring forces through pinv(J^T) (``info`` ``load_fx``, ``load_fy``,
+        ``load_m``, ``jt_rank``); stress from the bending moment these loads give at the
+        root, every pivot and the tip, ``m + (tip - p) x f`` (linear along a rigid link).
+        """
+        if not sol.steps or not self.shapes:
+            return sol
+        beam = self._beam(scene)
+        chain = PRBChain(np.asarray(sol.extras["prb_matrix"]), beam.L, beam.EI, beam.EA)
+        Q = np.asarray(sol.extras["prb_states"], dtype=float).reshape(len(sol.steps), chain.n)
+        f1 = np.array([beam.fx, beam.fy, 0.0 if beam.guided else beam.m])
+        lam = np.array([s.factor for s in sol.steps])
+        loads, rank = recover_tip_loads_batch(chain, Q, None if beam.guided else lam[:, None] * f1)
+        steps = []
+        for step, q, f, r in zip(sol.steps, Q, loads, rank):
+            shapes, stress = shape_and_stress(scene, beam, chain, q, f)
+            info = dict(step.info)
+            info.update(load_fx=float(f[0]), load_fy=float(f[1]), load_m=float(f[2]))
+            info["jt_rank"] = float(r)
+            steps.append(replace(step, shapes=shapes, max_stress=stress, info=info))
+        return replace(sol, steps=tuple(steps))
 
 
 # ---------------------------------------------------------------------------------------------

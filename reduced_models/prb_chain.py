@@ -14,9 +14,10 @@ along the load ramp with step cutting, through the shared ``reduced_models.conti
 
 Shape and stress (seed 000_265bc60728766176.txt, "Computing Beam Shape and Stress"): the end
 loads are recovered from the spring torques through the Moore-Penrose pseudo-inverse of the
-Jacobian transpose, then the elastica is solved for those loads
-(``reduced_models.elastica.shape_under_tip_load``); without that module the PRB polyline and
-the bending moments at the joints are used instead.
+Jacobian transpose; the shape drawn is the PRB's own chain of rigid links and the stress is
+that of the bending moment these loads give at the root, the pivots and the tip.  (The seed
+also solves the elastica under the recovered loads; that is an exact solve, not the PRB's
+answer, and would make the PRB's cost the elastica's.)
 """
 
 from __future__ import annotations
@@ -372,46 +373,22 @@ def recover_tip_loads(
     return f[0], int(rank[0])
 
 
-def _elastica_shape() -> object | None:
-    try:
-        from reduced_models import elastica
-    except ImportError:
-        return None
-    return getattr(elastica, "shape_under_tip_load", None)
-
-
 def shape_and_stress(
     scene: Scene, beam: Cantilever, chain: PRBChain, x: np.ndarray, f: np.ndarray
-) -> tuple[dict, float | None, dict]:
-    """Deformed shape (global points) and largest bending stress for recovered end loads f.
+) -> tuple[dict, float | None]:
+    """The PRB's own deformed shape (global points) and largest bending stress.
 
-    Primary route: the elastica under f (seed).  Fallback (module missing or the elastica
-    fails for these loads): the PRB polyline and the bending moment m + (tip - p) x f at the
-    root and at every joint.  Returns ``(shapes, max_stress, info)``.
+    Shape: the root, every pivot and the tip of the rigid links, shape (S + 1, 2).  Stress:
+    the bending moment ``m + (tip - p) x f`` of the end loads ``f`` (recovered from the
+    PRB's spring forces) is linear along each rigid link, so its largest magnitude is at the
+    root, a pivot or the tip; ``|M| t / (2 I)``.  Returns ``(shapes, max_stress)``.
     """
     mem = scene.member(beam.member)
-    info: dict[str, float] = {}
-    shape_fn = _elastica_shape()
-    kappa = None
-    if shape_fn is not None:
-        try:
-            xy, kappa = shape_fn(chain.L, chain.EI, float(f[0]), float(f[1]), float(f[2]), n=41)
-            xy, kappa = np.asarray(xy, dtype=float), np.asarray(kappa, dtype=float)
-            if not (np.all(np.isfinite(xy)) and np.all(np.isfinite(kappa))):
-                raise ValueError("non-finite elastica shape")
-            tx, ty, _ = chain.tip(x)
-            info["shape_tip_gap"] = float(np.hypot(xy[-1, 0] - tx, xy[-1, 1] - ty) / chain.L)
-            info["shape_from_elastica"] = 1.0
-        except Exception:  # noqa: BLE001 - any elastica failure degrades to the polyline
-            kappa = None
-    if kappa is None:
-        xy = chain.points(x)
-        tip = xy[-1]
-        p = np.vstack([[0.0, 0.0], xy[chain.jidx]])
-        M = f[2] + (tip[0] - p[:, 0]) * f[1] - (tip[1] - p[:, 1]) * f[0]
-        kappa = M / chain.EI
-        info["shape_from_elastica"] = 0.0
+    xy = chain.points(x)
     stress = None
     if mem.thickness is not None and mem.E is not None:
-        stress = float(mem.E * mem.thickness * np.max(np.abs(kappa)) / 2.0)
-    return {beam.member: beam.rotate_to_global(xy)}, stress, info
+        tip = xy[-1]
+        p = np.vstack([[0.0, 0.0], xy[chain.jidx], tip])
+        M = f[2] + (tip[0] - p[:, 0]) * f[1] - (tip[1] - p[:, 1]) * f[0]
+        stress = float(mem.E * mem.thickness * np.max(np.abs(M)) / (2.0 * chain.EI))
+    return {beam.member: beam.rotate_to_global(xy)}, stress
