@@ -28,7 +28,7 @@ from reduced_models.prb_chain import (
     recover_tip_loads_batch,
     shape_and_stress,
 )
-from reduced_models.single_beam import Cantilever, cantilever_of, tip_outputs
+from reduced_models.single_beam import Cantilever, cantilever_of, output_map
 
 __all__ = [
     "RESIDUAL_TOL",
@@ -126,27 +126,35 @@ class PRBModel:
             )
         # per-step quantities for all reported states at once (batched numpy)
         Q = path.states[:m]
-        lam = path.factors[:m]
-        tips = chain.tips(Q)
-        energy = chain.strain_energy(Q)
-        for j in range(m):
-            x, y, phi = tips[j]
+        # plain floats from here (one conversion per array, not one per entry)
+        tips, energy = chain.tips(Q).tolist(), chain.strain_energy(Q).tolist()
+        per_step = zip(
+            path.factors[:m].tolist(),
+            tips,
+            energy,
+            path.iterations[:m].tolist(),
+            path.stable,
+            res[:m].tolist(),
+            path.cuts[:m].astype(float).tolist(),
+        )
+        outputs = output_map(scene, beam)
+        for lam, (x, y, phi), e, its, stable, r, cuts in per_step:
             rot = 0.0 if beam.guided else rot_factor * phi
             steps.append(
                 Step(
-                    factor=float(lam[j]),
-                    outputs=tip_outputs(scene, beam, float(x), float(y), float(rot)),
-                    energy=float(energy[j]),
-                    iterations=int(path.iterations[j]),
-                    stable=path.stable[j],
-                    info={"residual": float(res[j]), "step_cuts": float(path.cuts[j])},
+                    factor=lam,
+                    outputs=outputs(x, y, rot),
+                    energy=e,
+                    iterations=its,
+                    stable=stable,
+                    info={"residual": r, "step_cuts": cuts},
                 )
             )
         extras = {
             "prb_matrix": matrix.tolist(),
             "tip_angle_factor": rot_factor,
             # chain coordinates [psi (rad), u (length)] per reported step (mechanism assembly)
-            "prb_states": [list(map(float, q)) for q in Q],
+            "prb_states": Q.tolist(),
         }
         if failed:
             return Solution(scene.name, self.name, "failed", failed, tuple(steps), extras)

@@ -30,6 +30,7 @@ from cases.schema import Scene
 from reduced_models.continuation import PathResult, minimize_path
 from reduced_models.linalg import Banded
 from reduced_models.single_beam import Cantilever
+from reduced_models.small_path import MAX_N, minimize_path_small
 
 __all__ = [
     "RESIDUAL_TOL",
@@ -289,6 +290,39 @@ class PRBChain:
 
         return gh, lg
 
+    def path_functions_small(self, f1: np.ndarray) -> tuple:
+        """``path_functions`` of an inextensible chain on plain floats (``small_path``).
+
+        ``grad_hess(x, lam) -> (g, d, e)``: g = K_psi psi + lam (Im w - m1 e_tip), Hessian
+        K_psi + lam diag(Re w) as its diagonal d and off-diagonal e, w_p = F1 Lp_p
+        e^{i psi_p}; ``load_gradient`` = Im w - m1 e_tip.
+        """
+        nj = self.nj
+        F1Lp = [complex(f1[0], -f1[1]) * lp for lp in self.Lp.tolist()]
+        a, b = [w.real for w in F1Lp], [w.imag for w in F1Lp]
+        kd, ko, m1 = self._kd.tolist(), self._ko.tolist(), float(f1[2])
+        last = nj - 1
+        cos, sin = math.cos, math.sin
+
+        def gh(x: list, lam: float) -> tuple[list, list, list]:
+            g, d = [0.0] * nj, [0.0] * nj
+            for p in range(nj):
+                c, s = cos(x[p]), sin(x[p])
+                g[p] = kd[p] * x[p] + lam * (a[p] * s + b[p] * c)
+                d[p] = kd[p] + lam * (a[p] * c - b[p] * s)
+            for p in range(last):
+                g[p] += ko[p] * x[p + 1]
+                g[p + 1] += ko[p] * x[p]
+            g[last] -= lam * m1
+            return g, d, ko[:]
+
+        def lg(x: list, lam: float) -> list:
+            gw = [a[p] * sin(x[p]) + b[p] * cos(x[p]) for p in range(nj)]
+            gw[last] -= m1
+            return gw
+
+        return gh, lg
+
     def potential(self, x: np.ndarray, f: np.ndarray) -> float:
         """Total potential V = U - (fx X + fy Y + m Phi) (force * length)."""
         X, Y, phi = self.tip(x)
@@ -315,8 +349,19 @@ def equilibrium_path(
     f1 = np.asarray(f1, dtype=float)
     if guided:
         f1 = np.array([f1[0], f1[1], 0.0])
-    gh, lg = chain.path_functions(f1)
     fixed = [chain.nj - 1] if guided else None
+    if chain.ne == 0 and chain.nj <= MAX_N:  # a few angles: plain floats
+        gh, lg = chain.path_functions_small(f1)
+        return minimize_path_small(
+            gh,
+            [0.0] * chain.n,
+            factors,
+            xtol=xtol,
+            gtol=RESIDUAL_TOL * chain.EI / chain.L,
+            fixed=fixed or (),
+            load_gradient=lg,
+        )
+    gh, lg = chain.path_functions(f1)
     return minimize_path(
         gh,
         np.zeros(chain.n),

@@ -74,7 +74,12 @@ def resolve(name: str, table: dict[str, str] | None = None) -> tuple[str, int | 
     UnknownModelError
         For a name no registry knows, or ``family-0``.
     """
-    table = registry_table() if table is None else table
+    if table is None:
+        try:  # a reduced model needs no FE import (the merged table prefers these entries)
+            key, n = _registry.parse(name, _registry.MODELS)
+            return key, n, _registry.MODELS[key]
+        except UnknownModelError:
+            table = registry_table()
     key, n = _registry.parse(name, table)
     return key, n, table[key]
 
