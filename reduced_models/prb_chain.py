@@ -23,14 +23,17 @@ answer, and would make the PRB's cost the elastica's.)
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from cases.schema import Scene
-from reduced_models.continuation import PathResult, minimize_path
-from reduced_models.linalg import Banded
+from reduced_models.path_result import PathResult
 from reduced_models.single_beam import Cantilever
 from reduced_models.small_path import MAX_N, minimize_path_small
+
+if TYPE_CHECKING:
+    from reduced_models.linalg import Banded
 
 __all__ = [
     "RESIDUAL_TOL",
@@ -205,6 +208,8 @@ class PRBChain:
         gpsi[:-1] -= Kth[1:]
         gpsi[-1] -= f[2]
         if self.banded and not dense:
+            from reduced_models.linalg import Banded  # long chains only: scipy's LAPACK
+
             ab = self._ab.copy()
             ab[1] += FZ.real
             return gpsi, Banded(ab, 1, 1)
@@ -261,6 +266,7 @@ class PRBChain:
             return w
 
         if self.banded:
+            from reduced_models.linalg import Banded  # long chains only: scipy's LAPACK
 
             def gh(x: np.ndarray, lam: float) -> tuple[np.ndarray, Banded]:
                 w = unit(x)
@@ -361,6 +367,8 @@ def equilibrium_path(
             fixed=fixed or (),
             load_gradient=lg,
         )
+    from reduced_models.continuation import minimize_path  # sparse/LAPACK layer: import late
+
     gh, lg = chain.path_functions(f1)
     return minimize_path(
         gh,

@@ -27,7 +27,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from reduced_models.continuation import PathResult
+from reduced_models.path_result import PathResult
 
 MAX_N = 24  # above, numpy's banded solves beat Python loops
 
