@@ -72,6 +72,7 @@ def record(case: str, model: str) -> dict:
             "energy": _r(s.energy),
             "stable": s.stable,
             "max_stress": _r(s.max_stress),
+            "limit_point": bool(s.info.get("limit_point")),
         }
         for s in sol.steps
     ]
@@ -122,7 +123,10 @@ def test_same_answers_as_before(case: str, model: str) -> None:
     own_stress = model.startswith("prb")
     for s, b in zip(now["steps"], before["steps"]):
         assert _close(s["factor"], b["factor"], tol)
-        assert s["stable"] == b["stable"], f"stability at factor {b['factor']}"
+        # at a refined limit point the lowest eigenvalue is zero: its sign (the flag) is
+        # round-off, so only away from limit points must the flag be the same
+        if not s.get("limit_point"):
+            assert s["stable"] == b["stable"], f"stability at factor {b['factor']}"
         assert _close(s["energy"], b["energy"], tol), "energy"
         if not own_stress:
             assert _close(s["max_stress"], b["max_stress"], tol), "max_stress"
