@@ -46,6 +46,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from fem_reference.banded import BAND_MAX, BandedLU, csr_to_band
+from fem_reference.replay_band import band_mass, step_band
 
 
 @dataclass(frozen=True)
@@ -246,13 +247,7 @@ class GenAlpha:
         self.newton_iterations = 0
         self.factorizations = 0
         self.bw = getattr(system, "bandwidth", None)  # half-bandwidth of the FE matrices
-        # band path of ``step``: no locks or pushes (their Hessians are not banded) and a
-        # system with a band tangent; M is then kept in band storage once
-        self._Mb = None
-        if not pairs and hasattr(system, "tangent_band") and self.bw and self.bw <= BAND_MAX:
-            rows = np.repeat(np.arange(self.M.shape[0]), np.diff(self.M.indptr))
-            if self.M.nnz and int(np.abs(rows - self.M.indices).max()) <= self.bw:
-                self._Mb = csr_to_band(self.M, self.bw)
+        self._Mb = band_mass(self)  # not None: ``step`` works in band storage
         try:
             self._Msolve = factor(self.M)
         except RuntimeError:  # singular mass (massless DOFs): no consistent start accel.
@@ -328,19 +323,10 @@ class GenAlpha:
         return st
 
     # -- one step ------------------------------------------------------------------------------
-    def _band_iteration(self, q: np.ndarray, lam: float, Cb: np.ndarray, cv: float, cq: float):
-        """Residual r, solve with K + cv C + cq M (banded LU, no sparse matrix built) and the
-        evaluation (for the step's final tangent)."""
-        ev_ = self.sys.evaluate(q, lam)
-        A = self.sys.tangent_band(ev_)
-        A += cv * Cb
-        A += cq * self._Mb
-        return ev_.r, BandedLU(A, self.bw).solve, ev_
-
     def step(self, s: State, h: float, lam: float) -> State | None:
         """Advance ``s`` by ``h`` to load factor ``lam``; None if Newton fails."""
         if self._Mb is not None:
-            return self._step_band(s, h, lam)
+            return step_band(self, s, h, lam)
         b, g, am, af = self.beta, self.gamma, self.am, self.af
         astar = (af * s.acc - am * s.a) / (1 - am)
         qh = s.q + h * s.v + h * h * ((0.5 - b) * s.a + b * astar)
@@ -393,50 +379,6 @@ class GenAlpha:
             if not p.locked and p.lock.force:
                 fe_new += p.lock.force * self.act(s.t + h) * p.geometry(q)[1]
         return State(s.t + h, lam, q, v, acc, a, mu, fe_new, K)
-
-    def _step_band(self, s: State, h: float, lam: float) -> State | None:
-        """``step`` without locks or pushes, every matrix in LAPACK band storage (the same
-        Newton iteration, the same tests; SuperLU and csr assembly per iteration cost 3x)."""
-        b, g, am, af = self.beta, self.gamma, self.am, self.af
-        astar = (af * s.acc - am * s.a) / (1 - am)
-        qh = s.q + h * s.v + h * h * ((0.5 - b) * s.a + b * astar)
-        vh = s.v + h * ((1 - g) * s.a + g * astar)
-        cq = 1.0 / (self.beta_p * h * h)
-        cv = self.gamma_p / (self.beta_p * h)
-        acc = s.acc.copy()
-        q = qh + acc / cq
-        C = self.damping(s)
-        Cb = csr_to_band(C, self.bw)
-        tol = self.newton_tol * self.L
-        prev = math.inf
-        for it in range(1, self.max_iter + 1):
-            v = vh + acc * (cv / cq)
-            try:
-                r, solve, ev_ = self._band_iteration(q, lam, Cb, cv, cq)
-            except RuntimeError:
-                return None
-            R = self.M @ acc + C @ v + r
-            self.factorizations += 1
-            dq = -solve(R)
-            if not np.all(np.isfinite(dq)):
-                return None
-            q = q + dq
-            acc = acc + cq * dq
-            err = float(np.max(np.abs(self.w * dq)))
-            self.newton_iterations += 1
-            if err <= tol:
-                break
-            if it > 3 and err > 0.5 * prev:
-                return None
-            prev = err
-        else:
-            return None
-        v = vh + acc * (cv / cq)
-        a = (1 - af) / (1 - am) * acc + astar
-        fe_new = lam * np.asarray(self.sys.external(q), dtype=float)
-        # the tangent for current-stiffness damping of the next step, only when it is used
-        K = self.sys.tangent_csr(ev_) if self.a1 != 0.0 and self.K0 is None else None
-        return State(s.t + h, lam, q, v, acc, a, s.mu.copy(), fe_new, K)
 
     def error(self, s0: State, s1: State, h: float) -> float:
         """Local displacement error estimate / L (Zienkiewicz-Xie type)."""
