@@ -19,7 +19,9 @@ from cases.schema import Scene
 from reduced_models import single_beam
 from reduced_models.base import ModelCard, Solution, Step, load_factors, not_applicable
 from reduced_models.chain import ChainProblem, SegmentLaw, chain_shape, local_coords
+from reduced_models.chain_small import solve_single_segment
 from reduced_models.continuation import minimize_path
+from reduced_models.path_result import PathResult
 
 __all__ = ["ChainModel"]
 
@@ -107,15 +109,9 @@ class ChainModel:
         loads = (beam.fx * L**2 / EI, beam.fy * L**2 / EI, beam.m * L / EI)
         return ChainProblem(self.law, self.N, k, loads, beam.follower, beam.guided)
 
-    def solve(self, scene: Scene) -> Solution:
-        """Equilibrium path by load continuation (see ``continuation.minimize_path``)."""
-        reason = self.applies_to(scene)
-        if reason:
-            return not_applicable(scene, self.name, reason)
-        beam = single_beam.cantilever_of(scene)
-        prob = self.problem(beam)
-        factors = load_factors(scene)
-        res = minimize_path(
+    def _path(self, prob: ChainProblem, factors: np.ndarray) -> PathResult:
+        """The general continuation (banded, retraction, follower loads)."""
+        return minimize_path(
             prob.grad_hess,
             prob.x0,
             factors,
@@ -126,6 +122,19 @@ class ChainModel:
             update=prob.update,
             load_gradient=prob.load_gradient,
         )
+
+    def solve(self, scene: Scene) -> Solution:
+        """Equilibrium path by load continuation (see ``continuation.minimize_path``)."""
+        reason = self.applies_to(scene)
+        if reason:
+            return not_applicable(scene, self.name, reason)
+        beam = single_beam.cantilever_of(scene)
+        prob = self.problem(beam)
+        factors = load_factors(scene)
+        if self.N == 1 and not beam.follower:  # a handful of unknowns: plain floats
+            res = solve_single_segment(prob, factors)
+        else:
+            res = self._path(prob, factors)
         L, EI, N, k = beam.L, beam.EI, self.N, prob.k
         # every per-step quantity for all reported states at once: (m, N) segment arrays
         m = len(res.factors)

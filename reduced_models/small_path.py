@@ -1,4 +1,4 @@
-"""Load continuation for a few unknowns with a symmetric tridiagonal Hessian, on plain floats.
+"""Load continuation for a few unknowns on plain Python floats.
 
 The same algorithm as ``continuation.minimize_path`` (Newton at each load factor, step
 halving on failure and growth after easy steps, cubic Hermite predictor from the path
@@ -16,8 +16,11 @@ is evaluated (cheap here) and must also be below ``gtol``, so the reported resid
 of the reported state.
 
 Functions handed in: ``grad_hess(x, lam) -> (g, d, e)`` with ``x``, ``g`` and the Hessian's
-diagonal ``d`` lists of n floats and its off-diagonal ``e`` a list of n - 1;
-``load_gradient(x, lam) -> dg/dlam`` (list).
+diagonal ``d`` lists of n floats and its off-diagonal ``e`` a list of n - 1, or
+``-> (g, H)`` with a dense symmetric (possibly indefinite) H as a list of rows, solved by
+pivoted LU, whose stability is then judged by ``stability(x, lam) -> bool | None`` (a mixed
+Lagrangian's inertia test); ``load_gradient(x, lam) -> dg/dlam`` (list).  ``max_step``
+caps ``|dx_i / scale_i|`` per update (the update is shortened as a whole), as there.
 """
 
 from __future__ import annotations
@@ -115,53 +118,80 @@ class _Newton:
     """Newton at a fixed load factor (fixed unknowns replaced by identity equations)."""
 
     def __init__(self, grad_hess: Callable, n: int, fixed: tuple, inv_scale: list, xtol: float,
-                 gtol: float | None, max_iter: int) -> None:  # fmt: skip
+                 gtol: float | None, max_iter: int, cap: list | None = None,
+                 stability: Callable | None = None) -> None:  # fmt: skip
         self.gh, self.n, self.fixed = grad_hess, n, fixed
         self.inv_scale, self.xtol, self.gtol, self.max_iter = inv_scale, xtol, gtol, max_iter
+        self.cap, self.stability = cap, stability
 
-    def evaluate(self, x: list, lam: float) -> tuple[list, list, list]:
-        g, d, e = self.gh(x, lam)
+    def evaluate(self, x: list, lam: float) -> tuple[list, tuple]:
+        """Residual and Hessian: ``(d, e)`` tridiagonal or a dense list of rows."""
+        g, *H = self.gh(x, lam)
+        n = self.n
+        if len(H) == 2:  # tridiagonal (d, e)
+            d, e = H
+            for i in self.fixed:
+                g[i], d[i] = 0.0, 1.0
+                if i:
+                    e[i - 1] = 0.0
+                if i < n - 1:
+                    e[i] = 0.0
+            return g, (d, e)
+        (A,) = H
         for i in self.fixed:
-            g[i], d[i] = 0.0, 1.0
-            if i:
-                e[i - 1] = 0.0
-            if i < self.n - 1:
-                e[i] = 0.0
-        return g, d, e
+            g[i] = 0.0
+            for j in range(n):
+                A[i][j] = A[j][i] = 0.0
+            A[i][i] = 1.0
+        return g, A
 
     def residual(self, x: list, lam: float) -> float:
         g = self.evaluate(x, lam)[0]
         return max(map(abs, g)) if math.isfinite(sum(g)) else math.nan
 
+    def factor(self, H: tuple | list) -> tuple[tuple, bool | None]:
+        """Factor and positive definiteness (None for a dense, possibly indefinite H)."""
+        if isinstance(H, tuple):
+            return _factor(*H, self.n)
+        fac = _lu(H, self.n)
+        if fac is None:
+            raise ZeroDivisionError("singular matrix")
+        return ("lu", fac), None
+
     def solve(self, x: list, lam: float) -> tuple[tuple | None, int, str]:
         """((x_new, res, stable, x_eval, factor) or None, iterations, reason)."""
-        n, inv, xtol, gtol = self.n, self.inv_scale, self.xtol, self.gtol
+        n, inv, xtol, gtol, cap = self.n, self.inv_scale, self.xtol, self.gtol, self.cap
         prev_res = math.inf
         for it in range(1, self.max_iter + 1):
-            g, d, e = self.evaluate(x, lam)
+            g, H = self.evaluate(x, lam)
             res = max(map(abs, g))
             if not math.isfinite(res + sum(g)):
                 return None, it, "non-finite residual"
             try:
-                factor, pd = _factor(d, e, n)
+                factor, pd = self.factor(H)
                 sol = _solve(factor, g, n)
             except ZeroDivisionError as exc:
                 return None, it, f"singular tangent ({exc})"
             size = max(abs(s * w) for s, w in zip(sol, inv))
             if not math.isfinite(size):
                 return None, it, "singular tangent"
-            x_new = [a - b for a, b in zip(x, sol)]
             if size <= xtol:
+                x_new = [a - b for a, b in zip(x, sol)]
                 if gtol is None or res <= gtol:
                     res_new = self.residual(x_new, lam)  # the accepted state's own residual
                     if gtol is None or res_new <= gtol:
-                        return (x_new, res_new, pd, x, factor), it, ""
+                        st = pd if self.stability is None else self.stability(x, lam)
+                        return (x_new, res_new, st, x, factor), it, ""
                 elif res > 0.5 * prev_res:
                     return None, it, f"residual {res:.3g} stalls above gtol {gtol:.3g}"
             elif size > 1e6:
                 return None, it, "Newton diverged"
+            elif cap is not None:  # damping: the update shortened as a whole
+                over = max(abs(s) * c for s, c in zip(sol, cap))
+                if over > 1.0:
+                    sol = [s / over for s in sol]
             prev_res = res
-            x = x_new
+            x = [a - b for a, b in zip(x, sol)]
         return None, self.max_iter, f"no convergence in {self.max_iter} its"
 
 
@@ -177,6 +207,8 @@ def minimize_path_small(
     max_cuts: int = 10,
     fixed: Sequence[int] = (),
     load_gradient: Callable | None = None,
+    max_step: Sequence[float] | None = None,
+    stability: Callable | None = None,
 ) -> PathResult:
     """``continuation.minimize_path`` (symmetric H, positive-definiteness stability, branch
     keeping) on plain floats for ``len(x0) <= MAX_N`` unknowns; see the module docstring."""
@@ -184,7 +216,10 @@ def minimize_path_small(
     n = len(x)
     inv = [1.0 / float(s) for s in scale] if scale is not None else [1.0] * n
     fixed = tuple(int(i) for i in fixed)
-    newton = _Newton(grad_hess, n, fixed, inv, xtol, gtol, max_iter)
+    cap = None
+    if max_step is not None:  # 1 / (scale * max_step): |dx_i| * cap_i <= 1 per update
+        cap = [w / float(m) for w, m in zip(inv, max_step)]
+    newton = _Newton(grad_hess, n, fixed, inv, xtol, gtol, max_iter, cap, stability)
     out_f, out_x, out_it, out_cut, out_res, out_stab = [], [], [], [], [], []
 
     def result(ok: bool, reason: str) -> PathResult:
