@@ -91,8 +91,8 @@ class PRBModel:
             return "flexural rigidity EI of the beam is not given"
         return beam
 
-    def applies_to(self, scene: Scene) -> str | None:
-        """None if this PRB model can solve the scene, else the reason."""
+    def _prepare(self, scene: Scene) -> tuple[Cantilever, tuple] | str:
+        """The cantilever and its ``setup``, or the reason this model declines the scene."""
         beam = self._beam(scene)
         if isinstance(beam, str):
             return beam
@@ -102,15 +102,19 @@ class PRBModel:
         nj = int(np.isfinite(s[0][:, 0]).sum())
         if beam.guided and nj < 2:
             return "a guided tip needs at least two PRB joints (tip angle held at zero)"
-        return None
+        return beam, s
+
+    def applies_to(self, scene: Scene) -> str | None:
+        """None if this PRB model can solve the scene, else the reason."""
+        ready = self._prepare(scene)
+        return ready if isinstance(ready, str) else None
 
     def solve(self, scene: Scene) -> Solution:
         """Equilibrium path of the scene's load ramp."""
-        reason = self.applies_to(scene)
-        if reason is not None:
-            return not_applicable(scene, self.name, reason)
-        beam = self._beam(scene)
-        matrix, rot_factor, note = self.setup(beam)
+        ready = self._prepare(scene)  # checked and set up once
+        if isinstance(ready, str):
+            return not_applicable(scene, self.name, ready)
+        beam, (matrix, rot_factor, note) = ready
         chain = PRBChain(matrix, beam.L, beam.EI, beam.EA)
         f1 = np.array([beam.fx, beam.fy, 0.0 if beam.guided else beam.m])
         path = equilibrium_path(chain, f1, load_factors(scene), guided=beam.guided)

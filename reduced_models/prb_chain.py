@@ -22,6 +22,7 @@ answer, and would make the PRB's cost the elastica's.)
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import TYPE_CHECKING
 
@@ -110,12 +111,21 @@ class PRBChain:
         # spring stiffness in psi: sum K_p (psi_p - psi_{p-1})^2 / 2 -> tridiagonal K_psi
         Kn = np.append(self.Kt[1:], 0.0)
         self._kd, self._ko = self.Kt + Kn, -self.Kt[1:]
-        self._Kpsi = np.diag(self._kd) + np.diag(self._ko, 1) + np.diag(self._ko, -1)
-        self._ab = np.zeros((3, self.nj))  # K_psi in band storage
-        self._ab[0, 1:] = self._ko
-        self._ab[1] = self._kd
-        self._ab[2, :-1] = self._ko
         self.banded = self.ne == 0 and self.nj > 12
+
+    @functools.cached_property
+    def _Kpsi(self) -> np.ndarray:
+        """K_psi dense (nj, nj) (built on first use: the float path never needs it)."""
+        return np.diag(self._kd) + np.diag(self._ko, 1) + np.diag(self._ko, -1)
+
+    @functools.cached_property
+    def _ab(self) -> np.ndarray:
+        """K_psi in band storage (3, nj)."""
+        ab = np.zeros((3, self.nj))
+        ab[0, 1:] = self._ko
+        ab[1] = self._kd
+        ab[2, :-1] = self._ko
+        return ab
 
     # -- kinematics (x may be one state (n,) or a stack (m, n)) ------------------------------
     def _links(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -123,6 +123,7 @@ class _Newton:
         self.gh, self.n, self.fixed = grad_hess, n, fixed
         self.inv_scale, self.xtol, self.gtol, self.max_iter = inv_scale, xtol, gtol, max_iter
         self.cap, self.stability = cap, stability
+        self.unit = all(w == 1.0 for w in inv_scale)  # unit scales: no products per update
 
     def evaluate(self, x: list, lam: float) -> tuple[list, tuple]:
         """Residual and Hessian: ``(d, e)`` tridiagonal or a dense list of rows."""
@@ -172,7 +173,7 @@ class _Newton:
                 sol = _solve(factor, g, n)
             except ZeroDivisionError as exc:
                 return None, it, f"singular tangent ({exc})"
-            size = max(abs(s * w) for s, w in zip(sol, inv))
+            size = max(map(abs, sol)) if self.unit else max(abs(s * w) for s, w in zip(sol, inv))
             if not math.isfinite(size):
                 return None, it, "singular tangent"
             if size <= xtol:
