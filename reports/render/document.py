@@ -81,18 +81,18 @@ def verdict(case: Mapping, recs: Sequence[Mapping]) -> list[Block]:
     out: list[Block] = [("p", _reference_line(case, recs))]
     p = FP.pick(recs)
     groups = FP.declines(recs)
-    n_na = sum(len(v) for v in groups.values())
-    if (
-        p is None
-        and n_na
-        and all(
-            r["status"] == "not-applicable" or r.get("is_reference") or r.get("role") != "model"
-            for r in recs
-        )
-    ):
-        reason = max(groups, key=lambda k: len(groups[k]))
-        out.append(("p", f"All {n_na} reduced models decline this scene ({reason})."))
-        return out
+    if p is None:
+        n_na = sum(len(v) for v in groups.values())
+        if len(groups) == 1:
+            ((reason, models),) = groups.items()
+            return out + [
+                (
+                    "p",
+                    f"No reduced model solved this scene: every other model "
+                    f"({n_na}) declines it: {reason}.",
+                )
+            ]
+        out.append(("p", "No reduced model solved this scene."))
     if p is not None:
         speed = "" if p["ratio"] is None else f", {p['ratio']:.3g}x faster than the reference"
         if p["within"]:

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import json
 import math
+import textwrap
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -31,6 +32,13 @@ from reports.tables import unit_names
 
 SAME_AS_REF = 1e-3  # a model this close to the reference looks identical: named, not drawn
 PIVOT_MAX_POINTS = 16  # a member drawn with this few points is a chain of rigid segments
+
+
+def _values(rec: Mapping, key: str) -> np.ndarray:
+    """``factor``, ``energy`` or an output along a record's steps (NaN where missing)."""
+    if key == "energy":
+        return np.array([np.nan if s.get("energy") is None else s["energy"] for s in rec["steps"]])
+    return _series(rec, key)
 
 
 def _pts(raw: Sequence) -> np.ndarray:
@@ -78,6 +86,7 @@ def _draw_scene(
             line = ax.plot(p[:, 0], p[:, 1], "-", color=colour, lw=lw, alpha=alpha)[0]
             if pivots and len(p) <= PIVOT_MAX_POINTS:
                 ax.plot(p[1:-1, 0], p[1:-1, 1], "o", color=colour, ms=3.2, alpha=alpha)
+                ends["_pivots"] = ends.get("_pivots", 0) + max(len(p) - 2, 0)
         ends[member] = [float(v) for v in line.get_xydata()[-1]]
     return ends
 
@@ -114,7 +123,9 @@ def shapes_figure(
     nrow = math.ceil(len(recs) / ncol)
     aspect = (yr[1] - yr[0]) / max(xr[1] - xr[0], 1e-300)
     h = min(max(2.6 * aspect, 1.4), 3.2)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(2.7 * ncol, h * nrow + 0.6), squeeze=False)
+    width = 2.7 if ncol >= 3 else 6.0 / ncol  # panels of a one- or two-panel figure are larger
+    h *= width / 2.7
+    fig, axes = plt.subplots(nrow, ncol, figsize=(width * ncol, h * nrow + 0.6), squeeze=False)
     drawn: dict[str, dict] = {}
     for ax, r in zip(axes.flat, recs):
         for p in (meta.get("undeformed") or {}).values():
@@ -125,7 +136,7 @@ def shapes_figure(
         steps = _steps_of(r)
         colour = "k" if r is ref_rec else cmap.get(r["model"], "C0")
         pivots = r["model"].startswith("prb")
-        drawn[r["model"]] = {}
+        drawn[r["model"]] = {"pivots": 0}
         for j, i in enumerate(sorted(steps)):
             alpha = 0.25 + 0.75 * (j + 1) / len(steps)
             shapes = {m: p for m, p in steps[i].items()}
@@ -135,6 +146,7 @@ def shapes_figure(
                 if len(p)
             }
             ends = _draw_scene(ax, clipped, kinds, colour, alpha, pivots)
+            drawn[r["model"]]["pivots"] += ends.pop("_pivots", 0)
             for p in shapes.values():
                 if len(p):
                     clip_mark(ax, p[:, 0], p[:, 1], xr, yr, colour)
@@ -162,18 +174,19 @@ def shapes_figure(
     for ax in axes.flat[len(recs) :]:
         ax.set_visible(False)
     unit = unit_names(meta.get("units", ""))["length"] or "–"
-    skipped = f"\nnot drawn (within {SAME_AS_REF:g} of the reference): {', '.join(close)}"
-    fig.suptitle(
+    skipped = f"not drawn (within {SAME_AS_REF:g} of the reference): {', '.join(close)}"
+    skipped = "\n" + textwrap.fill(skipped, int(16 * width * ncol))
+    title = (
         f"deformed scene along the path [{unit}]: light = early steps, dark = last; "
         "grey = reference at its last step; dots = PRB pivots; hollow = off-scale"
-        + (skipped if close else ""),
-        fontsize=7,
     )
+    chars = int(16 * width * ncol)  # ~16 characters per inch at 7 pt
+    fig.suptitle(textwrap.fill(title, chars) + (skipped if close else ""), fontsize=7)
     fig.subplots_adjust(
         left=0.05,
         right=0.98,
         bottom=0.06,
-        top=1 - 0.6 / (h * nrow + 0.6) - 0.02,
+        top=1 - 0.75 / (h * nrow + 0.6),
         wspace=0.25,
         hspace=0.35,
     )
@@ -186,8 +199,8 @@ def _driver_panels(meta: Mapping, recs: Sequence[Mapping]) -> list[tuple[str, st
     u = unit_names(meta.get("units", ""))
     keys = {k for r in recs for s in r["steps"][:1] for k in s["outputs"]}
     panels = []
-    if any(np.any(np.isfinite(_series(r, "energy"))) for r in recs if r.get("steps")):
-        vals = [e for r in recs for e in _series(r, "energy") if np.isfinite(e)]
+    if any(np.any(np.isfinite(_values(r, "energy"))) for r in recs if r.get("steps")):
+        vals = [e for r in recs for e in _values(r, "energy") if np.isfinite(e)]
         if vals and max(abs(v) for v in vals) > 0:
             panels.append(("energy", f"strain energy [{u['energy'] or '–'}]"))
     for k in sorted(keys):
@@ -216,7 +229,7 @@ def driver_figure(
         return None
     recs.sort(key=lambda r: r["model"] == ref)
     ref_rec = next((r for r in recs if r["model"] == ref), None)
-    fig, axes = plt.subplots(1, len(panels), figsize=(3.6 * len(panels) + 1.6, 3.2), squeeze=False)
+    fig, axes = plt.subplots(1, len(panels), figsize=(10.0, 3.2), squeeze=False)
     drawn: dict[str, dict] = {}
     driver = (meta.get("analysis") or {}).get("driver") or {}
     u = unit_names(meta.get("units", ""))
@@ -227,9 +240,9 @@ def driver_figure(
         xlabel = "load factor [–]"
     for ax, (key, ylabel) in zip(axes[0], panels):
         basis = ref_rec or recs[0]
-        yr = zoom_range(_series(basis, key), 1.0)
+        yr = zoom_range(_values(basis, key), 1.0)
         for r in recs:
-            x, y = _series(r, "factor"), _series(r, key)
+            x, y = _values(r, "factor"), _values(r, key)
             if not np.any(np.isfinite(y)):
                 continue
             is_ref = r is ref_rec
@@ -264,8 +277,8 @@ def driver_figure(
     ]
     labels += ["stable equilibrium", "unstable equilibrium"]
     fig.legend(
-        handles, labels, loc="center left", bbox_to_anchor=(0.84, 0.5), fontsize=6.5, frameon=False
+        handles, labels, loc="center left", bbox_to_anchor=(0.80, 0.5), fontsize=6.5, frameon=False
     )
-    fig.subplots_adjust(left=0.08, right=0.83, bottom=0.17, top=0.95, wspace=0.35)
+    fig.subplots_adjust(left=0.08, right=0.78, bottom=0.17, top=0.95, wspace=0.4)
     path.with_suffix(".json").write_text(json.dumps({"curves": drawn}))
     return _save(fig, path)
