@@ -94,7 +94,7 @@ def verdict(case: Mapping, recs: Sequence[Mapping]) -> list[Block]:
             ]
         out.append(("p", "No reduced model solved this scene."))
     if p is not None:
-        speed = "" if p["ratio"] is None else f", {p['ratio']:.3g}x faster than the reference"
+        speed = "" if p["ratio"] is None else f", {FP.fmt_speed(p['ratio'])} than the reference"
         if p["within"]:
             text = (
                 f"Pick: {p['model']} (error {FP.fmt_err(p['error'])}, "

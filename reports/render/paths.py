@@ -58,6 +58,9 @@ def path_figure(
     outside: dict[str, int] = {}
     for ax, q in zip(axes, QUANTITIES):
         key = f"{out}.{q}"
+        if all(roundoff(_series(r, key)) for r in recs):
+            _roundoff_panel(ax, f"{key} [{_unit(meta, q)}]")
+            continue
         basis = ref_rec or recs[0]
         xr = zoom_range(_series(basis, key), length if q != "rot" else 1.0)
         yr = zoom_range(_series(basis, "factor"), 1.0)
@@ -82,7 +85,7 @@ def path_figure(
         ax.tick_params(labelsize=7)
         ax.grid(alpha=0.3)
     axes[0].set_ylabel("load factor (driver coordinate for energy analyses)", fontsize=7)
-    handles, labels = axes[0].get_legend_handles_labels()
+    handles, labels = max((ax.get_legend_handles_labels() for ax in axes), key=lambda h: len(h[0]))
     labels = [f"{lab} ({outside[lab]} off-scale)" if outside.get(lab) else lab for lab in labels]
     fig.legend(
         handles,
@@ -96,6 +99,27 @@ def path_figure(
     )
     fig.subplots_adjust(left=0.06, right=0.79, bottom=0.16, top=0.95, wspace=0.3)
     return _save(fig, path)
+
+
+def roundoff(v: np.ndarray) -> bool:
+    """All finite values below ``ROUNDOFF`` in magnitude (noise, not data)."""
+    f = v[np.isfinite(v)]
+    return bool(f.size == 0 or np.max(np.abs(f)) < ROUNDOFF)
+
+
+def _roundoff_panel(ax: Any, label: str) -> None:
+    ax.text(
+        0.5,
+        0.5,
+        "0 (< 1e-12) on every path",
+        ha="center",
+        va="center",
+        fontsize=8,
+        transform=ax.transAxes,
+    )
+    ax.set_xticks([])
+    ax.set_yticks([])
+    ax.set_xlabel(label, fontsize=8)
 
 
 def step_errors(rec: Mapping, ref_rec: Mapping, out: str, length: float) -> tuple:
@@ -192,6 +216,10 @@ def _history_groups(hist: Mapping, meta: Mapping) -> list[tuple[str, list[str]]]
     return [(lab, keys) for lab, keys in groups if keys]
 
 
+def _hist_values(hist: Mapping, key: str) -> np.ndarray:
+    return np.asarray([np.nan if x is None else x for x in hist[key]], dtype=float)
+
+
 def history_figure(meta: Mapping, records: Sequence[Mapping], path: Path) -> Path | None:
     """The replay's time history as stacked panels sharing the time axis: load factor,
     energies, displacements, rotations (units from the case)."""
@@ -204,6 +232,8 @@ def history_figure(meta: Mapping, records: Sequence[Mapping], path: Path) -> Pat
         (lab, [k for k in keys if len(hist[k]) == t.size])
         for lab, keys in _history_groups(hist, meta)
     ]
+    zero = [k for _, keys in groups for k in keys if roundoff(_hist_values(hist, k))]
+    groups = [(lab, [k for k in keys if k not in zero]) for lab, keys in groups]
     groups = [g for g in groups if g[1]]
     if not groups or t.size == 0:
         return None
@@ -212,13 +242,13 @@ def history_figure(meta: Mapping, records: Sequence[Mapping], path: Path) -> Pat
     )
     for ax, (label, keys) in zip(axes[:, 0], groups):
         for k in keys:
-            v = np.asarray([np.nan if x is None else x for x in hist[k]], dtype=float)
-            ax.plot(t, v, lw=1, label=k)
+            ax.plot(t, _hist_values(hist, k), lw=1, label=k)
         ax.set_ylabel(label, fontsize=7)
         ax.tick_params(labelsize=6)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=6, frameon=False, loc="center left", bbox_to_anchor=(1.0, 0.5))
     time_unit = "s" if "-" in (meta.get("units") or "") else "–"
-    axes[-1, 0].set_xlabel(f"time [{time_unit}] ({recs[0]['model']})", fontsize=7)
+    note = f"; {', '.join(zero)} = 0 (< 1e-12) throughout" if zero else ""
+    axes[-1, 0].set_xlabel(f"time [{time_unit}] ({recs[0]['model']}{note})", fontsize=7)
     fig.subplots_adjust(left=0.12, right=0.8, bottom=0.1, top=0.97, hspace=0.15)
     return _save(fig, path)
