@@ -8,7 +8,8 @@ pieces of a pair record the report draws from (shapes along the path, how a scen
 
 * ``basis = "path"``: ``error`` is the largest deviation from the reference path over the
   load factors both reached (``reports.errors``): translations divided by the length scale
-  L (``error_unit = "L"``, value_unit = the case's length unit), rotations in rad, anything
+  L (``error_unit = "L"``, value_unit = the case's length unit, ``1`` when
+  dimensionless), rotations in rad, anything
   else relative to its largest reference magnitude (``"rel"``).
 * ``basis = "published"``: one row per published/closed-form reference check, ``error``
   relative (``"rel"``) unless the reference gives an absolute tolerance (``"abs"``).
@@ -66,11 +67,11 @@ def _quantity_units(key: str, units: str) -> tuple[str, str]:
     q = key.rsplit(".", 1)[-1]
     u = unit_names(units)
     if key != "factor" and q in E.TRANSLATIONS:
-        return "L", u["length"]
+        return "L", u["length"] or "1"
     if q == "rot":
         return "rad", "rad"
     if key.startswith("driver.force"):
-        return "rel", u["force"]
+        return "rel", u["force"] or "1"
     return "rel", ""
 
 
