@@ -206,10 +206,10 @@ def _history_groups(hist: Mapping, meta: Mapping) -> list[tuple[str, list[str]]]
     energy = [k for k in ("kinetic", "strain", "dissipated", "external_work") if k in hist]
     groups = [("load factor [–]", [k for k in ("factor",) if k in hist])]
     groups.append((f"energy [{u['energy'] or '–'}]", energy))
-    for q, label in (("ux", "ux"), ("uy", "uy"), ("rot", "rotation")):
-        keys = [k for k in hist if k.endswith("." + q)]
-        unit = "rad" if q == "rot" else (u["length"] or "–")
-        groups.append((f"{label} [{unit}]", keys))
+    groups.append(
+        (f"displacement [{u['length'] or '–'}]", [k for k in hist if k.endswith((".ux", ".uy"))])
+    )
+    groups.append(("rotation [rad]", [k for k in hist if k.endswith(".rot")]))
     rest = [k for k in hist if k != "t" and not any(k in g for _, g in groups)]
     rest = [k for k in rest if not k.endswith((".x", ".y"))]  # positions repeat ux, uy
     groups.append(("other", rest))
