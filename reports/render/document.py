@@ -95,6 +95,7 @@ def verdict(case: Mapping, recs: Sequence[Mapping]) -> list[Block]:
         out.append(("p", "No reduced model solved this scene."))
     if p is not None:
         speed = "" if p["ratio"] is None else f", {FP.fmt_speed(p['ratio'])} than the reference"
+        speed = ", the reference itself" if p["ratio"] == 1.0 else speed
         if p["within"]:
             text = (
                 f"Pick: {p['model']} (error {FP.fmt_err(p['error'])}, "

@@ -49,6 +49,8 @@ def fmt_speed(ratio: float | None) -> str:
     """Reference time / model time as ``3.2x faster`` or ``2.4x slower``."""
     if ratio is None or ratio <= 0:
         return "–"
+    if ratio == 1.0:
+        return "is the reference"
     return f"{ratio:.3g}x faster" if ratio >= 1 else f"{1 / ratio:.3g}x slower"
 
 
@@ -84,7 +86,8 @@ def judged(recs: Sequence[Mapping]) -> list[Mapping]:
 
 def is_reduced(model: str, role: str | None = "model") -> bool:
     """A model a designer would pick (not an FE/replay reference, not a timing baseline)."""
-    return role == "model" and not model.startswith(REFERENCE_PREFIXES)
+    exact = model in EXACT_MODELS  # the exact model is a choice even where it is the reference
+    return (role == "model" or exact) and not model.startswith(REFERENCE_PREFIXES)
 
 
 def candidates(recs: Sequence[Mapping]) -> list[dict]:
