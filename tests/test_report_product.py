@@ -17,7 +17,12 @@ from reports.render import figures, mechfig, slug
 from tests.test_report import MODELS, dummies  # noqa: F401  (fixture)
 from tests.test_runner import dummy_scene
 
-SMALL_CASES = ("cantilever-tip-load", "das2d-ex5-constant-force", "bistable-toggle")
+SMALL_CASES = (
+    "cantilever-tip-load",
+    "pure-moment-rollup",
+    "das2d-ex5-constant-force",
+    "bistable-toggle",
+)
 SMALL_MODELS = ["prb-3r", "linear-1", "elastica"]
 
 
@@ -218,3 +223,35 @@ def test_plain_log_and_eta_from_measured_pair_times():
     bar.close()
     text = log.getvalue()
     assert "\r" not in text and text.count("\n") == 4 and "4/4 pairs" in text
+
+
+def test_front_page_pick_and_overall_plot_over_common_cases(small):
+    from reports.render import frontpage as FP
+
+    data = _results(small)
+    head, rows = FP.pick_table(data)
+    picks = {str(r[0]): str(r[2]) for r in rows}
+    recs = [r for r in data["results"] if r["case"] == "cantilever-tip-load"]
+    time = {r["model"]: r["timing"]["median_s"] for r in recs if r.get("timing")}
+    err = {
+        r["model"]: (0.0 if r["model"] == "elastica" else r["summary_error"])
+        for r in recs
+        if r["model"] in SMALL_MODELS and r["status"] == "converged"
+    }
+    good = [m for m, e in err.items() if e <= FP.TOLERANCE]
+    assert picks["cantilever-tip-load"] == min(good, key=time.get)
+    assert picks["bistable-toggle"].startswith("none")
+    models, common, _ = FP.common_set(data)
+    drawn = json.loads((small.out_dir / "figures" / "overall-pareto.json").read_text())["points"]
+    assert sorted(p["model"] for p in drawn) == sorted(models) and common
+    for p in drawn:  # worst error and geometric-mean time over exactly the common cases
+        vals = [
+            (r["timing"]["median_s"], 0.0 if r["is_reference"] else r["summary_error"])
+            for r in data["results"]
+            if r["model"] == p["model"] and r["case"] in common
+        ]
+        assert len(vals) == len(common)
+        assert p["error"] == max(e for _, e in vals)
+        assert p["time"] == pytest.approx(np.exp(np.mean(np.log([t for t, _ in vals]))))
+    html = (small.out_dir / "report.html").read_text()
+    assert f"Over the {len(common)} cases every plotted model solved" in html
