@@ -119,11 +119,11 @@ def shapes_figure(
     ref_steps = _steps_of(ref_rec) if ref_rec else {}
     kinds = meta.get("member_kinds") or {}
     xr, yr = _frame(meta, ref_steps or _steps_of(recs[0]))
-    ncol = min(4, len(recs))
+    ncol = min(5, len(recs))
     nrow = math.ceil(len(recs) / ncol)
     aspect = (yr[1] - yr[0]) / max(xr[1] - xr[0], 1e-300)
     h = min(max(2.6 * aspect, 1.4), 3.2)
-    width = 2.7 if ncol >= 3 else 6.0 / ncol  # panels of a one- or two-panel figure are larger
+    width = {1: 6.0, 2: 3.6, 3: 2.9}.get(ncol, 2.4)  # inches per panel: few panels, larger
     h *= width / 2.7
     fig, axes = plt.subplots(nrow, ncol, figsize=(width * ncol, h * nrow + 0.6), squeeze=False)
     drawn: dict[str, dict] = {}
