@@ -113,6 +113,16 @@ def verdict(case: Mapping, recs: Sequence[Mapping]) -> list[Block]:
     return out
 
 
+def stability(rec: Mapping) -> str:
+    """``18 / 2`` stable / unstable reported equilibria (``–`` when not assessed)."""
+    flags = [s.get("stable") for s in rec.get("steps") or ()]
+    if all(f is None for f in flags):
+        return "–"
+    n_none = sum(f is None for f in flags)
+    text = f"{sum(f is True for f in flags)} / {sum(f is False for f in flags)}"
+    return text + (f" ({n_none} not assessed)" if n_none else "")
+
+
 def _model_rows(case: Mapping, recs: Sequence[Mapping]) -> tuple[list[str], list[list]]:
     out = case.get("primary_output")
     keys = [f"{out}.{q}" for q in ("ux", "uy", "rot")] if out else []
@@ -125,6 +135,7 @@ def _model_rows(case: Mapping, recs: Sequence[Mapping]) -> tuple[list[str], list
         "vs ref",
         "summary error",
         *(f"err {k}" for k in keys),
+        "equilibria stable / unstable",
         "note",
     ]
     rows = []
@@ -158,6 +169,7 @@ def _model_rows(case: Mapping, recs: Sequence[Mapping]) -> tuple[list[str], list
                     FP.error_class(e) if e is not None else None,
                 ),
                 *(FP.fmt_err(per.get(k)) for k in keys),
+                stability(r),
                 "; ".join(n for n in notes if n),
             ]
         )
