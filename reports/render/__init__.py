@@ -52,6 +52,7 @@ def case_points(records: Sequence[Mapping], uncertainty: float | None = None) ->
                 "tmax": t.get("max_s"),
                 "ok": r["status"] == "converged",
                 "kind": kind,
+                "exact": r["model"] in EXACT_MODELS,
             }
         )
     return pts

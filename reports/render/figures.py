@@ -143,8 +143,8 @@ def pareto_figure(
     ``results.json``.
     """
     pts = [p for p in points if p.get("time") and p["time"] > 0 and p.get("error") is not None]
-    if not pts:
-        return None
+    if not any(p.get("kind") != "reference" for p in pts):
+        return None  # nothing to compare with the reference
     resolved = [p["error"] for p in pts if p["error"] >= ROUNDOFF]
     if floor and floor >= ROUNDOFF:
         resolved.append(floor)
@@ -163,7 +163,8 @@ def pareto_figure(
         lo, hi = p.get("tmin") or x, p.get("tmax") or x
         if kind == "reference":
             style = {"fmt": "*", "color": "k", "ms": 12}
-            label = f"{p['model']} (reference{', exact' if e < ROUNDOFF else ''})"
+            how = "exact" if p.get("exact") else "at its own error estimate"
+            label = f"{p['model']} (reference, {how})"
         else:
             mk = "D" if kind == "exact" else (marker_of(p["model"], cmap) if p["ok"] else "x")
             style = {"fmt": mk, "color": cmap.get(p["model"], "C0"), "ms": 6}
