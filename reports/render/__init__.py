@@ -216,6 +216,9 @@ def render_report(
     backend = None if not render else ("matplotlib" if pyvista is False else "auto")
     figs = render_figures(payload, out, backend)
     blocks = build_document(payload, figs)
+    if (out / "teaching.html").is_file():  # written by `flexbench teach` (render/teaching.py)
+        note = "Teaching page: model cards, validity atlases, which model to use per case"
+        blocks.insert(2, ("links", note, [("teaching.html", "teaching.html")]))
     html_path, md_path = out / "report.html", out / "report.md"
     html_path.write_text(to_html(blocks, "FlexBench report"), encoding="utf-8")
     md_path.write_text(to_markdown(blocks), encoding="utf-8")

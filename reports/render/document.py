@@ -16,6 +16,7 @@ import re
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from reports import grading
 from reports.render import frontpage as FP
 from reports.render.cells import Cell
 
@@ -76,10 +77,10 @@ def _reference_line(case: Mapping, recs: Sequence[Mapping]) -> str:
     return f"Reference: {ref} ({what}; {t}){note}."
 
 
-def verdict(case: Mapping, recs: Sequence[Mapping]) -> list[Block]:
+def verdict(case: Mapping, recs: Sequence[Mapping], tol: float = FP.TOLERANCE) -> list[Block]:
     """The case's answer in two or three lines: reference, pick, declines."""
     out: list[Block] = [("p", _reference_line(case, recs))]
-    p = FP.pick(recs)
+    p = FP.pick(recs, tol)
     groups = FP.declines(recs)
     if p is None:
         n_na = sum(len(v) for v in groups.values())
@@ -100,11 +101,11 @@ def verdict(case: Mapping, recs: Sequence[Mapping]) -> list[Block]:
             text = (
                 f"Pick: {p['model']} (error {FP.fmt_err(p['error'])}, "
                 f"{FP.fmt_time(p['time'])}{speed}); {p['n_good']} of {p['n_solved']} "
-                f"models that solved the case are within {FP.TOLERANCE:g}."
+                f"models that solved the case are within {tol:g}."
             )
         else:
             text = (
-                f"No model is within {FP.TOLERANCE:g}; the most accurate is {p['model']} "
+                f"No model is within {tol:g}; the most accurate is {p['model']} "
                 f"(error {FP.fmt_err(p['error'])}, {FP.fmt_time(p['time'])}{speed})."
             )
         out.append(("p", text))
@@ -134,6 +135,7 @@ def _model_rows(case: Mapping, recs: Sequence[Mapping]) -> tuple[list[str], list
         "[min, max] ×n",
         "vs ref",
         "summary error",
+        "grade",
         *(f"err {k}" for k in keys),
         "equilibria stable / unstable",
         "note",
@@ -147,6 +149,14 @@ def _model_rows(case: Mapping, recs: Sequence[Mapping]) -> tuple[list[str], list
         per = err.get("per_output") or {}
         notes = [] if r["status"] == "converged" else [r.get("message") or ""]
         notes += r.get("warnings") or []
+        fid = (r.get("extras") or {}).get("fidelity")
+        if isinstance(fid, Mapping):  # *-auto models: the N they chose for their target
+            notes.append(
+                f"chose N = {fid.get('n')} (tried {fid.get('sequence')}; estimate "
+                f"{FP.fmt_err(fid.get('estimate'))}, target {FP.fmt_err(fid.get('target'))})"
+            )
+        if (r.get("grade") or {}).get("validity_warning"):
+            notes.append("⚠ " + r["grade"]["validity_warning"])
         if err.get("coverage") is not None and err["coverage"] < 0.999:
             notes.append(f"reached {err['coverage']:.0%} of the reference path")
         if err.get("interpolated"):
@@ -168,6 +178,7 @@ def _model_rows(case: Mapping, recs: Sequence[Mapping]) -> tuple[list[str], list
                     FP.fmt_err(e) + (" (refs)" if r.get("summary_basis") == "references" else ""),
                     FP.error_class(e) if e is not None else None,
                 ),
+                grading.label(r.get("grade")),
                 *(FP.fmt_err(per.get(k)) for k in keys),
                 stability(r),
                 "; ".join(n for n in notes if n),
@@ -211,10 +222,12 @@ def _reference_blocks(case: Mapping, recs: Sequence[Mapping]) -> list[Block]:
     return blocks
 
 
-def case_blocks(name: str, case: Mapping, recs: Sequence[Mapping], figs: Mapping) -> list:
+def case_blocks(
+    name: str, case: Mapping, recs: Sequence[Mapping], figs: Mapping, tol: float = FP.TOLERANCE
+) -> list:
     """One case's section."""
     blocks: list[Block] = [("h2", f"{case.get('title') or name} ({name})", FP.anchor(name))]
-    blocks += verdict(case, recs)
+    blocks += verdict(case, recs, tol)
     for kind in FIGURE_ORDER:
         if figs.get(kind):
             width = 600 if kind == "render" else None
@@ -337,7 +350,8 @@ def build_document(payload: Mapping, figures: Mapping[str, Mapping[str, Any]]) -
         )
     )
     blocks += [("h2", "Which model to pick", "pick"), ("table", *FP.pick_table(payload))]
-    blocks.append(("p", FP.PICK_RULE))
+    blocks.append(("p", FP.pick_rule(FP.tolerance(payload))))
+    blocks.append(("p", grading.summary_text((payload.get("config") or {}).get("tolerance"))))
     blocks += [("h2", "Accuracy map", "accuracy"), ("table", *FP.accuracy_map(payload))]
     blocks.append(
         (
@@ -367,7 +381,7 @@ def build_document(payload: Mapping, figures: Mapping[str, Mapping[str, Any]]) -
         blocks.append(("p", PARAVIEW_NOTE))
     for name, case in cases.items():
         recs = [r for r in results if r["case"] == name]
-        blocks += case_blocks(name, case, recs, figures.get(name, {}))
+        blocks += case_blocks(name, case, recs, figures.get(name, {}), FP.tolerance(payload))
     blocks += card_blocks(payload.get("models") or {})
     if bad:
         items = [

@@ -1,6 +1,6 @@
 """The front page: which model to pick per case, which models are accurate where, how fast.
 
-Rules the page states (``PICK_RULE``): a model is *good enough* on a case when it converged
+Rules the page states (``pick_rule``): a model is *good enough* on a case when it converged
 over the whole reference path and its summary error (largest deviation over the path, as a
 fraction of the length scale L or in rad) is at most ``TOLERANCE``; the *pick* is the fastest
 good-enough model (median wall time); when none is good enough the most accurate one is named
@@ -19,12 +19,21 @@ TOLERANCE = 1e-2
 ROUNDOFF = 1e-12
 EXACT_MODELS = ("elastica", "elastica-bvp")  # exact beam theory (closed form / BVP)
 REFERENCE_PREFIXES = ("fem-", "replay")  # references, not candidates for the pick
-PICK_RULE = (
-    f"Pick = the fastest model (median wall time) whose summary error is at most "
-    f"{TOLERANCE:g} (1 % of the length scale L, or 0.01 rad) over the whole reference path; "
-    "when no model meets it, the most accurate one is named. Colours in the accuracy map: "
-    f"green <= {TOLERANCE:g}, amber <= {10 * TOLERANCE:g}, red above; grey = not applicable."
-)
+
+
+def pick_rule(tol: float = TOLERANCE) -> str:
+    """The rule the front page applies, in words."""
+    return (
+        f"Pick = the fastest model (median wall time) whose summary error is at most {tol:g} "
+        f"({tol * 100:g} % of the length scale L, or {tol:g} rad) over the whole reference "
+        "path; when no model meets it, the most accurate one is named. Colours in the accuracy "
+        f"map: green <= {tol:g}, amber <= {10 * tol:g}, red above; grey = not applicable."
+    )
+
+
+def tolerance(payload: Mapping) -> float:
+    """The run's tolerance (``flexbench run --tol``), else ``TOLERANCE``."""
+    return (payload.get("config") or {}).get("tolerance") or TOLERANCE
 
 
 def fmt_err(x: float | None) -> str:
@@ -59,11 +68,11 @@ def anchor(case: str) -> str:
     return "case-" + "".join(c if c.isalnum() or c in "-_" else "-" for c in case)
 
 
-def error_class(err: float | None) -> str:
+def error_class(err: float | None, tol: float = TOLERANCE) -> str:
     """CSS class of an error cell."""
     if err is None:
         return "na"
-    return "good" if err <= TOLERANCE else ("warn" if err <= 10 * TOLERANCE else "bad")
+    return "good" if err <= tol else ("warn" if err <= 10 * tol else "bad")
 
 
 def _time(rec: Mapping) -> float | None:
@@ -106,7 +115,7 @@ def candidates(recs: Sequence[Mapping]) -> list[dict]:
 
 
 def pick(recs: Sequence[Mapping], tol: float = TOLERANCE) -> dict[str, Any] | None:
-    """The pick of one case (see ``PICK_RULE``): ``{"model", "error", "time", "ratio",
+    """The pick of one case (see ``pick_rule``): ``{"model", "error", "time", "ratio",
     "within"}`` (``within``: good enough?) or None when no model has an error."""
     cands = candidates(recs)
     if not cands:
@@ -146,9 +155,10 @@ def pick_table(payload: Mapping) -> tuple[list[str], list[list]]:
         "most accurate approximate model",
     ]
     rows = []
+    tol = tolerance(payload)
     for name, case in payload["cases"].items():
         recs = [r for r in payload["results"] if r["case"] == name]
-        p = pick(recs)
+        p = pick(recs, tol)
         ref = case.get("reference") or "–"
         link = Cell(name, href="#" + anchor(name), title=case.get("title"))
         if p is None:
@@ -158,13 +168,13 @@ def pick_table(payload: Mapping) -> tuple[list[str], list[list]]:
             continue
         approx = [r for r in candidates(recs) if r["model"] not in EXACT_MODELS]
         acc = min(approx, key=lambda r: (r["summary_error"], _time(r))) if approx else None
-        label = p["model"] if p["within"] else f"none within {TOLERANCE:g}"
+        label = p["model"] if p["within"] else f"none within {tol:g}"
         rows.append(
             [
                 link,
                 ref,
-                Cell(label, error_class(p["error"]) if p["within"] else "bad"),
-                Cell(fmt_err(p["error"]), error_class(p["error"])),
+                Cell(label, error_class(p["error"], tol) if p["within"] else "bad"),
+                Cell(fmt_err(p["error"]), error_class(p["error"], tol)),
                 fmt_time(p["time"]),
                 fmt_speed(p["ratio"]),
                 f"{p['n_good']} / {p['n_solved']}",
@@ -178,6 +188,7 @@ def accuracy_map(payload: Mapping) -> tuple[list[str], list[list]]:
     """Case x model matrix of summary errors (coloured cells; hover: wall time)."""
     models = sorted({r["model"] for r in payload["results"]})
     head = ["case", *models]
+    tol = tolerance(payload)
     rows = []
     for name in payload["cases"]:
         by = {r["model"]: r for r in payload["results"] if r["case"] == name}
@@ -195,7 +206,9 @@ def accuracy_map(payload: Mapping) -> tuple[list[str], list[list]]:
             else:
                 e = r.get("summary_error")
                 tip = f"{fmt_time(_time(r))}; {r['status']}"
-                row.append(Cell(fmt_err(e).replace(" (< 1e-12)", ""), error_class(e), title=tip))
+                row.append(
+                    Cell(fmt_err(e).replace(" (< 1e-12)", ""), error_class(e, tol), title=tip)
+                )
         rows.append(row)
     return head, rows
 
