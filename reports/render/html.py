@@ -20,7 +20,8 @@ nav a { color: #124; text-decoration: none; } nav a:hover { text-decoration: und
 main { padding: 0 1.5em 3em; max-width: 1250px; }
 h1 { border-bottom: 2px solid #444; margin-top: 0.4em; }
 h2 { border-bottom: 1px solid #aaa; margin-top: 1.6em; }
-table { border-collapse: collapse; font-size: 0.8em; margin: 0.5em 0; }
+table { border-collapse: collapse; font-size: 0.8em; margin: 0.5em 0; display: block;
+        overflow-x: auto; max-width: 100%; }
 th, td { border: 1px solid #ccc; padding: 2px 6px; text-align: left; vertical-align: top; }
 th { background: #f0f0f0; } tr:nth-child(even) td { background: #fafafa; }
 td.good { background: #d9f2d9 !important; } td.warn { background: #fbeccb !important; }
