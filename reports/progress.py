@@ -3,7 +3,7 @@ otherwise, and one line per later stage (writing results, rendering the report).
 
 The ETA is built from measured pair times, not from the average so far: the runner starts
 the heavy pairs (FE references, replays) first, so "elapsed / done * remaining" overestimates
-the tail by an order of magnitude.  A remaining pair is estimated by the mean measured time of
+the tail by an order of magnitude.  A remaining pair is estimated by the median measured time of
 finished pairs of the same model, else of the same weight class (heavy / light), else of all
 finished pairs; the sum is divided by the number of workers that can still be busy.
 """
@@ -80,7 +80,7 @@ class Progress:
         for model, heavy in self.pending:
             same = self.measured.get((model, heavy)) or by_class.get(heavy)
             bound = bound or not same
-            left += statistics.fmean(same) if same else min(all_t)
+            left += statistics.median(same) if same else min(all_t)
         return left / min(self.workers, max(1, len(self.pending))), bound
 
     def _finish(self, rec: Mapping | None) -> None:
