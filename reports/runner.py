@@ -41,12 +41,11 @@ import math
 import multiprocessing
 import os
 import signal
-import sys
 import threading
 import time
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
-from typing import Any, TextIO
+from typing import Any
 
 from cases.schema import Scene
 from reports import api, errors, store, timing
@@ -58,6 +57,8 @@ from reports.exports import (
     export_outputs,
     start_render_probe,
 )
+from reports.progress import Progress, stage
+from reports.tables import previous_records, scene_drawing, step_shapes, write_errors_csv
 
 
 @dataclasses.dataclass(frozen=True)
@@ -152,6 +153,7 @@ def case_meta(scene: Scene) -> dict[str, Any]:
         "primary_output": scene.outputs[0].name if scene.outputs else None,
         "references": [dataclasses.asdict(r) for r in scene.references],
         "undeformed": undeformed,
+        **scene_drawing(scene),
         "scene_hash": scene_hash(scene),
     }
 
@@ -297,6 +299,7 @@ def solve_task(task: dict) -> dict:
         times = timing.repeat(lambda: None, first, policy)
     trace = sol.extras.get("traceback") if isinstance(sol.extras, Mapping) else None
     steps, shapes, warnings = store.steps_json(sol)
+    more = {"shape_steps": store.jsonable(step_shapes(sol))}  # report: shapes along the path
     exports, export_warnings = export_outputs(task, sol)
     return store.record(
         base,
@@ -310,6 +313,7 @@ def solve_task(task: dict) -> dict:
         warnings=warnings + export_warnings,
         traceback=trace,
         exports=store.jsonable(exports),
+        **more,
     )
 
 
@@ -460,38 +464,6 @@ def execute(
     return run_pool(tasks, min(workers, len(tasks)), time_limit)
 
 
-class Progress:
-    """``[#####.....] 12/40  0:05 elapsed  ETA 0:07  case / model`` on a TTY, silent otherwise."""
-
-    def __init__(self, total: int, stream: TextIO | None = None, enabled: bool | None = None):
-        self.total, self.done, self.t0 = total, 0, time.monotonic()
-        self.stream = stream or sys.stderr
-        self.enabled = self.stream.isatty() if enabled is None else enabled
-
-    @staticmethod
-    def _clock(s: float) -> str:
-        s = int(round(s))
-        return f"{s // 60}:{s % 60:02d}"
-
-    def update(self, label: str = "") -> None:
-        self.done += 1
-        if not self.enabled or self.total == 0:
-            return
-        el = time.monotonic() - self.t0
-        eta = el / self.done * (self.total - self.done)
-        fill = int(30 * self.done / self.total)
-        bar = "#" * fill + "." * (30 - fill)
-        text = f"[{bar}] {self.done}/{self.total}  {self._clock(el)} elapsed  "
-        text += f"ETA {self._clock(eta)}  {label}"
-        self.stream.write("\r" + text[:110].ljust(110))
-        self.stream.flush()
-
-    def close(self) -> None:
-        if self.enabled and self.total:
-            self.stream.write("\n")
-            self.stream.flush()
-
-
 # -- the whole run ---------------------------------------------------------------------------
 def run_matrix(
     scenes: Sequence[Scene],
@@ -544,17 +516,20 @@ def run_matrix(
     wanted = {t["key"] for t in tasks}
     done = {
         r["key"]: r
-        for r in store.read_partial(partial)
+        for r in [
+            *([] if fresh else previous_records(out / "results.json")),
+            *store.read_partial(partial),
+        ]
         if r.get("key") in wanted and not r.get("retry")  # killed/timed out: try again
     }
     todo = [t for t in tasks if t["key"] not in done]
     records = list(done.values()) + fixed
-    bar = Progress(len(todo), enabled=progress)
+    bar = Progress(len(todo), enabled=progress, tasks=todo, workers=workers or os.cpu_count() or 1)
     try:
         for rec in execute(todo, workers, dask, time_limit):
             store.append_partial(partial, rec)
             records.append(rec)
-            bar.update(f"{rec['case']} / {rec['model']}")
+            bar.update(f"{rec['case']} / {rec['model']}", rec)
     finally:
         bar.close()
     config = {
@@ -568,6 +543,7 @@ def run_matrix(
         "timing": dataclasses.asdict(timing or (QUICK_TIMING if quick else DEFAULT_TIMING)),
         "export": dataclasses.asdict(export) if export else None,
         "render_shapes": render_shapes,
+        "history": str(Path(history) if history else out / "history.sqlite"),
     }
     payload = store.assemble(records, metas, config)
     elapsed = time.perf_counter() - t_start
@@ -580,6 +556,8 @@ def run_matrix(
     hist = Path(history) if history else out / "history.sqlite"
     store.append_history(hist, payload, str(out), elapsed)
     paths["history"] = hist
+    paths["errors.csv"] = write_errors_csv(out / "errors.csv", payload)
+    partial.unlink(missing_ok=True)  # every pair is in results.json now (resume reads it)
     result = RunResult(payload, out, paths, len(todo), len(done), elapsed)
     if render:
         if probe is not None:
@@ -587,7 +565,8 @@ def run_matrix(
         try:
             from reports.render import render_report
 
-            paths.update(render_report(payload, out, render=render_shapes))
+            with stage("rendering report", enabled=bar.mode != ""):
+                paths.update(render_report(payload, out, render=render_shapes))
         except Exception as exc:  # results are safe on disk; say what broke
             result.report_error = f"{type(exc).__name__}: {exc}"
     result.elapsed_s = time.perf_counter() - t_start
