@@ -84,7 +84,16 @@ class MechanismSystem:
         fl = 0.0
         for ld in self.scene.loads:
             fl = max(fl, math.hypot(ld.fx, ld.fy), abs(ld.moment) / Lref)
-        self.fscale = max(fl, 1e-6 * self.Kref / Lref)
+        for t in self.terms:  # preloaded torsion springs
+            if isinstance(t, TorsionTerm) and t.K.size:
+                fl = max(fl, float(np.max(np.abs(t.K * t.offset))) / Lref)
+        # driven or unloaded scenes: the force of the driver travel (at least a 1e-3 rad
+        # turn) against the stiffest part
+        drv, travel = self.scene.analysis.driver, 1e-3
+        if drv is not None:
+            span = abs(drv.stop - drv.start)
+            travel = max(travel, math.radians(span) if drv.kind == "rotation" else span / Lref)
+        self.fscale = max(fl, travel * self.Kref / Lref)
         # residual scale per unknown: forces, moments, and the p rows (EI/h x relation)
         rs = np.where(kind == "r", self.fscale * Lref, self.fscale)
         for ch in self.chains:
