@@ -322,3 +322,25 @@ def test_toggle_ma_output_kinetostatic():
     sol = solved("toggle-clamp-ma", "kinetostatic")
     w, ma = series(sol, "ma")
     np.testing.assert_allclose(ma, toggle_exact(w)[1], rtol=1e-9)
+
+
+def test_ex6_synthesised_ei_checked_by_fem_auto():
+    """DAS-2D Ex. 6: the synthesised EI (cbcm-4 inside the assembler) against the EI the FE
+    needs for a critical torque of 5 N mm (2026.73 N mm^2, from fem-auto's 4.856951 N mm on
+    Ex. 4 and torque ~ EI); the synthesised scene re-solved by the FE meets the target (fem-16:
+    its mesh error on the critical torque, 2e-4, is a fifth of the tolerance)."""
+    ex6 = cases.load("das2d-ex6-bistable-synthesis")
+    sol = solved("das2d-ex6-bistable-synthesis", "cbcm-4")
+    ei = sol.extras["synthesis"]["EI"]["rocker"]
+    assert ei == pytest.approx(1968.75 * 5.0 / 4.856950657080833, rel=1e-3)
+    rocker = ex6.member("rocker")
+    syn = dataclasses.replace(
+        ex6,
+        members=tuple(
+            dataclasses.replace(m, E=ei / m.I) if m is rocker else m for m in ex6.members
+        ),
+        analysis=dataclasses.replace(ex6.analysis, kind="energy", synthesis=None),
+    )
+    fe = reports.solve(syn, "fem-16")
+    for ref in ex6.references:
+        assert within(value_at(fe, ref.output, ref.at_factor), ref), ref.output
