@@ -344,3 +344,14 @@ def test_ex6_synthesised_ei_checked_by_fem_auto():
     fe = reports.solve(syn, "fem-16")
     for ref in ex6.references:
         assert within(value_at(fe, ref.output, ref.at_factor), ref), ref.output
+
+
+def test_ex3_snaps_near_10_n_and_is_bistable():
+    """The slides: 'observe the snapping motion after 10 N'; bistable: the force-travel curve
+    crosses zero again before the far position (fem-8 suffices: its limit load is within
+    0.5 % of fem-auto's)."""
+    sol = solved("das2d-ex3-bistable-switch", "fem-8")
+    f, ux = series(sol, "shuttle_top.ux")
+    assert 9.5 < 15.0 * f.max() < 10.5 and f.min() < 0.0 < f[-1]
+    k = int(f.argmax())
+    assert 3.0 < ux[k] < 4.5 and np.all(np.diff(f[:k]) > 0)
