@@ -262,7 +262,7 @@ def test_cbcm_converges_to_fem_auto(name, key):
 # -- closed-form literature scenes over the whole path -----------------------------------------
 def beam_column_k(N: float, EI: float, L: float) -> float:
     """Transverse stiffness of a clamped-guided beam column, tension N > 0 or compression
-    N < 0 (Timoshenko & Gere 1961, Sec. 1.11-1.13)."""
+    N < 0 (Timoshenko & Gere 1961, Ch. 1, beam-columns)."""
     u = 0.5 * L * math.sqrt(abs(N) / EI)
     if N > 0:
         return N / L * u / (u - math.tanh(u))
