@@ -61,6 +61,7 @@ class ChainTerm:
         self.alpha = np.asarray(alpha, float)
         self.member = np.asarray(member, dtype=np.int64)
         self.w = self.EI / self.h  # energy scale EI/h per segment
+        self._gpq = np.hstack([law.G.T, law.P.T, law.Q.T])
 
     def coords(self, q: np.ndarray) -> tuple[np.ndarray, ...]:
         """Segment-normalised ux, y, a, p and cos/sin of the root angle, each (S,)."""
@@ -73,10 +74,9 @@ class ChainTerm:
         return ux, y, z[:, 5] - z[:, 2], z[:, 6], c, s
 
     def _forms(self, y: np.ndarray, a: np.ndarray, p: np.ndarray) -> tuple:
-        G, P, Q = self.law.G, self.law.P, self.law.Q
-        w = np.stack([y, a], axis=1)
-        Gw, Pw, Qw = w @ G.T, w @ P.T, w @ Q.T
-        return w, Gw, Pw, Qw
+        w = np.column_stack([y, a])
+        M = w @ self._gpq  # [G w | P w | Q w] in one product
+        return w, M[:, 0:2], M[:, 2:4], M[:, 4:6]
 
     def strain(self, q: np.ndarray) -> np.ndarray:
         """Strain energy per segment (S,) at the current axial forces."""
@@ -95,49 +95,69 @@ class ChainTerm:
         )
 
     def local(self, q: np.ndarray) -> Local:
-        """Gradient (S, 7) and Hessian (S, 7, 7) of the segment Lagrangians."""
+        """Gradient (S, 7) and Hessian (S, 7, 7) of the segment Lagrangians.
+
+        The kinematic Jacobian J = d(ux, y, a, p)/d(local unknowns) and the curvature of ux
+        and y in phi0 are linear in (cos/h, sin/h, y, ux + 1, 1): one product with constant
+        patterns builds them for all segments; the law's derivatives come from
+        ``SegmentLaw.block`` (one product) when every segment has the same axial compliance.
+        """
         ux, y, a, p, c, s = self.coords(q)
-        w, Gw, Pw, Qw = self._forms(y, a, p)
-        wPw, wQw = np.einsum("ni,ni->n", w, Pw), np.einsum("ni,ni->n", w, Qw)
         n = ux.size
-        gl = np.empty((n, 4))  # d l / d(ux, y, a, p)
-        gl[:, 0] = p
-        gl[:, 1:3] = Gw + p[:, None] * Pw + (p * p)[:, None] * Qw
-        gl[:, 3] = ux + 0.5 * wPw - p * (self.k - wQw)
-        Hl = np.zeros((n, 4, 4))
-        Hl[:, 0, 3] = Hl[:, 3, 0] = 1.0
-        Hl[:, 1:3, 1:3] = self.law.G + p[:, None, None] * self.law.P
-        Hl[:, 1:3, 1:3] += (p * p)[:, None, None] * self.law.Q
-        cw = Pw + 2.0 * p[:, None] * Qw
-        Hl[:, 1:3, 3] = Hl[:, 3, 1:3] = cw
-        Hl[:, 3, 3] = -(self.k - wQw)
+        B = self._block(ux, y, a, p)  # (n, 4, 5): [d2l | dl]
+        Hl, gl = B[:, :, :4], B[:, :, 4]
         ih = 1.0 / self.h
-        J = np.zeros((n, 4, 7))
-        J[:, 0, 0], J[:, 0, 1], J[:, 0, 2], J[:, 0, 3], J[:, 0, 4] = (
-            -c * ih,
-            -s * ih,
-            y,
+        coef = np.empty((n, 5))
+        coef[:, 0], coef[:, 1], coef[:, 2], coef[:, 3], coef[:, 4] = (
             c * ih,
             s * ih,
+            y,
+            ux + 1.0,
+            1.0,
         )
-        J[:, 1, 0], J[:, 1, 1], J[:, 1, 2] = s * ih, -c * ih, -(ux + 1.0)
-        J[:, 1, 3], J[:, 1, 4] = -s * ih, c * ih
-        J[:, 2, 2], J[:, 2, 5] = -1.0, 1.0
-        J[:, 3, 6] = 1.0
-        g = np.einsum("nij,ni->nj", J, gl)
-        H = np.einsum("nki,nkl,nlj->nij", J, Hl, J)
-        # curvature of ux and y in phi0: row/column phi0 (index 2)
+        J = (coef @ _J7).reshape(n, 4, 7)
+        JT = J.transpose(0, 2, 1)
+        g = (JT @ gl[:, :, None])[:, :, 0]
+        H = JT @ (Hl @ J)
         gx, gy = gl[:, 0], gl[:, 1]
-        r = np.zeros((n, 7))
-        r[:, 0] = gx * s * ih + gy * c * ih
-        r[:, 1] = -gx * c * ih + gy * s * ih
-        r[:, 3] = -gx * s * ih - gy * c * ih
-        r[:, 4] = gx * c * ih - gy * s * ih
+        cr = np.empty((n, 6))
+        cr[:, 0], cr[:, 1], cr[:, 2] = gx * coef[:, 1], gy * coef[:, 0], gx * coef[:, 0]
+        cr[:, 3], cr[:, 4], cr[:, 5] = gy * coef[:, 1], gx * coef[:, 3], gy * y
+        r = cr @ _R7  # row/column phi0 of the curvature terms gx d2ux + gy d2y
         H[:, 2, :] += r
         H[:, :, 2] += r
-        H[:, 2, 2] += -gx * (ux + 1.0) - gy * y
         sc = self.w[:, None]
         return self.dofs, g * sc, H * sc[:, :, None]
+
+    def _block(self, ux: np.ndarray, y: np.ndarray, a: np.ndarray, p: np.ndarray) -> np.ndarray:
+        if self.k.size and np.all(self.k == self.k[0]):
+            return self.law.block(ux, y, a, p, float(self.k[0]))
+        out = np.empty((ux.size, 4, 5))
+        for kk in np.unique(self.k):
+            i = np.flatnonzero(self.k == kk)
+            out[i] = self.law.block(ux[i], y[i], a[i], p[i], float(kk))
+        return out
+
+
+# constant patterns: J (4 x 7, flat) and the phi0 curvature row (7) from their coefficients
+_J7 = np.zeros((5, 4, 7))
+_J7[0, 0, [0, 3]] = _J7[0, 1, [1, 4]] = (-1.0, 1.0)  # cos/h
+_J7[1, 0, [1, 4]] = (-1.0, 1.0)  # sin/h
+_J7[1, 1, [0, 3]] = (1.0, -1.0)
+_J7[2, 0, 2] = 1.0  # y: d ux / d phi0
+_J7[3, 1, 2] = -1.0  # ux + 1: d y / d phi0
+_J7[4, 2, [2, 5]] = (-1.0, 1.0)  # a = phi1 - phi0
+_J7[4, 3, 6] = 1.0  # p
+_J7 = _J7.reshape(5, 28)
+# r = gx * (si, -ci, ., -si, ci) + gy * (ci, si, ., -ci, -si) - (gx xi + gy y) e_phi0 / 2:
+# the diagonal term is added twice (row and column), hence the halves
+_R7 = np.zeros((6, 7))
+_R7[0, [0, 3]] = (1.0, -1.0)  # gx si
+_R7[1, [0, 3]] = (1.0, -1.0)  # gy ci
+_R7[2, [1, 4]] = (-1.0, 1.0)  # gx ci
+_R7[3, [1, 4]] = (1.0, -1.0)  # gy si
+_R7[4, 2] = -0.5  # gx (ux + 1)
+_R7[5, 2] = -0.5  # gy y
 
 
 class JointTerm:

@@ -88,18 +88,18 @@ def synthesise(scene: Scene, name: str, spec_of: Callable[[Member], tuple]) -> S
         else:
             s1 = target / v0 if v0 > 0 else 1.0
         x0, f0 = 0.0, math.log(abs(v0)) - math.log(abs(target))
-        x1 = math.log(s1)
-        its = 1
-        for its in range(1, MAX_IT + 1):
+        x1, its = math.log(s1), 1
+        while True:
             v1, run = evaluate(math.exp(x1))
-            f1 = math.log(abs(v1)) - math.log(abs(target)) if v1 * target > 0 else math.inf
+            its += 1
             if abs(v1 - target) <= RTOL * abs(target):
                 break
+            f1 = math.log(abs(v1)) - math.log(abs(target)) if v1 * target > 0 else math.inf
             if not math.isfinite(f1) or f1 == f0:
                 raise RuntimeError("response does not reach the target (sign or plateau)")
+            if its > MAX_IT:
+                raise RuntimeError(f"no convergence in {MAX_IT} secant steps")
             x0, f0, x1 = x1, f1, x1 - f1 * (x1 - x0) / (f1 - f0)
-        else:
-            raise RuntimeError(f"no convergence in {MAX_IT} secant steps")
     except SceneError as err:
         return not_applicable(scene, name, str(err))
     except RuntimeError as err:
@@ -112,7 +112,7 @@ def synthesise(scene: Scene, name: str, spec_of: Callable[[Member], tuple]) -> S
         "achieved": v1,
         "scale": s,
         "EI": {m.id: m.E * s * m.I for m in scene.members if m.id in syn.members},
-        "evaluations": its + 1,
+        "evaluations": its,
     }
-    msg = f"EI scaled by {s:.6g} ({its + 1} analyses); {syn.goal} = {v1:.6g}"
+    msg = f"EI scaled by {s:.6g} ({its} analyses); {syn.goal} = {v1:.6g}"
     return Solution(scene.name, name, "converged", msg, tuple(run.steps), extras)
