@@ -218,3 +218,85 @@ BASE["slider-crank-angle"] = dict(
     loads=[dict(id="p", node="S", fx=-5.0)],
     outputs=[("s", "S"), ("b", "B")],
 )
+# 11 pinned-pinned flexible member with torsion springs to ground at both ends and an end moment
+BASE["moment-pinned"] = dict(
+    nodes=[("A", 0, 0), ("B", 80, 0)],
+    members=[dict(id="beam", **{"from": "A", "to": "B"}, end_a="pin", end_b="pin", **F)],
+    supports=[dict(node="A", type="pin"), dict(node="B", type="slider", angle_deg=30.0)],
+    springs=[dict(id="t", node="A", member_a="beam", stiffness=300.0)],
+    loads=[dict(id="m", node="B", moment=20.0)],
+    outputs=[("b", "B")],
+)
+# 12 four-bar with compliant rocker, preloaded torsion spring between coupler and crank,
+#    slider-free; crank loaded by a moment; mixed per-member models
+BASE["fourbar-preload-mixed"] = dict(
+    nodes=[("O", 0, 0), ("B", 0, 15), ("C", 35, 23), ("D", 35, -20)],
+    members=[
+        dict(id="crank", **{"from": "O", "to": "B"}, kind="rigid", end_b="pin"),
+        dict(id="coupler", **{"from": "B", "to": "C"}, kind="rigid", end_a="pin", end_b="pin"),
+        dict(id="rocker", **{"from": "D", "to": "C"}, end_b="pin", model="prb-3r", **F),
+    ],
+    supports=[dict(node="O", type="pin"), dict(node="D", type="clamp")],
+    springs=[
+        dict(
+            id="t",
+            node="B",
+            member_a="coupler",
+            member_b="crank",
+            stiffness=100.0,
+            free_angle_deg=5.0,
+        )
+    ],
+    loads=[dict(id="m", node="O", moment=-30.0)],
+    outputs=[("c", "C"), ("b", "B")],
+)
+# 13 linear spring between two moving nodes (two cantilevers tied by a spring), load on one
+BASE["spring-between"] = dict(
+    nodes=[("A", 0, 0), ("B", 50, 0), ("C", 0, 20), ("D", 50, 20)],
+    members=[
+        dict(id="one", **{"from": "A", "to": "B"}, **F),
+        dict(id="two", **{"from": "C", "to": "D"}, **F),
+        dict(id="tie", **{"from": "B", "to": "D"}, kind="spring", k=0.3),
+    ],
+    supports=[dict(node="A", type="clamp"), dict(node="C", type="clamp")],
+    loads=[dict(id="p", node="D", fy=1.5)],
+    outputs=[("b", "B"), ("d", "D")],
+)
+# 14 flexible von Mises truss (two pinned flexible bars), load past the snap-through limit
+BASE["flex-vonmises-past-snap"] = dict(
+    nodes=[("L", 0, 0), ("C", 50, 5), ("R", 100, 0)],
+    members=[
+        dict(
+            id="l",
+            **{"from": "L", "to": "C"},
+            end_a="pin",
+            end_b="pin",
+            kind="flexible",
+            E=2300.0,
+            width=10.0,
+            thickness=2.0,
+        ),
+        dict(
+            id="r",
+            **{"from": "C", "to": "R"},
+            end_a="pin",
+            end_b="pin",
+            kind="flexible",
+            E=2300.0,
+            width=10.0,
+            thickness=2.0,
+        ),
+    ],
+    supports=[dict(node="L", type="pin"), dict(node="R", type="pin")],
+    loads=[dict(id="p", node="C", fy=-60.0)],
+    outputs=[("c", "C")],
+    steps=20,
+)
+# 15 clamped-clamped beam (both welded), load at a fraction 0.7 (closed-form small-deflection)
+BASE["clamped-clamped-fraction"] = dict(
+    nodes=[("A", 0, 0), ("B", 100, 0)],
+    members=[dict(id="beam", **{"from": "A", "to": "B"}, **F)],
+    supports=[dict(node="A", type="clamp"), dict(node="B", type="clamp")],
+    loads=[dict(id="p", member="beam", fraction=0.7, fy=-0.05)],
+    outputs=[("a", "A")],
+)

@@ -61,3 +61,33 @@ def test_hostile_scene_matches_fem(name: str, model: str, tol: float, variant: s
     scale = max(abs(v) for v in r.values())
     for k in r:
         assert abs(m[k] - r[k]) <= tol * scale, (k, m[k], r[k])
+
+
+@pytest.mark.parametrize("model", ["prb-1r", "prb-3r"])
+def test_prb_layout_does_not_depend_on_drawing_direction(model: str) -> None:
+    """PRB pivots are placed from the held end: the knee frame drawn tip-to-clamp (members
+    and nodes reversed, rotated) gives the same displacements as drawn clamp-to-tip."""
+    got = []
+    for variant in ("mm", "reversed"):
+        t = transform(BASE["pinned-knee"], **VARIANTS[variant])
+        sol = solve(cases.loads(emit("pinned-knee", t), variant), model)
+        assert sol.ok, sol.message
+        got.append(_local(sol, t))
+    scale = max(abs(v) for v in got[0].values())
+    for k in got[0]:
+        assert abs(got[1][k] - got[0][k]) <= 1e-9 * scale, (k, got[1][k], got[0][k])
+
+
+@pytest.mark.parametrize("model", ["linear-8"])
+def test_load_path_past_buckling_is_flagged(model: str) -> None:
+    """A pinned column at 1.5 x the Euler load: fem-auto follows the buckled branch (end
+    shortening > 60 % of L); inextensible reduced models stay straight, which is an
+    equilibrium but an unstable one: the steps say so and the message names the remedy."""
+    t = transform(BASE["column-postbuckled"])
+    scene = cases.loads(emit("column", t), "column")
+    ref, sol = solve(scene, "fem-auto"), solve(scene, model)
+    assert ref.ok and abs(ref.steps[-1].outputs["b.ux"]) > 60.0
+    assert sol.ok, sol.message
+    assert abs(sol.steps[-1].outputs["b.ux"]) < 0.1  # the straight branch
+    assert sol.steps[-1].stable is False
+    assert "unstable" in sol.message and "path" in sol.message
