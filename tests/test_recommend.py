@@ -156,7 +156,11 @@ def test_answers_every_catalog_case():
     for name in cases.catalog_names():
         rec = recommend(name, "1%", cost=unknowns)
         out = json.loads(json.dumps(rec.as_json(), allow_nan=False))
-        assert out["reason"] and out["candidates"], name
+        assert out["reason"], name
+        # without a reference (synthesis: fem-auto solves no synthesis) nothing is measured
+        assert out["candidates"] or (
+            out["recommended"] is None and "no reference" in out["reason"]
+        ), name
         assert out["recommended"] is None or any(
             c["model"] == out["recommended"] and c["qualifies"] for c in out["candidates"]
         )
