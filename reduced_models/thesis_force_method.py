@@ -473,12 +473,18 @@ class ThesisForceMethod:
     @staticmethod
     def _step(scene: Scene, chain: Chain, pos: np.ndarray, factor: float, boom_id: str) -> Step:
         where = dict(zip(chain.nodes, pos))
+        turn = angles(pos) - angles(
+            np.array([[scene.node(j).x, scene.node(j).y] for j in chain.nodes])
+        )
+        turn = (turn + math.pi) % (2 * math.pi) - math.pi  # bar rotations (rad)
         out = {}
         for o in scene.outputs:
             n = scene.node(o.node)
             x, y = where.get(o.node, (n.x, n.y))
+            # rot: the first member listed at the node (schema convention)
+            first = next(i for i, m in enumerate(scene.members) if o.node in (m.a, m.b))
             out |= {f"{o.name}.x": x, f"{o.name}.y": y, f"{o.name}.ux": x - n.x}
-            out |= {f"{o.name}.uy": y - n.y, f"{o.name}.rot": math.nan}
+            out |= {f"{o.name}.uy": y - n.y, f"{o.name}.rot": float(turn[first])}
         tip = pos[chain.tip]
         out[f"{boom_id}.length"] = float(math.hypot(tip[0] - chain.base[0], tip[1] - chain.base[1]))
         return Step(factor=factor, outputs=out)
