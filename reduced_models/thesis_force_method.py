@@ -188,7 +188,7 @@ class ForceMethodState:
         )
         self.K = np.diag([s[2] for s in chain.springs])
         U, S, Vt = np.linalg.svd(self.A)
-        self.rank = int(np.linalg.matrix_rank(self.A))
+        self.rank = int(np.sum(S > max(self.A.shape) * np.finfo(float).eps * S[0]))  # rank()
         self.U, self.S, self.V = U, S, Vt.T
         self.M = U[:, self.rank :]
         self.R = self.R_rows.T @ self.M
