@@ -34,7 +34,13 @@ _ENTRIES: dict[str, str] = {
     "prb-fsm-N": "reduced_models.prb:PRBFSM",
     "prb-custom": "reduced_models.prb:PRBCustom",
     "thesis-force-method": "reduced_models.thesis_force_method:ThesisForceMethod",
+    "kinetostatic": "reduced_models.mechanism.model:Kinetostatic",
+    "mixed": "reduced_models.mechanism.model:Mixed",
 }
+# single-beam families: scenes that are not a plain cantilever go to the mechanism assembler
+_SINGLE_BEAM = tuple(
+    f"reduced_models.{m}:" for m in ("elastica", "elastica_bvp", "linear", "bcm", "prb")
+)
 
 # concrete names a default benchmark run tries on every case
 DEFAULT_NAMES: tuple[str, ...] = (
@@ -52,6 +58,8 @@ DEFAULT_NAMES: tuple[str, ...] = (
     "prb-2rpr",
     "prb-fsm-4",
     "prb-fsm-16",
+    "kinetostatic",
+    "mixed",
 )
 
 
@@ -103,6 +111,10 @@ def build(name: str, target: str, n: int | None, options: dict | None = None) ->
     kwargs = dict(options or {})
     model = make_(n, **kwargs) if n is not None else make_(**kwargs)
     model.name = name
+    if target.startswith(_SINGLE_BEAM):
+        from reduced_models.mechanism.model import Dispatch
+
+        model = Dispatch(model, name, options)
     return model
 
 
