@@ -437,7 +437,7 @@ class Replay:
 
     def applies_to(self, scene: Scene) -> str | None:
         """None, or why the replay cannot run ``scene``."""
-        if scene.analysis.kind != "load" and self.factors is None:
+        if scene.analysis.kind not in ("load", "deploy") and self.factors is None:
             return f"{scene.analysis.kind} analyses: the replay only ramps a load factor"
         try:
             build(scene, 1)
@@ -450,6 +450,10 @@ class Replay:
         reason = self.applies_to(scene)
         if reason:
             return not_applicable(scene, self.name, reason)
+        if scene.analysis.kind == "deploy":  # the scene's booms are the lock events
+            from fem_reference.deploy import replay_deploy
+
+            return replay_deploy(scene, self)
         system = build(scene, self.n_elements)
         lams = load_factors(scene) if self.factors is None else self.factors
         return replay_system(system, lams, scene=scene, case=scene.name, options=self.options)
