@@ -509,6 +509,9 @@ def render_report(
     backend = None if not render else ("matplotlib" if pyvista is False else "auto")
     figs = render_figures(payload, out, backend)
     blocks = build_document(payload, figs)
+    from reports.render import stability_maps  # deploy verdicts and sweep maps (issue 10)
+
+    blocks += stability_maps.blocks(payload, out)
     html_path, md_path = out / "report.html", out / "report.md"
     html_path.write_text(to_html(blocks, "FlexBench report"), encoding="utf-8")
     md_path.write_text(to_markdown(blocks), encoding="utf-8")
