@@ -57,7 +57,7 @@ class FEDeploy:
     ) -> tuple[np.ndarray, float, int]:
         """Equilibrium with push ``push``; length held at ``target`` (None: free)."""
         n = self.sys.ndof
-        step = np.inf
+        step, prev = np.inf, np.inf
         for it in range(MAX_ITER + 1):
             r, K = self.sys.residual_and_tangent(q, 0.0)
             ell, G, H = self.pair.geometry(q)
@@ -67,8 +67,11 @@ class FEDeploy:
             c = ell - target if held else 0.0
             res = float(np.max(np.abs(R)))
             # converged: residual at 1e-10 of the push, or within the FE's round-off floor
-            # (stiff rigid-link elements) once the corrections are at round-off themselves
-            small = res <= 1e-10 * self.fs or (res <= self.tol and step <= 1e-13 * self.L)
+            # (stiff rigid-link elements) once Newton stops gaining: corrections at
+            # round-off or the residual no longer halving
+            floor = step <= 1e-13 * self.L or res > 0.5 * prev
+            small = res <= 1e-10 * self.fs or (res <= self.tol and floor)
+            prev = res
             if small and abs(c) <= 1e-13 * self.L:
                 return q, mu, it
             if it == MAX_ITER:
@@ -173,6 +176,12 @@ def replay_deploy(scene: Scene, model: object) -> Solution:
     opts = replace(model.options, locks=locks, probe="last")
     system = build(scene, model.n_elements)
     sol = replay_system(system, np.array([0.0]), scene=scene, case=scene.name, options=opts)
+    if sol.status == "failed" and "locating the boom lock" in sol.message:
+        # the lock search re-integrates one step at fractions of it; a step that large can
+        # fail Newton there: once more with ten times tighter local error (smaller steps)
+        opts = replace(opts, lte_tol=opts.lte_tol / 10)
+        sol = replay_system(system, np.array([0.0]), scene=scene, case=scene.name, options=opts)
+        sol = replace(sol, message=sol.message + " (retried with lte_tol / 10)")
     if not sol.steps:
         return Solution(scene.name, model.name, sol.status, sol.message, (), sol.extras)
     boom = scene.booms[0]
