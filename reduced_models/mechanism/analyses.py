@@ -7,6 +7,7 @@
   ``Step.factor`` = driver coordinate (degrees for a rotation), outputs ``driver.force`` /
   ``driver.torque`` = the force the driver exerts along +coordinate; ``extras["equilibria"]``
   lists where it crosses zero (stable: energy minimum along the driver) and ``barrier``.
+* ``path``: arc-length continuation (``pathfollow``), ``Step.factor`` = load factor.
 * ``kinematics``: constraints only (no flexible members): position analysis along the
   driver, Gauss-Newton with minimum-norm steps; mobility checked.
 """
@@ -111,9 +112,8 @@ class Run:
         d = self.solver.driver_index()
         for k, v in enumerate(vals):
             if k:
-                st = follow(
-                    self.solver, st, float(vals[k - 1]), float(v), apply, "driver", lam_free
-                )
+                t0 = float(vals[k - 1])
+                st = follow(self.solver, st, t0, float(v), apply, "driver", lam_free, rate=scale)
             if lam_free:
                 self.record(st, st.lam, False)
             else:
@@ -219,6 +219,10 @@ def run(sysm: MechanismSystem, kind: str) -> Run:
             r.driver(kind)
         elif kind == "kinematics":
             r.kinematics()
+        elif kind == "path":
+            from reduced_models.mechanism.pathfollow import run_path
+
+            run_path(r)
         else:
             raise ValueError(kind)
     except (SolveError, np.linalg.LinAlgError, FloatingPointError) as err:

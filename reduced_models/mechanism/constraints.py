@@ -55,6 +55,9 @@ class Closure:
         self.alpha = np.asarray(seg_alpha, float)
         self.m = 2 * len(self.ends)
         self.has_u = self.u >= 0
+        # curvature pairs (angle, stretch); without a stretch the angle repeats (zero block)
+        self.cidx = np.column_stack([self.ang, np.where(self.has_u, self.u, self.ang)])
+        self._pattern()
 
     def _seg(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         psi = self.alpha + q[self.ang]
@@ -74,27 +77,28 @@ class Closure:
 
     def jacobian(self, q: np.ndarray) -> Triplets:
         c, s, ell = self._seg(q)
+        u = self.has_u
+        vals = np.concatenate([self._ends_vals, ell * s, -ell * c, -c[u], -s[u]])
+        return self._rows, self._cols, vals
+
+    def _pattern(self) -> None:
+        """Row/column pattern of the Jacobian (constant; values change with q)."""
         C = len(self.ends)
         r = 2 * np.arange(C)
         xa, xb = self.ends[:, 0], self.ends[:, 1]
-        rows = [r, r, r + 1, r + 1]
-        cols = [xb, xa, xb + 1, xa + 1]
-        vals = [np.ones(C), -np.ones(C), np.ones(C), -np.ones(C)]
-        rs = 2 * self.chain
-        rows += [rs, rs + 1]
-        cols += [self.ang, self.ang]
-        vals += [ell * s, -ell * c]
-        u = self.has_u
-        rows += [rs[u], rs[u] + 1]
-        cols += [self.u[u], self.u[u]]
-        vals += [-c[u], -s[u]]
-        return np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
+        rs, u = 2 * self.chain, self.has_u
+        self._rows = np.concatenate([r, r, r + 1, r + 1, rs, rs + 1, rs[u], rs[u] + 1])
+        self._cols = np.concatenate(
+            [xb, xa, xb + 1, xa + 1, self.ang, self.ang, self.u[u], self.u[u]]
+        )
+        one = np.ones(C)
+        self._ends_vals = np.concatenate([one, -one, one, -one])
 
     def curvature(self, q: np.ndarray, mu: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         c, s, ell = self._seg(q)
         mx, my = mu[2 * self.chain], mu[2 * self.chain + 1]
         u = self.has_u
-        idx = np.column_stack([self.ang, np.where(u, self.u, self.ang)])
+        idx = self.cidx
         H = np.zeros((len(c), 2, 2))
         H[:, 0, 0] = ell * (mx * c + my * s)
         cross = np.where(u, mx * s - my * c, 0.0)
@@ -110,6 +114,7 @@ class Linear:
         self.rows: list[tuple[np.ndarray, np.ndarray]] = []
         self.b: list[float] = []
         self.names: list[str] = []
+        self._flat: tuple | None = None
 
     @property
     def m(self) -> int:
@@ -123,16 +128,19 @@ class Linear:
         return len(self.rows) - 1
 
     def values(self, q: np.ndarray) -> np.ndarray:
-        return np.array([a @ q[i] for i, a in self.rows]) - np.array(self.b)
+        rows, cols, vals = self.jacobian(q)
+        return np.bincount(rows, vals * q[cols], minlength=self.m) - np.asarray(self.b)
 
     def jacobian(self, q: np.ndarray) -> Triplets:
         if not self.rows:
             z = np.zeros(0)
             return z.astype(np.int64), z.astype(np.int64), z
-        rows = np.concatenate([np.full(len(i), k) for k, (i, _) in enumerate(self.rows)])
-        cols = np.concatenate([i for i, _ in self.rows])
-        vals = np.concatenate([a for _, a in self.rows])
-        return rows, cols, vals
+        if self._flat is None or len(self._flat[0]) != len(self.rows):
+            rows = np.concatenate([np.full(len(i), k) for k, (i, _) in enumerate(self.rows)])
+            cols = np.concatenate([i for i, _ in self.rows])
+            vals = np.concatenate([a for _, a in self.rows])
+            self._flat = (list(self.rows), rows, cols, vals)
+        return self._flat[1], self._flat[2], self._flat[3]
 
     def curvature(self, q: np.ndarray, mu: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return np.zeros((0, 1), np.int64), np.zeros((0, 1, 1))

@@ -61,6 +61,7 @@ class ChainTerm:
         self.alpha = np.asarray(alpha, float)
         self.member = np.asarray(member, dtype=np.int64)
         self.w = self.EI / self.h  # energy scale EI/h per segment
+        self._gpq = np.hstack([law.G.T, law.P.T, law.Q.T])
 
     def coords(self, q: np.ndarray) -> tuple[np.ndarray, ...]:
         """Segment-normalised ux, y, a, p and cos/sin of the root angle, each (S,)."""
@@ -73,10 +74,9 @@ class ChainTerm:
         return ux, y, z[:, 5] - z[:, 2], z[:, 6], c, s
 
     def _forms(self, y: np.ndarray, a: np.ndarray, p: np.ndarray) -> tuple:
-        G, P, Q = self.law.G, self.law.P, self.law.Q
-        w = np.stack([y, a], axis=1)
-        Gw, Pw, Qw = w @ G.T, w @ P.T, w @ Q.T
-        return w, Gw, Pw, Qw
+        w = np.column_stack([y, a])
+        M = w @ self._gpq  # [G w | P w | Q w] in one product
+        return w, M[:, 0:2], M[:, 2:4], M[:, 4:6]
 
     def strain(self, q: np.ndarray) -> np.ndarray:
         """Strain energy per segment (S,) at the current axial forces."""
@@ -112,27 +112,25 @@ class ChainTerm:
         Hl[:, 1:3, 3] = Hl[:, 3, 1:3] = cw
         Hl[:, 3, 3] = -(self.k - wQw)
         ih = 1.0 / self.h
+        ci, si = c * ih, s * ih
         J = np.zeros((n, 4, 7))
-        J[:, 0, 0], J[:, 0, 1], J[:, 0, 2], J[:, 0, 3], J[:, 0, 4] = (
-            -c * ih,
-            -s * ih,
-            y,
-            c * ih,
-            s * ih,
-        )
-        J[:, 1, 0], J[:, 1, 1], J[:, 1, 2] = s * ih, -c * ih, -(ux + 1.0)
-        J[:, 1, 3], J[:, 1, 4] = -s * ih, c * ih
+        J[:, 0, 0], J[:, 0, 1], J[:, 0, 2], J[:, 0, 3], J[:, 0, 4] = -ci, -si, y, ci, si
+        J[:, 1, 0], J[:, 1, 1], J[:, 1, 2], J[:, 1, 3], J[:, 1, 4] = si, -ci, -(ux + 1.0), -si, ci
         J[:, 2, 2], J[:, 2, 5] = -1.0, 1.0
         J[:, 3, 6] = 1.0
-        g = np.einsum("nij,ni->nj", J, gl)
-        H = np.einsum("nki,nkl,nlj->nij", J, Hl, J)
-        # curvature of ux and y in phi0: row/column phi0 (index 2)
         gx, gy = gl[:, 0], gl[:, 1]
+        g = np.empty((n, 7))
+        g[:, 0] = -ci * gx + si * gy
+        g[:, 1] = -si * gx - ci * gy
+        g[:, 2] = y * gx - (ux + 1.0) * gy - gl[:, 2]
+        g[:, 3], g[:, 4] = -g[:, 0], -g[:, 1]
+        g[:, 5], g[:, 6] = gl[:, 2], gl[:, 3]
+        H = J.transpose(0, 2, 1) @ (Hl @ J)
+        # curvature of ux and y in phi0: row/column phi0 (index 2)
         r = np.zeros((n, 7))
-        r[:, 0] = gx * s * ih + gy * c * ih
-        r[:, 1] = -gx * c * ih + gy * s * ih
-        r[:, 3] = -gx * s * ih - gy * c * ih
-        r[:, 4] = gx * c * ih - gy * s * ih
+        r[:, 0] = gx * si + gy * ci
+        r[:, 1] = -gx * ci + gy * si
+        r[:, 3], r[:, 4] = -r[:, 0], -r[:, 1]
         H[:, 2, :] += r
         H[:, :, 2] += r
         H[:, 2, 2] += -gx * (ux + 1.0) - gy * y

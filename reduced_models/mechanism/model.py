@@ -15,6 +15,8 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+import numpy as np
+
 from cases.schema import Member, Scene
 from reduced_models import prb_tables as T
 from reduced_models.base import Model, ModelCard, Solution, not_applicable
@@ -25,7 +27,7 @@ from reduced_models.mechanism.system import SceneError, build
 from reduced_models.prb_chain import check_matrix
 from reduced_models.single_beam import cantilever_of
 
-ANALYSES = ("load", "distance", "energy", "kinematics", "synthesis", "deploy")
+ANALYSES = ("load", "path", "distance", "energy", "kinematics", "synthesis", "deploy")
 _PRB_FIXED = {
     "prb-short": lambda o: T.PRB_SHORT,
     "prb-2r": lambda o: T.PRB_2R,
@@ -84,6 +86,27 @@ def _check_scene(scene: Scene) -> str | None:
     return None
 
 
+def _held(scene: Scene, node: str, member: str) -> bool:
+    """Is the node tied to something other than this member (support or another member)?"""
+    if scene.support_at(node) is not None:
+        return True
+    return any(m.id != member and node in (m.a, m.b) for m in scene.members)
+
+
+def _locked_prb(scene: Scene, name: str, spec: tuple, flex: list[Member]) -> str | None:
+    """A one-joint PRB member welded at both ends to held nodes cannot bend (its end-b
+    section turns with its only link, so both end rotations fix the link): decline."""
+    if spec[0] != "prb" or int(np.isfinite(spec[1][:, 0]).sum()) >= 2:
+        return None
+    for m in flex:
+        if m.end_a == m.end_b == "weld" and _held(scene, m.a, m.id) and _held(scene, m.b, m.id):
+            return (
+                f"{name} has one PRB joint: member {m.id!r} is welded at both ends (fixed-guided) "
+                "and needs two joints (Howell: two 1R halves); use prb-3r or prb-fsm-N"
+            )
+    return None
+
+
 class MechanismModel:
     """A reduced model name applied to every flexible member of a mechanism scene."""
 
@@ -127,7 +150,9 @@ class MechanismModel:
         if scene.analysis.kind == "kinematics":
             return "kinematics (rigid-body motion) needs a scene without flexible members"
         _, spec = self.spec_of(scene)
-        return spec if isinstance(spec, str) else None
+        if isinstance(spec, str):
+            return spec
+        return _locked_prb(scene, self.name, spec, flex)
 
     def solve(self, scene: Scene) -> Solution:
         """Run the scene's analysis (never raises for a numerical failure)."""
@@ -197,6 +222,9 @@ class Mixed(MechanismModel):
             spec = member_spec(m.model, m.model_options)
             if isinstance(spec, str):
                 return f"member {m.id!r}: {spec}"
+            locked = _locked_prb(scene, m.model, spec, [m])
+            if locked:
+                return locked
         return None
 
     def solve(self, scene: Scene) -> Solution:

@@ -43,6 +43,8 @@ class State:
     lam: float
     iterations: int = 0
     residual: float = 0.0
+    K: np.ndarray | None = None  # KKT matrix at this state (reused by tangent/stability)
+    lam_free: bool = False
 
 
 class Solver:
@@ -65,23 +67,20 @@ class Solver:
     def kkt(self, st: State, lam_free: bool = False) -> tuple[np.ndarray, np.ndarray, float]:
         """Residual (nf + m,) and KKT matrix at a state; the scaled residual norm."""
         s, f = self.s, self.f
-        g, H = s.grad_hess(st.q, st.lam)
-        c, J = s.cons(st.q)
         mu = st.mu.copy()
         d = self.driver_index()
         if lam_free:
             mu[d] = 0.0
-        W = H + s.curvature(st.q, mu)
-        Jf = J[:, f]
-        r = g[f] + Jf.T @ mu
+        g, W, c, Jf = s.reduced(st.q, st.lam, mu)
+        r = g + Jf.T @ mu
         nf, m = self.nf, len(c)
-        K = np.zeros((nf + m, nf + m))
-        K[:nf, :nf] = W[np.ix_(f, f)]
+        K = np.empty((nf + m, nf + m))
+        K[:nf, :nf] = W
         K[:nf, nf:] = Jf.T
         K[nf:, :nf] = Jf
+        K[nf:, nf:] = 0.0
         if lam_free:
-            gl, _ = s.load_grad_hess(st.q)
-            K[:nf, nf + d] = gl[f]
+            K[:nf, nf + d] = s.reduced_load(st.q)
         if self.cs is None:
             self.cs = s.cscale()
         res = max(
@@ -104,7 +103,7 @@ class Solver:
             if not np.all(np.isfinite(R)):
                 raise SolveError("non-finite residual")
             if res <= self.tol:
-                return State(q, mu, lam, it, res)
+                return State(q, mu, lam, it, res, K, lam_free)
             if it == self.max_iter or (it > 8 and res > 1e3 * prev):
                 break
             prev = res
@@ -130,11 +129,10 @@ class Solver:
     def tangent(self, st: State, wrt: str, lam_free: bool = False) -> np.ndarray:
         """d(q_free, mu)/dt along the equilibrium path, t = load factor (``wrt="lam"``) or
         the driver value (``"driver"``; in its units: length or rad); (nf + m,)."""
-        _, K, _ = self.kkt(st, lam_free)
+        K = st.K if st.K is not None and st.lam_free == lam_free else self.kkt(st, lam_free)[1]
         rhs = np.zeros(K.shape[0])
         if wrt == "lam":
-            gl, _ = self.s.load_grad_hess(st.q)
-            rhs[: self.nf] = -gl[self.f]
+            rhs[: self.nf] = -self.s.reduced_load(st.q)
         else:
             rhs[self.nf + self.driver_index()] = 1.0
         try:
@@ -145,7 +143,7 @@ class Solver:
     def stable(self, st: State, hold_driver: bool) -> tuple[bool | None, float]:
         """Reduced-Hessian verdict and the lowest scaled eigenvalue (module doc)."""
         s, f, nf = self.s, self.f, self.nf
-        _, K, _ = self.kkt(st)
+        K = st.K if st.K is not None and not st.lam_free else self.kkt(st)[1]
         d = self.driver_index()
         keep = np.ones(K.shape[0], bool)
         if d is not None and not hold_driver:
@@ -177,15 +175,17 @@ def follow(
     wrt: str,
     lam_free: bool = False,
     max_cuts: int = 12,
+    rate: float = 1.0,
 ) -> State:
     """Move the path parameter from t0 to t1 (``set_t(state, t) -> state`` applies it),
-    with tangent predictor and step halving; raises SolveError after ``max_cuts`` cuts."""
+    with tangent predictor and step halving; raises SolveError after ``max_cuts`` cuts.
+    ``rate``: d(solver parameter)/dt (driver in degrees: pi/180)."""
     t, h, cuts, its = t0, t1 - t0, 0, 0
     nf = solver.nf
     while (t1 - t) * (t1 - t0) > 1e-14 * max(abs(t1 - t0), 1e-300):
         step = h if abs(h) < abs(t1 - t) else t1 - t
         try:
-            dx = solver.tangent(st, wrt, lam_free)
+            dx = solver.tangent(st, wrt, lam_free) * rate
             pred = State(st.q.copy(), st.mu.copy(), st.lam)
             pred.q[solver.f] += step * dx[:nf]
             pred.mu = pred.mu + step * dx[nf:]

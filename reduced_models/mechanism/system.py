@@ -84,12 +84,29 @@ class MechanismSystem:
         fl = 0.0
         for ld in self.scene.loads:
             fl = max(fl, math.hypot(ld.fx, ld.fy), abs(ld.moment) / Lref)
-        self.fscale = max(fl, 1e-6 * self.Kref / Lref)
+        for t in self.terms:  # preloaded torsion springs
+            if isinstance(t, TorsionTerm) and t.K.size:
+                fl = max(fl, float(np.max(np.abs(t.K * t.offset))) / Lref)
+        # driven or unloaded scenes: the force of the driver travel (at least a 1e-3 rad
+        # turn) against the stiffest part
+        drv, travel = self.scene.analysis.driver, 1e-3
+        if drv is not None:
+            span = abs(drv.stop - drv.start)
+            travel = max(travel, math.radians(span) if drv.kind == "rotation" else span / Lref)
+        self.fscale = max(fl, travel * self.Kref / Lref)
         # residual scale per unknown: forces, moments, and the p rows (EI/h x relation)
         rs = np.where(kind == "r", self.fscale * Lref, self.fscale)
         for ch in self.chains:
             rs[ch.dofs[:, 6]] = ch.w * 1e-3
         self.rscale = rs
+        # global -> reduced index (fixed unknowns -> a dump slot nf): flat scatter maps of
+        # every term are built once, so a Newton iteration is bincounts and matmuls only
+        nf = len(self.free)
+        self.nf = nf
+        self.red = np.full(self.n, nf, dtype=np.int64)
+        self.red[self.free] = np.arange(nf)
+        self._maps: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self._cmap: tuple | None = None
 
     @property
     def m(self) -> int:
@@ -159,6 +176,81 @@ class MechanismSystem:
         if self.driver_row is not None and self.lay.kind[self.driver_dof] == "r":
             s[self.m - self.linear.m + self.driver_row] = 1.0
         return s
+
+    # -- fast path: the reduced KKT blocks ---------------------------------------------------
+    def _map(self, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        key = id(idx)
+        hit = self._maps.get(key)
+        if hit is None or hit[0] is not idx:
+            N = self.nf + 1
+            r = self.red[idx]
+            hit = (idx, r.ravel(), (r[:, :, None] * N + r[:, None, :]).ravel())
+            self._maps[key] = hit
+        return hit[1], hit[2]
+
+    def reduced(
+        self, q: np.ndarray, lam: float, mu: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Reduced gradient (nf,), W = Hess(Pi + mu.c) (nf, nf), c (m,), J (m, nf)."""
+        N = self.nf + 1
+        parts = [(t, 1.0) for t in self.terms] + [(self.loads, lam)] * int(lam != 0.0)
+        gis, his, gvs, hvs = [], [], [], []
+        for t, w in parts:
+            idx, gl, Hl = t.local(q)
+            if len(idx):
+                gi, hi = self._map(idx)
+                gis.append(gi)
+                his.append(hi)
+                gvs.append(gl.ravel() * w if w != 1.0 else gl.ravel())
+                hvs.append(Hl.ravel() * w if w != 1.0 else Hl.ravel())
+        # constraint curvature joins the same scatter
+        r0 = 0
+        for c in self.constraints:
+            idx, Hl = c.curvature(q, mu[r0 : r0 + c.m])
+            if len(idx):
+                his.append(self._map(idx)[1])
+                hvs.append(Hl.ravel())
+            r0 += c.m
+        key = tuple(id(a) for a in gis + his)
+        if getattr(self, "_cat_key", None) != key:
+            self._cat_key = key
+            z = [np.zeros(0, np.int64)]
+            self._cat = (np.concatenate(gis or z), np.concatenate(his or z))
+        g = np.bincount(self._cat[0], np.concatenate(gvs or [np.zeros(0)]), minlength=N)
+        H = np.bincount(self._cat[1], np.concatenate(hvs or [np.zeros(0)]), minlength=N * N)
+        g, H = g.astype(float, copy=False), H.astype(float, copy=False)  # empty -> int
+        if lam != 0.0:
+            g[self.red] += lam * self.loads.lin  # fixed entries land in the dump slot
+        vals, r0 = [], 0
+        m = self.m
+        if self._cmap is None or self._cmap[0] != m:
+            rows, cols = [], []
+            for c in self.constraints:
+                rr, cc, _ = c.jacobian(q)
+                rows.append(rr + r0)
+                cols.append(self.red[cc])
+                r0 += c.m
+            fl = np.concatenate(rows) * N + np.concatenate(cols) if rows else np.zeros(0, int)
+            self._cmap = (m, fl)
+        jv = []
+        for c in self.constraints:
+            vals.append(c.values(q))
+            jv.append(c.jacobian(q)[2])
+        J = np.bincount(self._cmap[1], np.concatenate(jv), minlength=m * N).reshape(m, N)
+        J = J[:, : self.nf]
+        cv = np.concatenate(vals) if vals else np.zeros(0)
+        return g[: self.nf], H.reshape(N, N)[: self.nf, : self.nf], cv, J
+
+    def reduced_load(self, q: np.ndarray) -> np.ndarray:
+        """Reduced gradient of minus the load work at factor 1, (nf,)."""
+        N = self.nf + 1
+        g = np.zeros(N)
+        g[self.red] += self.loads.lin
+        idx, gl, _ = self.loads.local(q)
+        if len(idx):
+            gi, _ = self._map(idx)
+            g += np.bincount(gi, gl.ravel(), minlength=N)
+        return g[: self.nf]
 
     # -- outputs -------------------------------------------------------------------------------
     def outputs(self, q: np.ndarray) -> dict[str, float]:
