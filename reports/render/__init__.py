@@ -460,6 +460,7 @@ def render_figures(payload: Mapping, out_dir: Path, render: str | None = "auto")
     jobs = [
         (name, case, [r for r in payload["results"] if r["case"] == name], cmap, out_dir, render)
         for name, case in payload["cases"].items()
+        if not case.get("sweep")  # sweep points: drawn together as stability maps
     ]
     if render in ("auto", "pyvista"):
         from fem_reference.export import pyvista_available

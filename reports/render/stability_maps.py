@@ -222,15 +222,19 @@ def _slug(name: str) -> str:
 
 
 def thesis_basis_note(names: list[str], by_case: Mapping) -> str:
-    """How many thesis numbers have a basis-dependent sign (indefinite symmetric part)."""
+    """Classify the thesis numbers by the symmetric part of U_m' H U_m: definite (the sign
+    is basis-free) or indefinite (the sign is an accident of the SVD's null-space basis)."""
     recs = [by_case[n].get("thesis-force-method") for n in names]
     eigs = [(r.get("extras") or {}).get("stability_eigs_sym") for r in recs if r]
     eigs = [e for e in eigs if e]
     mixed = sum(min(e) < 0 < max(e) for e in eigs)
+    neg = sum(max(e) < 0 for e in eigs)
     return (
-        f"Thesis criterion: at {mixed} of {len(eigs)} points the symmetric part of U_m' H U_m "
-        "is indefinite, so the sign of the listing's number there depends only on the SVD's "
-        "choice of null-space basis."
+        f"Thesis criterion at {len(eigs)} points: the symmetric part of U_m' H U_m is "
+        f"indefinite at {mixed} (the listing's sign there depends only on the SVD's choice of "
+        f"null-space basis) and negative definite at {neg} (the bar forces' geometric "
+        "stiffness alone is destabilising there; the springs, absent from H, are what "
+        "the reduced Hessian, the FE tangent and the replay probe find holding it)."
     )
 
 
