@@ -48,6 +48,25 @@ class FEDeploy:
         self.fs = max(self.F, float(system.force_scale()))
         self.tol = max(1e-10 * self.fs, 10 * float(system.residual_floor()))
         self.L = float(system.length_scale())
+        rot = np.asarray(getattr(system, "is_rotation", np.zeros(system.ndof, bool)), bool)
+        self.cap = np.where(rot, 0.5, 0.25 * self.L)  # largest Newton correction per DOF
+
+    def follow(self, q: np.ndarray, mu: float, ell_a: float, ell_b: float) -> tuple:
+        """Held-length equilibrium at ``ell_b`` from the one at ``ell_a``, halving the
+        length step when Newton fails (at most 10 times)."""
+        t, h, cuts, its = 0.0, 1.0, 0, 0
+        while t < 1.0 - 1e-15:
+            step = min(h, 1.0 - t)
+            try:
+                q1, mu1, k = self.newton(q, mu, self.F, ell_a + (t + step) * (ell_b - ell_a))
+            except (DeployError, np.linalg.LinAlgError):
+                cuts += 1
+                if cuts > 10:
+                    raise
+                h = step / 2
+                continue
+            q, mu, t, its = q1, mu1, t + step, its + k
+        return q, mu, its
 
     def ell(self, q: np.ndarray) -> float:
         return self.pair.geometry(q)[0]
@@ -55,10 +74,27 @@ class FEDeploy:
     def newton(
         self, q: np.ndarray, mu: float, push: float, target: float | None
     ) -> tuple[np.ndarray, float, int]:
-        """Equilibrium with push ``push``; length held at ``target`` (None: free)."""
+        """Equilibrium with push ``push``; length held at ``target`` (None: free).  Newton
+        with corrections capped at 0.25 L / 0.5 rad; if that fails, once more with caps five
+        times smaller and more iterations (far from the solution, e.g. preloaded springs
+        released from the drawn pose)."""
+        try:
+            return self._newton(q, mu, push, target, self.cap, MAX_ITER)
+        except (DeployError, np.linalg.LinAlgError):
+            return self._newton(q, mu, push, target, 0.2 * self.cap, 4 * MAX_ITER)
+
+    def _newton(
+        self,
+        q: np.ndarray,
+        mu: float,
+        push: float,
+        target: float | None,
+        cap: np.ndarray,
+        max_iter: int,
+    ) -> tuple[np.ndarray, float, int]:
         n = self.sys.ndof
         step, prev = np.inf, np.inf
-        for it in range(MAX_ITER + 1):
+        for it in range(max_iter + 1):
             r, K = self.sys.residual_and_tangent(q, 0.0)
             ell, G, H = self.pair.geometry(q)
             G = np.asarray(G).ravel()
@@ -74,17 +110,18 @@ class FEDeploy:
             prev = res
             if small and abs(c) <= 1e-13 * self.L:
                 return q, mu, it
-            if it == MAX_ITER:
+            if it == max_iter:
                 break
             W = K.toarray() + ((mu if held else 0.0) - push) * H.toarray()
             if held:
                 A = np.zeros((n + 1, n + 1))
                 A[:n, :n], A[:n, n], A[n, :n] = W, G, G
                 dx = np.linalg.solve(A, -np.append(R, c))
-                q, mu = q + dx[:n], mu + dx[n]
             else:
                 dx = np.linalg.solve(W, -R)
-                q = q + dx
+            dx *= 1.0 / max(1.0, float(np.max(np.abs(dx[:n]) / cap)))  # damped far off
+            q = q + dx[:n]
+            mu = mu + dx[n] if held else mu
             step = float(np.max(np.abs(dx[:n])))
         raise DeployError(f"Newton did not converge (residual {np.max(np.abs(R)):.2e})")
 
@@ -122,7 +159,7 @@ def solve_deploy(scene: Scene, name: str, n_elements: int) -> Solution:
         n = scene.analysis.steps
         for k in range(1, n + 1):
             target = ell0 + k / n * (Lend - ell0)
-            q1, mu1, its = d.newton(q, mu, d.F, target)
+            q1, mu1, its = d.follow(q, mu, target - (Lend - ell0) / n, target)
             if mu1 <= 0.0:
                 return _stall(d, scene, name, path, target - (Lend - ell0) / n, target)
             q, mu = q1, mu1
