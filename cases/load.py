@@ -43,7 +43,7 @@ from cases.schema import (
     Synthesis,
     TorsionSpring,
 )
-from cases.sweep import free_from_rest, key_error
+from cases.sweep import POSITIVE, free_from_rest, key_error
 
 CATALOG = Path(__file__).parent / "catalog"
 _NAME = re.compile(r"^[a-z0-9]+(-[a-z0-9]+)*$")
@@ -775,6 +775,8 @@ class _Builder:
                 why = key_error(scene, key)
                 if why:
                     raise self.fail(f"analysis.grid[{i}].keys", why)
+                if key.split(".")[2] in POSITIVE and min(ax.values) <= 0.0:
+                    raise self.fail(f"analysis.grid[{i}].values", f"{key} must stay > 0")
 
     # -- whole-structure checks --------------------------------------------------------------
     def check_connected(self, scene: Scene) -> None:
