@@ -777,6 +777,14 @@ class _Builder:
                     raise self.fail(f"analysis.grid[{i}].keys", why)
                 if key.split(".")[2] in POSITIVE and min(ax.values) <= 0.0:
                     raise self.fail(f"analysis.grid[{i}].values", f"{key} must stay > 0")
+                table, ident, fld = key.split(".")
+                if table == "booms" and fld == "length":
+                    b = next(b for b in scene.booms if b.id == ident)
+                    na, nb = scene.node(b.a), scene.node(b.b)
+                    drawn = math.hypot(nb.x - na.x, nb.y - na.y)
+                    if min(ax.values) <= drawn:
+                        why = f"{key} must exceed the drawn length {drawn:g}"
+                        raise self.fail(f"analysis.grid[{i}].values", why)
 
     # -- whole-structure checks --------------------------------------------------------------
     def check_connected(self, scene: Scene) -> None:

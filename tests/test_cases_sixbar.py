@@ -86,6 +86,10 @@ def test_one_axis_sweep_key_still_reads():
         (edit("S1.stiffness", "S1.colour", GRID), "analysis.grid[0].keys"),
         (edit("values = [40.0, 50.0]", "values = []", GRID), "analysis.grid[0].values"),
         (edit("values = [40.0, 50.0]", "values = [-40.0, 50.0]", GRID), "analysis.grid[0].values"),
+        (
+            edit('key = "torsion_springs.S2.rest_angle_deg"', 'key = "booms.boom.length"', GRID),
+            "analysis.grid[1].values",
+        ),
         (edit('sweep_of = "deploy"', 'sweep_of = "path"', GRID), "analysis.sweep_of"),
         (
             edit(
