@@ -87,7 +87,11 @@ def test_one_axis_sweep_key_still_reads():
         (edit("values = [40.0, 50.0]", "values = []", GRID), "analysis.grid[0].values"),
         (edit("values = [40.0, 50.0]", "values = [-40.0, 50.0]", GRID), "analysis.grid[0].values"),
         (
-            edit('key = "torsion_springs.S2.rest_angle_deg"', 'key = "booms.boom.length"', GRID),
+            edit(
+                'key = "torsion_springs.S2.rest_angle_deg"\nvalues = [110.0, 120.0, 130.0]',
+                'key = "booms.boom.length"\nvalues = [0.05, 0.3]',
+                GRID,
+            ),
             "analysis.grid[1].values",
         ),
         (edit('sweep_of = "deploy"', 'sweep_of = "path"', GRID), "analysis.sweep_of"),
