@@ -36,6 +36,9 @@ _ENTRIES: dict[str, str] = {
     "thesis-force-method": "reduced_models.thesis_force_method:ThesisForceMethod",
     "kinetostatic": "reduced_models.mechanism.model:Kinetostatic",
     "mixed": "reduced_models.mechanism.model:Mixed",
+    "linear-auto": "reduced_models.auto:LinearAuto",
+    "cbcm-auto": "reduced_models.auto:CBCMAuto",
+    "prb-fsm-auto": "reduced_models.auto:PRBFSMAuto",
 }
 # single-beam families: scenes that are not a plain cantilever go to the mechanism assembler
 _SINGLE_BEAM = tuple(
@@ -60,6 +63,9 @@ DEFAULT_NAMES: tuple[str, ...] = (
     "prb-fsm-16",
     "kinetostatic",
     "mixed",
+    "linear-auto",
+    "cbcm-auto",
+    "prb-fsm-auto",
 )
 
 
