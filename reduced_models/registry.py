@@ -118,9 +118,9 @@ def build(name: str, target: str, n: int | None, options: dict | None = None) ->
     model = make_(n, **kwargs) if n is not None else make_(**kwargs)
     model.name = name
     if target.startswith(_SINGLE_BEAM):
-        from reduced_models.mechanism.model import Dispatch
+        from reduced_models.mechanism.model import routed
 
-        model = Dispatch(model, name, options)
+        model = routed(model, name, options)
     return model
 
 

@@ -223,3 +223,82 @@ def peaucellier(theta_deg: float = 120.0, long: float = 2.0, short: float = 1.5)
 def fourbar(extra: str = ENERGY) -> cases.Scene:
     """The compliant-rocker four-bar with an analysis block."""
     return cases.loads(FOURBAR + extra, source="fourbar.toml")
+
+
+TOGGLE = """
+[case]
+name = "toggle-test"
+title = "Toggle linkage, knee driven down against a constant slider load"
+units = "m-N-Pa"
+
+[[nodes]]
+id = "A"
+x = 0.0
+y = 0.0
+
+[[nodes]]
+id = "B"
+x = 0.08660254037844388
+y = 0.05
+
+[[nodes]]
+id = "C"
+x = 0.17320508075688776
+y = 0.0
+
+[[members]]
+id = "lower"
+from = "A"
+to = "B"
+kind = "rigid"
+end_b = "pin"
+
+[[members]]
+id = "upper"
+from = "B"
+to = "C"
+kind = "rigid"
+end_a = "pin"
+end_b = "pin"
+
+[[supports]]
+node = "A"
+type = "pin"
+
+[[supports]]
+node = "C"
+type = "slider"
+
+[[loads]]
+id = "workpiece"
+node = "C"
+fx = -10.0
+
+[analysis]
+kind = "energy"
+steps = 40
+
+[analysis.driver]
+kind = "displacement"
+node = "B"
+direction = "y"
+start = 0.0
+stop = -0.04
+
+[analysis.ma]
+output = "slider"
+direction = "x"
+
+[[outputs]]
+name = "slider"
+node = "C"
+
+[[outputs]]
+name = "knee"
+node = "B"
+"""
+
+
+def toggle() -> cases.Scene:
+    """Toggle clamp: ma = dy_B/dx_C = -1/(2 tan alpha), F_in = -20 tan(alpha) N (closed form)."""
+    return cases.loads(TOGGLE, source="toggle.toml")

@@ -19,8 +19,8 @@ import pytest
 
 import cases
 import reports
+from reduced_models.mechanism.builder import build
 from reduced_models.mechanism.model import member_spec
-from reduced_models.mechanism.system import build
 from tests import mech_scenes as M
 
 
@@ -243,3 +243,9 @@ def test_peaucellier_straight_line_and_mobility():
     wrong = dataclasses.replace(scene, analysis=dataclasses.replace(scene.analysis, mobility=2))
     bad = reports.solve(wrong, "kinetostatic")
     assert bad.status == "failed" and "mobility" in bad.message
+
+
+def test_ex2_chain_bending_stress_matches_fem(ex2_fem):
+    scene, fem = ex2_fem
+    sol = reports.solve(scene, "cbcm-8")
+    assert sol.steps[-1].max_stress == pytest.approx(fem.steps[-1].max_stress, rel=0.02)

@@ -118,3 +118,60 @@ def test_honest_declines():
     sol = reports.solve(fol, "cbcm-2")
     assert sol.status == "not-applicable" and "follower" in sol.message
     assert "two joints" in reports.solve(ex2, "prb-1r").message
+
+
+def test_replay_moves_the_driver_and_matches_fem():
+    """Energy analysis replayed as a prescribed, slowly ramped driver motion."""
+    scene = M.fourbar(M.ENERGY.replace("steps = 120", "steps = 4"))
+    rep, fe = reports.solve(scene, "replay"), reports.solve(scene, "fem-32")  # same mesh
+    assert rep.status == fe.status == "converged", (rep.message, fe.message)
+    T_rep, T_fe = rep.path("driver.torque"), fe.path("driver.torque")
+    np.testing.assert_allclose(T_rep, T_fe, rtol=0, atol=1e-5 * np.max(np.abs(T_fe)))
+    assert [p["stable"] for p in rep.extras["probes"]] == [s.stable for s in fe.steps]
+
+
+@pytest.mark.parametrize("model", ["kinetostatic", "fem-16"])
+def test_toggle_ma_closed_form(model):
+    """ma = F_out / F_in = -1 / (2 tan alpha), sin alpha = y_B / L (virtual work)."""
+    sol = reports.solve(M.toggle(), model)
+    assert sol.status == "converged", sol.message
+    alpha = np.arcsin(sol.path("knee.y") / 0.1)
+    exact = -1.0 / (2.0 * np.tan(alpha))
+    tol = 1e-9 if model == "kinetostatic" else 2e-3  # FE: finite differences along 40 steps
+    np.testing.assert_allclose(sol.path("ma"), exact, rtol=tol)
+    np.testing.assert_allclose(sol.path("driver.force"), -20.0 * np.tan(alpha), rtol=1e-6)
+
+
+def test_bistable_equilibria_and_barrier_match_fem():
+    """Crank driven -120 deg: stable - unstable - stable; reduced-Hessian verdicts at the
+    refined zero-force points agree with the FE force slope, positions and barrier with FE."""
+    scene = M.fourbar(M.ENERGY.replace("stop = 120.0", "stop = -120.0").replace("= 120", "= 60"))
+    red, fe = reports.solve(scene, "cbcm-4"), reports.solve(scene, "fem-16")
+    eq_r, eq_f = red.extras["equilibria"], fe.extras["equilibria"]
+    assert (
+        [e["kind"] for e in eq_r]
+        == [e["kind"] for e in eq_f]
+        == [
+            "stable",
+            "unstable",
+            "stable",
+        ]
+    )
+    for a, b in zip(eq_r, eq_f):
+        assert a["coordinate"] == pytest.approx(b["coordinate"], abs=0.1)
+    assert red.extras["barrier"] == pytest.approx(fe.extras["barrier"], rel=5e-3)
+
+
+@pytest.mark.parametrize("case", ["lee-frame", "shallow-arch-snap"])
+def test_path_limit_loads_match_fem(case):
+    """Arc-length through the limit points; the refined extrema against fem-auto's."""
+    scene = cases.load(case)
+    red, fe = reports.solve(scene, "cbcm-8"), reports.solve(scene, "fem-auto")
+    assert red.status == "converged", red.message
+    lr = [(p["kind"], p["factor"]) for p in red.extras["limit_points"]]
+    lf = [(p["kind"], p["factor"]) for p in fe.extras["limit_points"]]
+    assert [k for k, _ in lr] == [k for k, _ in lf]
+    for (_, a), (_, b) in zip(lr, lf):
+        assert a == pytest.approx(b, rel=5e-3)
+    marked = [s.factor for s in red.steps if "limit_point" in s.info]
+    assert marked == [f for _, f in lr], "refined extrema are inserted as steps"

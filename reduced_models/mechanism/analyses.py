@@ -54,7 +54,8 @@ class Run:
                 iterations=int(st.iterations),
                 stable=stable,
                 shapes=s.shapes(st.q),
-                info={"residual": float(st.residual), "min_eig": low, "load_factor": st.lam},
+                max_stress=s.max_stress(st.q),
+                info={"residual": float(st.residual), "min_pivot": low, "load_factor": st.lam},
             )
         )
 
@@ -64,7 +65,6 @@ class Run:
         i = s.driver_dof
         base = float(s.q0[i]) if drv.kind == "displacement" else 0.0
         s.driver_row = s.linear.add([i], [1.0], base, "driver")
-        s.constraints = s.constraints  # linear rows live in the last family
         self.solver = Solver(s, self.solver.tol, self.solver.max_iter)
         return s.driver_row, base, s.driver_scale
 
@@ -119,37 +119,72 @@ class Run:
             else:
                 self.record(st, v, True, {key: float(-st.mu[d])})
         if kind == "energy":
-            self.equilibria(vals, key)
+            self.equilibria(vals, key, apply)
 
-    def equilibria(self, vals: np.ndarray, key: str) -> None:
-        """Zero crossings of the driving force: stable (energy minimum) or unstable."""
+    def equilibria(self, vals: np.ndarray, key: str, apply: Callable) -> None:
+        """Zero crossings of the driving force, refined to F = 0 by regula falsi on the
+        driver coordinate; the verdict is the reduced Hessian with the driver released
+        (the slope of F along the driver where that is singular)."""
         F = np.array([s.outputs[key] for s in self.steps])
-        E = np.array([s.energy for s in self.steps])
         eq = []
         for k in range(len(F) - 1):
             f0, f1 = F[k], F[k + 1]
-            if f0 == 0.0 or f0 * f1 < 0.0:
-                w = 0.0 if f0 == 0.0 else f0 / (f0 - f1)
-                x = vals[k] + w * (vals[k + 1] - vals[k])
-                rising = (f1 - f0) * (vals[k + 1] - vals[k]) > 0
-                eq.append(
-                    {
-                        "coordinate": float(x),
-                        "kind": "stable" if rising else "unstable",
-                        "energy": float(E[k] + w * (E[k + 1] - E[k])),
-                    }
-                )
+            if not (f0 == 0.0 or f0 * f1 < 0.0):
+                continue
+            rising = (f1 - f0) * (vals[k + 1] - vals[k]) > 0
+            st, v = self._zero_force(k, vals, F, apply)
+            stable, _ = self.solver.stable(st, False)
+            if stable is None:
+                stable = bool(rising)
+            eq.append(
+                {
+                    "coordinate": float(v),
+                    "kind": "stable" if stable else "unstable",
+                    "energy": self.s.strain_energy(st.q),
+                    "outputs": self.s.outputs(st.q),
+                }
+            )
         self.extras["equilibria"] = eq
-        st = [e for e in eq if e["kind"] == "stable"]
-        un = [e for e in eq if e["kind"] == "unstable"]
-        if st and un:
-            after = [
-                e
-                for e in un
-                if (e["coordinate"] - st[0]["coordinate"]) * np.sign(vals[-1] - vals[0]) > 0
-            ]
-            if after:
-                self.extras["barrier"] = after[0]["energy"] - st[0]["energy"]
+        stab = [e for e in eq if e["kind"] == "stable"]
+        sign = np.sign(vals[-1] - vals[0])
+        after = [
+            e
+            for e in eq
+            if stab
+            and e["kind"] == "unstable"
+            and (e["coordinate"] - stab[0]["coordinate"]) * sign > 0
+        ]
+        if after:
+            self.extras["barrier"] = after[0]["energy"] - stab[0]["energy"]
+
+    def _zero_force(self, k: int, vals: np.ndarray, F: np.ndarray, apply: Callable):
+        """(state, coordinate) where the driving force vanishes between steps k and k + 1."""
+        d = self.solver.driver_index()
+        a, b, fa, fb = float(vals[k]), float(vals[k + 1]), float(F[k]), float(F[k + 1])
+        sa, sb = self.states[k], self.states[k + 1]
+        if fa == 0.0:
+            return sa, a
+        tol = 1e-9 * max(abs(F).max(), self.s.fscale)
+        side = 0
+        st, v = sa, a
+        for _ in range(40):
+            v = (a * fb - b * fa) / (fb - fa)
+            w = (v - a) / (b - a)
+            guess = State(sa.q + w * (sb.q - sa.q), sa.mu + w * (sb.mu - sa.mu), sa.lam)
+            st = self.solver.newton(apply(guess, v))
+            f = -float(st.mu[d])
+            if abs(f) <= tol:
+                break
+            if f * fb > 0:  # Illinois: halve the stale end's value
+                b, fb, sb = v, f, st
+                fa = fa / 2 if side == -1 else fa
+                side = -1
+            else:
+                a, fa, sa = v, f, st
+                fb = fb / 2 if side == 1 else fb
+                side = 1
+        apply(st, float(vals[-1]))  # leave the driver row where the sweep ended
+        return st, v
 
     def kinematics(self) -> None:
         """Position analysis along the driver (Gauss-Newton, minimum-norm steps)."""

@@ -58,8 +58,19 @@ class Closure:
         # curvature pairs (angle, stretch); without a stretch the angle repeats (zero block)
         self.cidx = np.column_stack([self.ang, np.where(self.has_u, self.u, self.ang)])
         self._pattern()
+        self._last: tuple | None = None
+        self.any_u = bool(np.any(self.has_u))
+        self.cidx1 = self.ang[:, None]
 
     def _seg(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        hit = self._last
+        if hit is not None and hit[0] is q:  # values/jacobian/curvature at the same state
+            return hit[1]
+        out = self._seg_eval(q)
+        self._last = (q, out)
+        return out
+
+    def _seg_eval(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         psi = self.alpha + q[self.ang]
         ell = self.len + np.where(self.has_u, q[np.maximum(self.u, 0)], 0.0)
         return np.cos(psi), np.sin(psi), ell
@@ -98,6 +109,8 @@ class Closure:
         c, s, ell = self._seg(q)
         mx, my = mu[2 * self.chain], mu[2 * self.chain + 1]
         u = self.has_u
+        if not self.any_u:  # rigid segments only: the (angle, angle) entries
+            return self.cidx1, (ell * (mx * c + my * s))[:, None, None]
         idx = self.cidx
         H = np.zeros((len(c), 2, 2))
         H[:, 0, 0] = ell * (mx * c + my * s)

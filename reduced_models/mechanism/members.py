@@ -42,7 +42,8 @@ class ChainTerm:
     dofs : (S, 7) global indices [X0, Y0, phi0, X1, Y1, phi1, p] per segment.
     h, EI, k, alpha : (S,) segment length, flexural rigidity, axial compliance EI/(EA h^2)
         (0: inextensible), drawn direction of the member (rad).
-    member : (S,) member index of each segment (for reporting).
+    sfac : (S,) E t / 2 of the segment's member (bending stress per curvature; NaN when the
+        thickness is unknown).
     """
 
     def __init__(
@@ -53,13 +54,13 @@ class ChainTerm:
         EI: ArrayLike,
         k: ArrayLike,
         alpha: ArrayLike,
-        member: ArrayLike,
+        sfac: ArrayLike,
     ) -> None:
         self.law = law
         self.dofs = np.asarray(dofs, dtype=np.int64).reshape(-1, 7)
         self.h, self.EI, self.k = (np.asarray(v, float) for v in (h, EI, k))
         self.alpha = np.asarray(alpha, float)
-        self.member = np.asarray(member, dtype=np.int64)
+        self.sfac = np.asarray(sfac, float)  # E t / 2 per segment (NaN: thickness unknown)
         self.w = self.EI / self.h  # energy scale EI/h per segment
         self._gpq = np.hstack([law.G.T, law.P.T, law.Q.T])
 
@@ -78,12 +79,20 @@ class ChainTerm:
         M = w @ self._gpq  # [G w | P w | Q w] in one product
         return w, M[:, 0:2], M[:, 2:4], M[:, 4:6]
 
+    def max_stress(self, q: np.ndarray) -> float:
+        """Largest |sigma| = E t |kappa| / 2 at the segment ends (cubic Hermite curvature
+        (6 y - 2 a) / h at the root, (4 a - 6 y) / h at the tip); NaN if unknown."""
+        _, y, a, _, _, _ = self.coords(q)
+        k = np.maximum(np.abs(6 * y - 2 * a), np.abs(4 * a - 6 * y)) / self.h
+        return float(np.max(self.sfac * k, initial=-np.inf)) if self.sfac.size else np.nan
+
     def strain(self, q: np.ndarray) -> np.ndarray:
         """Strain energy per segment (S,) at the current axial forces."""
         ux, y, a, p, _, _ = self.coords(q)
-        w, Gw, _, Qw = self._forms(y, a, p)
-        wQw = np.einsum("ni,ni->n", w, Qw)
-        return self.w * (0.5 * np.einsum("ni,ni->n", w, Gw) + 0.5 * p * p * (self.k - wQw))
+        G, Q = self.law.G, self.law.Q
+        wGw = G[0, 0] * y * y + (G[0, 1] + G[1, 0]) * y * a + G[1, 1] * a * a
+        wQw = Q[0, 0] * y * y + (Q[0, 1] + Q[1, 0]) * y * a + Q[1, 1] * a * a
+        return self.w * (0.5 * wGw + 0.5 * p * p * (self.k - wQw))
 
     def energy(self, q: np.ndarray) -> float:
         """Value of the mixed Lagrangian (= strain energy at stationary p)."""
@@ -95,57 +104,88 @@ class ChainTerm:
         )
 
     def local(self, q: np.ndarray) -> Local:
-        """Gradient (S, 7) and Hessian (S, 7, 7) of the segment Lagrangians."""
+        """Gradient (S, 7) and Hessian (S, 7, 7) of the segment Lagrangians.
+
+        The kinematic Jacobian J = d(ux, y, a, p)/d(local unknowns) and the curvature of ux
+        and y in phi0 are linear in (cos/h, sin/h, y, ux + 1, 1): one product with constant
+        patterns builds them for all segments; the law's derivatives come from
+        ``SegmentLaw.block`` (one product) when every segment has the same axial compliance.
+        """
         ux, y, a, p, c, s = self.coords(q)
-        w, Gw, Pw, Qw = self._forms(y, a, p)
-        wPw, wQw = np.einsum("ni,ni->n", w, Pw), np.einsum("ni,ni->n", w, Qw)
         n = ux.size
-        gl = np.empty((n, 4))  # d l / d(ux, y, a, p)
-        gl[:, 0] = p
-        gl[:, 1:3] = Gw + p[:, None] * Pw + (p * p)[:, None] * Qw
-        gl[:, 3] = ux + 0.5 * wPw - p * (self.k - wQw)
-        Hl = np.zeros((n, 4, 4))
-        Hl[:, 0, 3] = Hl[:, 3, 0] = 1.0
-        Hl[:, 1:3, 1:3] = self.law.G + p[:, None, None] * self.law.P
-        Hl[:, 1:3, 1:3] += (p * p)[:, None, None] * self.law.Q
-        cw = Pw + 2.0 * p[:, None] * Qw
-        Hl[:, 1:3, 3] = Hl[:, 3, 1:3] = cw
-        Hl[:, 3, 3] = -(self.k - wQw)
+        B = self._block(ux, y, a, p)  # (n, 4, 5): [d2l | dl]
+        Hl, gl = B[:, :, :4], B[:, :, 4]
         ih = 1.0 / self.h
-        ci, si = c * ih, s * ih
-        J = np.zeros((n, 4, 7))
-        J[:, 0, 0], J[:, 0, 1], J[:, 0, 2], J[:, 0, 3], J[:, 0, 4] = -ci, -si, y, ci, si
-        J[:, 1, 0], J[:, 1, 1], J[:, 1, 2], J[:, 1, 3], J[:, 1, 4] = si, -ci, -(ux + 1.0), -si, ci
-        J[:, 2, 2], J[:, 2, 5] = -1.0, 1.0
-        J[:, 3, 6] = 1.0
+        coef = np.empty((n, 5))
+        coef[:, 0], coef[:, 1], coef[:, 2], coef[:, 3], coef[:, 4] = (
+            c * ih,
+            s * ih,
+            y,
+            ux + 1.0,
+            1.0,
+        )
+        J = (coef @ _J7).reshape(n, 4, 7)
+        JT = J.transpose(0, 2, 1)
+        g = (JT @ gl[:, :, None])[:, :, 0]
+        H = JT @ (Hl @ J)
         gx, gy = gl[:, 0], gl[:, 1]
-        g = np.empty((n, 7))
-        g[:, 0] = -ci * gx + si * gy
-        g[:, 1] = -si * gx - ci * gy
-        g[:, 2] = y * gx - (ux + 1.0) * gy - gl[:, 2]
-        g[:, 3], g[:, 4] = -g[:, 0], -g[:, 1]
-        g[:, 5], g[:, 6] = gl[:, 2], gl[:, 3]
-        H = J.transpose(0, 2, 1) @ (Hl @ J)
-        # curvature of ux and y in phi0: row/column phi0 (index 2)
-        r = np.zeros((n, 7))
-        r[:, 0] = gx * si + gy * ci
-        r[:, 1] = -gx * ci + gy * si
-        r[:, 3], r[:, 4] = -r[:, 0], -r[:, 1]
+        cr = np.empty((n, 6))
+        cr[:, 0], cr[:, 1], cr[:, 2] = gx * coef[:, 1], gy * coef[:, 0], gx * coef[:, 0]
+        cr[:, 3], cr[:, 4], cr[:, 5] = gy * coef[:, 1], gx * coef[:, 3], gy * y
+        r = cr @ _R7  # row/column phi0 of the curvature terms gx d2ux + gy d2y
         H[:, 2, :] += r
         H[:, :, 2] += r
-        H[:, 2, 2] += -gx * (ux + 1.0) - gy * y
         sc = self.w[:, None]
         return self.dofs, g * sc, H * sc[:, :, None]
+
+    def _block(self, ux: np.ndarray, y: np.ndarray, a: np.ndarray, p: np.ndarray) -> np.ndarray:
+        if self.k.size and np.all(self.k == self.k[0]):
+            return self.law.block(ux, y, a, p, float(self.k[0]))
+        out = np.empty((ux.size, 4, 5))
+        for kk in np.unique(self.k):
+            i = np.flatnonzero(self.k == kk)
+            out[i] = self.law.block(ux[i], y[i], a[i], p[i], float(kk))
+        return out
+
+
+# constant patterns: J (4 x 7, flat) and the phi0 curvature row (7) from their coefficients
+_J7 = np.zeros((5, 4, 7))
+_J7[0, 0, [0, 3]] = _J7[0, 1, [1, 4]] = (-1.0, 1.0)  # cos/h
+_J7[1, 0, [1, 4]] = (-1.0, 1.0)  # sin/h
+_J7[1, 1, [0, 3]] = (1.0, -1.0)
+_J7[2, 0, 2] = 1.0  # y: d ux / d phi0
+_J7[3, 1, 2] = -1.0  # ux + 1: d y / d phi0
+_J7[4, 2, [2, 5]] = (-1.0, 1.0)  # a = phi1 - phi0
+_J7[4, 3, 6] = 1.0  # p
+_J7 = _J7.reshape(5, 28)
+# r = gx * (si, -ci, ., -si, ci) + gy * (ci, si, ., -ci, -si) - (gx xi + gy y) e_phi0 / 2:
+# the diagonal term is added twice (row and column), hence the halves
+_R7 = np.zeros((6, 7))
+_R7[0, [0, 3]] = (1.0, -1.0)  # gx si
+_R7[1, [0, 3]] = (1.0, -1.0)  # gy ci
+_R7[2, [1, 4]] = (-1.0, 1.0)  # gx ci
+_R7[3, [1, 4]] = (1.0, -1.0)  # gy si
+_R7[4, 2] = -0.5  # gx (ux + 1)
+_R7[5, 2] = -0.5  # gy y
 
 
 class JointTerm:
     """Quadratic springs on differences of unknowns: 1/2 K (q[i] - q[j])^2 (j may be the
     held ground unknown); PRB joints (psi_p - psi_{p-1}) and PRB axial springs (u - 0)."""
 
-    def __init__(self, i: ArrayLike, j: ArrayLike, K: ArrayLike) -> None:
+    def __init__(
+        self, i: ArrayLike, j: ArrayLike, K: ArrayLike, sfac: ArrayLike | None = None
+    ) -> None:
         self.dofs = np.column_stack([np.asarray(i, np.int64), np.asarray(j, np.int64)])
         self.K = np.asarray(K, float)
         self.offset = np.zeros(len(self.K))
+        # bending stress per joint moment, t / (2 I) (NaN: not a PRB joint or t unknown)
+        self.sfac = np.full(len(self.K), np.nan) if sfac is None else np.asarray(sfac, float)
+
+    def max_stress(self, q: np.ndarray) -> float:
+        """Largest |M| t / (2 I) over the joints (PRB joint moments); NaN if unknown."""
+        d = q[self.dofs[:, 0]] - q[self.dofs[:, 1]] - self.offset
+        return float(np.nanmax(np.abs(self.K * d) * self.sfac, initial=-np.inf))
 
     def energy(self, q: np.ndarray) -> float:
         d = q[self.dofs[:, 0]] - q[self.dofs[:, 1]] - self.offset

@@ -7,8 +7,8 @@
   end poses: the exact elastica is a boundary-value problem per member).
 * ``MechanismModel(name)`` puts that law into every flexible member; ``Kinetostatic`` solves
   scenes without flexible members; ``Mixed`` reads each member's ``model`` key.
-* ``Dispatch`` wraps a registered single-beam model: plain cantilever scenes keep their
-  specialised solver, every other scene goes through the assembler.
+* ``routed`` gives a registered single-beam model the mechanism route: plain cantilever
+  scenes keep their specialised solver, every other scene goes through the assembler.
 """
 
 from __future__ import annotations
@@ -23,7 +23,8 @@ from reduced_models.base import Model, ModelCard, Solution, not_applicable
 from reduced_models.bcm import BCM_LAW
 from reduced_models.linear import LINEAR_LAW
 from reduced_models.mechanism import analyses
-from reduced_models.mechanism.system import SceneError, build
+from reduced_models.mechanism.builder import build
+from reduced_models.mechanism.system import SceneError
 from reduced_models.prb_chain import check_matrix
 from reduced_models.single_beam import cantilever_of
 
@@ -123,6 +124,8 @@ class MechanismModel:
                 "dead loads only; a flexible member loaded inside is split at the load point",
                 "prb-1r in a mechanism: Howell's average gamma 0.85, K_Theta 2.65",
                 "PRB members: the end-b section turns with the last PRB link",
+                "bending stress: chained segments from the cubic Hermite curvature at segment "
+                "ends; PRB members from the joint moments (M t / 2I, coarse)",
             ),
             validity="that of the member model in each flexible member",
             references=("DAS-2D seed 000_265bc60728766176.txt, 'Solver- Kinetostatic Analysis'",),
@@ -266,46 +269,57 @@ def finish(scene: Scene, name: str, r: analyses.Run) -> Solution:
     return Solution(scene.name, name, "converged", msg, tuple(r.steps), r.extras)
 
 
-class Dispatch:
-    """A registered single-beam model that hands non-cantilever scenes to the assembler."""
+class Routed:
+    """Mixin put in front of a registered single-beam model's class (``routed``): plain
+    cantilever scenes keep the specialised solver, every other scene goes through the
+    assembler with the same model name.  ``isinstance`` and attributes are unchanged."""
 
-    def __init__(self, inner: Model, name: str, options: dict | None = None) -> None:
-        self.inner = inner
-        self.mech = MechanismModel(name, options)
-        self.name = name
+    _mech: MechanismModel
 
-    def __getattr__(self, attr: str) -> object:
-        return getattr(self.inner, attr)
-
-    @property
-    def card(self) -> ModelCard:
-        return self.inner.card
-
-    def _route(self, scene: Scene) -> tuple[Model | None, str | None]:
+    def _route(self, scene: Scene) -> tuple[str, str | None]:
         if not isinstance(cantilever_of(scene), str):
-            return self.inner, None
+            return "inner", None
         if len(scene.members) == 1:
-            inner_reason = self.inner.applies_to(scene)
+            inner_reason = super().applies_to(scene)
             if inner_reason is None:
-                return self.inner, None
-            mech_reason = self.mech.applies_to(scene)
+                return "inner", None
+            mech_reason = self._mech.applies_to(scene)
             if mech_reason is None:
-                return self.mech, None
-            return None, f"{inner_reason}; mechanism assembler: {mech_reason}"
-        return self.mech, None
+                return "mech", None
+            return "none", f"{inner_reason}; mechanism assembler: {mech_reason}"
+        return "mech", None
 
     def applies_to(self, scene: Scene) -> str | None:
-        model, reason = self._route(scene)
-        return reason if model is None else model.applies_to(scene)
+        """None, or why neither the single-beam solver nor the assembler applies."""
+        where, reason = self._route(scene)
+        if where == "inner":
+            return super().applies_to(scene)
+        return reason if where == "none" else self._mech.applies_to(scene)
 
     def solve(self, scene: Scene) -> Solution:
-        model, reason = self._route(scene)
-        if model is None:
+        """Single-beam solver for cantilevers, the assembler for everything else."""
+        where, reason = self._route(scene)
+        if where == "inner":
+            return super().solve(scene)
+        if where == "none":
             return not_applicable(scene, self.name, reason)
-        sol = model.solve(scene)
-        if sol.model != self.name:
-            sol = Solution(sol.case, self.name, sol.status, sol.message, sol.steps, sol.extras)
-        return sol
+        sol = self._mech.solve(scene)
+        return Solution(sol.case, self.name, sol.status, sol.message, sol.steps, sol.extras)
 
 
-__all__ = ["Dispatch", "Kinetostatic", "MechanismModel", "Mixed", "member_spec"]
+_ROUTED: dict[type, type] = {}
+
+
+def routed(model: Model, name: str, options: dict | None = None) -> Model:
+    """Give ``model`` (a registered single-beam model) the mechanism route (``Routed``)."""
+    cls = type(model)
+    sub = _ROUTED.get(cls)
+    if sub is None:
+        sub = type(cls.__name__, (Routed, cls), {"__module__": cls.__module__})
+        _ROUTED[cls] = sub
+    model.__class__ = sub
+    model._mech = MechanismModel(name, options)
+    return model
+
+
+__all__ = ["Kinetostatic", "MechanismModel", "Mixed", "Routed", "member_spec", "routed"]

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
+from scipy.linalg import lapack
 
 if TYPE_CHECKING:
     from reduced_models.mechanism.system import MechanismSystem
@@ -56,6 +57,10 @@ class Solver:
         self.f = sysm.free
         self.nf = len(self.f)
         self.cs = None
+        self._irs = None
+        self._stab_key: tuple | None = None
+        self._cap: np.ndarray | None = None
+        self.memo: tuple | None = None  # last (path kind, t, x, dx) for the Hermite predictor
 
     def driver_index(self) -> int | None:
         """Row of the driver in the stacked constraint vector (None without a driver)."""
@@ -74,19 +79,20 @@ class Solver:
         g, W, c, Jf = s.reduced(st.q, st.lam, mu)
         r = g + Jf.T @ mu
         nf, m = self.nf, len(c)
-        K = np.empty((nf + m, nf + m))
+        K = np.zeros((nf + m, nf + m))
         K[:nf, :nf] = W
         K[:nf, nf:] = Jf.T
         K[nf:, :nf] = Jf
-        K[nf:, nf:] = 0.0
         if lam_free:
             K[:nf, nf + d] = s.reduced_load(st.q)
         if self.cs is None:
             self.cs = s.cscale()
-        res = max(
-            float(np.max(np.abs(r) / s.rscale[f], initial=0.0)),
-            float(np.max(np.abs(c) / self.cs, initial=0.0)),
-        )
+        if self._irs is None:
+            self._irs = 1.0 / s.rscale[f]
+            self._ics = 1.0 / self.cs
+        res = float(np.abs(r * self._irs).max()) if nf else 0.0
+        if m:
+            res = max(res, float(np.abs(c * self._ics).max()))
         return np.concatenate([r, c]), K, res
 
     def newton(self, st: State, lam_free: bool = False) -> State:
@@ -94,8 +100,12 @@ class Solver:
         q, mu, lam = st.q.copy(), st.mu.copy(), st.lam
         s, f, nf = self.s, self.f, self.nf
         d = self.driver_index()
-        kind = np.array(s.lay.kind)[f]
-        cap = np.where(kind == "r", 0.5, np.where(kind == "p", np.inf, 0.25 * s.lay.Lref))
+        if self._cap is None:  # damping: at most 0.5 rad / 0.25 L per update, none in p
+            kind = np.array(s.lay.kind)[f]
+            self._cap = 1.0 / np.where(
+                kind == "r", 0.5, np.where(kind == "p", np.inf, 0.25 * s.lay.Lref)
+            )
+        icap = self._cap
         prev = np.inf
         for it in range(self.max_iter + 1):
             cur = State(q, mu, lam)
@@ -107,13 +117,10 @@ class Solver:
             if it == self.max_iter or (it > 8 and res > 1e3 * prev):
                 break
             prev = res
-            try:
-                dx = np.linalg.solve(K, -R)
-            except np.linalg.LinAlgError:
-                dx = np.linalg.lstsq(K, -R, rcond=None)[0]
+            dx = _solve(K, -R)
             if not np.all(np.isfinite(dx)):
                 raise SolveError("singular KKT matrix (mechanism at a singular configuration)")
-            big = float(np.max(np.abs(dx[:nf]) / cap, initial=0.0))
+            big = float(np.max(np.abs(dx[:nf]) * icap, initial=0.0))
             if big > 1.0:
                 dx /= big
             q = q.copy()
@@ -135,35 +142,76 @@ class Solver:
             rhs[: self.nf] = -self.s.reduced_load(st.q)
         else:
             rhs[self.nf + self.driver_index()] = 1.0
-        try:
-            return np.linalg.solve(K, rhs)
-        except np.linalg.LinAlgError:
-            return np.linalg.lstsq(K, rhs, rcond=None)[0]
+        return _solve(K, rhs)
 
     def stable(self, st: State, hold_driver: bool) -> tuple[bool | None, float]:
         """Reduced-Hessian verdict and the lowest scaled eigenvalue (module doc)."""
         s, f, nf = self.s, self.f, self.nf
         K = st.K if st.K is not None and not st.lam_free else self.kkt(st)[1]
         d = self.driver_index()
-        keep = np.ones(K.shape[0], bool)
-        if d is not None and not hold_driver:
-            keep[nf + d] = False
-        K = K[np.ix_(keep, keep)]
-        sc = np.concatenate([1.0 / np.sqrt(s.rscale[f]), np.ones(K.shape[0] - nf)])
-        cs = self.cs if d is None or hold_driver else np.delete(self.cs, d)
-        sc[nf:] = 1.0 / np.sqrt(cs)
-        ev = np.linalg.eigvalsh(sc[:, None] * K * sc[None, :])
+        key = (K.shape[0], hold_driver)
+        if self._stab_key != key:  # congruence scaling (keeps the inertia) and kept rows
+            keep = np.ones(K.shape[0], bool)
+            if d is not None and not hold_driver:
+                keep[nf + d] = False
+            cs = self.cs if d is None or hold_driver else np.delete(self.cs, d)
+            sc = np.concatenate([1.0 / np.sqrt(s.rscale[f]), 1.0 / np.sqrt(cs)])
+            self._stab = (np.flatnonzero(keep), np.outer(sc, sc), bool(np.all(keep)))
+            self._stab_key = key
+        keep, S, full = self._stab
+        A = K * S if full else K[np.ix_(keep, keep)] * S
         n_p = sum(len(ch.w) for ch in s.chains)
-        m = K.shape[0] - nf
-        scale = float(np.max(np.abs(ev), initial=1.0))
-        small = np.abs(ev) <= 1e-11 * scale
-        n_neg = int(np.sum(ev < 0))
-        # the eigenvalue that would change sign: the (m + n_p + 1)-th smallest
-        j = min(m + n_p, len(ev) - 1)
-        lowest = float(ev[j]) / scale if len(ev) else 0.0
-        if np.any(small):
-            return None, lowest
-        return n_neg == m + n_p, lowest
+        m = A.shape[0] - nf
+        n_neg, pivot = _inertia(A)
+        if n_neg is None:
+            return None, pivot
+        return n_neg == m + n_p, pivot
+
+
+def _solve(K: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """LAPACK dgesv (least squares if singular); the argument checks of numpy.linalg.solve
+    cost more than the factorisation at these sizes."""
+    _, _, x, info = lapack.dgesv(K, rhs)
+    if info != 0 or not np.all(np.isfinite(x)):
+        return np.linalg.lstsq(K, rhs, rcond=None)[0]
+    return x
+
+
+def _inertia(A: np.ndarray) -> tuple[int | None, float]:
+    """Number of negative eigenvalues of the symmetric A from its LDL^T factorisation
+    (Sylvester's law of inertia), and the smallest |pivot| relative to the largest;
+    (None, pivot) when A is numerically singular."""
+    if A.size == 0:
+        return 0, 1.0
+    lu, piv, info = lapack.dsytrf(A, lower=1)[:3]
+    if info < 0:
+        return None, 0.0
+    d = np.diag(lu).copy()
+    off = np.zeros(len(d))
+    two = np.flatnonzero(piv < 0)  # 2x2 blocks: rows k, k+1 share a negative pivot index
+    starts = two[::2] if len(two) else two
+    off[starts] = np.diag(lu, -1)[starts] if len(starts) else 0.0
+    neg, mags = 0, []
+    k = 0
+    n = len(d)
+    while k < n:
+        if piv[k] < 0 and k + 1 < n:
+            a, b, c = d[k], off[k], d[k + 1]
+            det = a * c - b * b
+            tr = a + c
+            neg += 1 if det < 0 else (2 if tr < 0 else 0)
+            disc = np.sqrt(max((a - c) ** 2 / 4 + b * b, 0.0))
+            mags += [abs(tr / 2 - disc), abs(tr / 2 + disc)]
+            k += 2
+        else:
+            neg += int(d[k] < 0)
+            mags.append(abs(d[k]))
+            k += 1
+    mags = np.array(mags)
+    rel = float(mags.min() / max(mags.max(), 1e-300))
+    if rel <= 1e-13:
+        return None, rel
+    return neg, rel
 
 
 def follow(
@@ -182,21 +230,25 @@ def follow(
     ``rate``: d(solver parameter)/dt (driver in degrees: pi/180)."""
     t, h, cuts, its = t0, t1 - t0, 0, 0
     nf = solver.nf
+    d = solver.driver_index() if lam_free else None
     while (t1 - t) * (t1 - t0) > 1e-14 * max(abs(t1 - t0), 1e-300):
         step = h if abs(h) < abs(t1 - t) else t1 - t
         try:
             dx = solver.tangent(st, wrt, lam_free) * rate
-            pred = State(st.q.copy(), st.mu.copy(), st.lam)
-            pred.q[solver.f] += step * dx[:nf]
-            pred.mu = pred.mu + step * dx[nf:]
+            x = np.concatenate([st.q[solver.f], st.mu])
             if lam_free:
-                d = solver.driver_index()
-                pred.lam = st.lam + step * dx[nf + d]
+                x[nf + d] = st.lam  # the load factor sits in the driver multiplier's slot
+            xp = _predict(solver, (wrt, lam_free), t, x, dx, t + step)
+            pred = State(st.q.copy(), xp[nf:].copy(), st.lam)
+            pred.q[solver.f] = xp[:nf]
+            if lam_free:
+                pred.lam = float(xp[nf + d])
                 pred.mu[d] = 0.0
             pred = set_t(pred, t + step)
             try:
                 new = solver.newton(pred, lam_free)
             except SolveError:
+                solver.memo = None
                 new = solver.newton(set_t(State(st.q, st.mu, st.lam), t + step), lam_free)
         except SolveError as err:
             cuts += 1
@@ -204,9 +256,32 @@ def follow(
                 raise SolveError(f"step cut {max_cuts} times near t = {t:.6g}: {err}") from None
             h = step / 2.0
             continue
+        solver.memo = ((wrt, lam_free), t, x, dx)
         its += new.iterations
         st, t = new, t + step
         if new.iterations <= 4:
             h = 2.0 * step
     st.iterations = its
     return st
+
+
+def _predict(
+    solver: Solver, kind: tuple, t: float, x: np.ndarray, dx: np.ndarray, t_new: float
+) -> np.ndarray:
+    """Predictor: cubic Hermite through the previous and the current converged state and
+    their tangents (extrapolated to ``t_new``), else the tangent line.  The Hermite cubic is
+    dropped when it runs more than 3x further than the tangent line (a tangent blowing up
+    near a limit or bifurcation point)."""
+    line = x + (t_new - t) * dx
+    memo = getattr(solver, "memo", None)
+    if memo is None or memo[0] != kind or memo[1] == t or len(memo[2]) != len(x):
+        return line
+    _, t0, x0, dx0 = memo
+    H = t - t0
+    tau = (t_new - t0) / H
+    h00, h10 = 2 * tau**3 - 3 * tau**2 + 1, tau**3 - 2 * tau**2 + tau
+    h01, h11 = -2 * tau**3 + 3 * tau**2, tau**3 - tau**2
+    cubic = h00 * x0 + h10 * H * dx0 + h01 * x + h11 * H * dx
+    if np.linalg.norm(cubic - x) > 3.0 * np.linalg.norm(line - x):
+        return line
+    return cubic

@@ -9,8 +9,9 @@ with K the KKT matrix, r_lam = d r / d lam (minus the load vector) and the arc l
 on (q / length scale, lam) only (multipliers carry no length).  The step grows after easy
 steps and halves on failure.  A crossing of ``stop_output = stop_value`` is landed exactly
 (the arc-length row replaced by the output row); a crossing of ``factor_end`` by a Newton
-solve at that factor.  Load-factor extrema between steps are listed in
-``extras["limit_points"]`` (the nearest converged step, not refined).
+solve at that factor.  Load-factor extrema (sign changes of d lam / ds between steps) are
+refined (zero of d lam / ds along the arc), inserted as steps with ``info["limit_point"]``
+and listed in ``extras["limit_points"]``.
 """
 
 from __future__ import annotations
@@ -129,7 +130,7 @@ def run_path(run: object) -> None:
         if rate > 0:
             ds = min(ds, abs(a.stop_value - (st.q[func[0]] - func[1])) / max(a.steps, 1) / rate)
     ds_max, cuts = 2.0 * ds, 0
-    lam_hist = [st.lam]
+    found: list[dict] = []
     for _ in range(a.max_steps):
         z0 = al._z(st)
         try:
@@ -160,26 +161,63 @@ def run_path(run: object) -> None:
             guess = State(st.q + w * (new.q - st.q), st.mu + w * (new.mu - st.mu), a.factor_end)
             new = run.solver.newton(guess)
             done = True
+        if not done and t[-1] * t_new[-1] < 0:  # a load-factor extremum inside the step
+            _limit_point(run, al, z0, t, ds, st, t_new[-1], found)
         t = al.tangent(new, t) if done else t_new
         st = new
         run.record(st, st.lam, False)
-        lam_hist.append(st.lam)
         if done:
             break
         if new.iterations <= 4:
             ds = min(1.5 * ds, ds_max)
     else:
         raise SolveError(f"stop criterion not reached within {a.max_steps} steps")
-    lp = []
-    for k in range(1, len(lam_hist) - 1):
-        d1, d2 = lam_hist[k] - lam_hist[k - 1], lam_hist[k + 1] - lam_hist[k]
-        if d1 * d2 < 0:
-            lp.append(
-                {
-                    "factor": float(lam_hist[k]),
-                    "kind": "max" if d1 > 0 else "min",
-                    "outputs": dict(run.steps[k].outputs),
-                    "refined": False,
-                }
-            )
-    run.extras["limit_points"] = lp
+    run.extras["limit_points"] = found
+
+
+def _limit_point(
+    run: object,
+    al: ArcLength,
+    z0: np.ndarray,
+    t: np.ndarray,
+    ds: float,
+    st: State,
+    g1: float,
+    found: list,
+) -> None:
+    """Refine the extremum of the load factor between ``st`` and the arc length ``ds`` along
+    ``t``: zero of d lam / ds (tangent's lam component) by Illinois regula falsi on the arc
+    length; the refined state is recorded as a step (``info["limit_point"] = +1 max /
+    -1 min``) and listed in ``found``.  Left unrefined (nothing recorded) if it fails."""
+    a, b, ga, gb = 0.0, ds, float(t[-1]), float(g1)
+    kind = 1.0 if ga > 0 else -1.0
+    side, best = 0, None
+    try:
+        for _ in range(30):
+            x = (a * gb - b * ga) / (gb - ga)
+            cand = al.corrector(z0, t, x, st)
+            g = float(al.tangent(cand, t)[-1])
+            best = cand
+            if abs(g) <= 1e-10 or abs(b - a) <= 1e-12 * ds:
+                break
+            if g * gb > 0:
+                b, gb = x, g
+                ga = ga / 2 if side == -1 else ga
+                side = -1
+            else:
+                a, ga = x, g
+                gb = gb / 2 if side == 1 else gb
+                side = 1
+    except SolveError:
+        best = None
+    if best is None:
+        return
+    run.record(best, best.lam, False)
+    run.steps[-1].info["limit_point"] = kind
+    found.append(
+        {
+            "factor": float(best.lam),
+            "kind": "max" if kind > 0 else "min",
+            "outputs": dict(run.steps[-1].outputs),
+        }
+    )

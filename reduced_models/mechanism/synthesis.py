@@ -22,7 +22,8 @@ import numpy as np
 from cases.schema import Member, Scene
 from reduced_models.base import Solution, not_applicable
 from reduced_models.mechanism import analyses
-from reduced_models.mechanism.system import SceneError, build
+from reduced_models.mechanism.builder import build
+from reduced_models.mechanism.system import SceneError
 
 MAX_IT = 30
 RTOL = 1e-9

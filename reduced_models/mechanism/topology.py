@@ -214,9 +214,3 @@ def slider_rows(scene: Scene, lay: Layout) -> list[tuple[int, float, float, floa
             cx, cy = -math.sin(a), math.cos(a)
             rows.append((lay.node_dof[s.node], cx, cy, cx * n.x + cy * n.y))
     return rows
-
-
-def gruebler(scene: Scene, lay: Layout, n_internal_constraints: int) -> int:
-    """Mobility count: free unknowns minus constraint equations (Gruebler-Kutzbach in
-    node/rotation coordinates: each rigid link removes 2, each slider 1, supports fix DOFs)."""
-    return len(lay.free()) - n_internal_constraints
