@@ -94,8 +94,7 @@ class BoomLength:
 def add_booms(sysm: MechanismSystem, scene: Scene) -> tuple[BoomForceTerm, BoomLength]:
     """Append the push term and the (held) length constraints of ``scene.booms``.
 
-    The length family goes before the linear family (which must stay last) and the residual
-    scale takes the pushes into account (``finish`` saw only the scene's loads).
+    The length family goes in through ``hold`` (before the linear family, which stays last).
     """
     lay = sysm.lay
     dofs = np.array(
@@ -108,11 +107,20 @@ def add_booms(sysm: MechanismSystem, scene: Scene) -> tuple[BoomForceTerm, BoomL
     _, ell0, _ = _geometry(sysm.q0, dofs)
     length = BoomLength(dofs, ell0)
     sysm.terms.append(force)
-    sysm.constraints.insert(len(sysm.constraints) - 1, length)
-    sysm.fscale = max(sysm.fscale, float(np.max(force.force)))
-    kind = np.array(lay.kind)
-    sysm.rscale = np.where(kind == "r", sysm.fscale * lay.Lref, sysm.fscale)
+    hold(sysm, length, True, float(np.max(force.force)))
     return force, length
+
+
+def hold(sysm: MechanismSystem, length: BoomLength, on: bool, push: float) -> None:
+    """Put the boom-length family in (``on``) or take it out of the system's constraints and
+    re-``finish`` it (sizes, scatter maps; the linear family stays last), then scale the
+    residual with the push as well (``finish`` sees only the scene's loads)."""
+    keep = [c for c in sysm.constraints if c is not sysm.linear and c is not length]
+    sysm.constraints = keep + ([length] if on else [])
+    sysm.finish()
+    sysm.fscale = max(sysm.fscale, push)
+    kind = np.array(sysm.lay.kind)
+    sysm.rscale = np.where(kind == "r", sysm.fscale * sysm.lay.Lref, sysm.fscale)
 
 
 class Deploy(Run):
@@ -201,8 +209,8 @@ class Deploy(Run):
         """Solve and record the free equilibrium (push only, no length constraint) from a
         held state; returns the stalled length."""
         s = self.s
-        i = s.constraints.index(self.length)
-        s.constraints.pop(i)
+        push = float(np.max(self.force.force))
+        hold(s, self.length, False, push)
         mu = np.delete(held.mu, np.s_[self.row : self.row + self.length.m])
         solver = self.solver
         try:
@@ -213,7 +221,7 @@ class Deploy(Run):
             prog = (L - self.ell0[0]) / (self.scene.booms[0].length - self.ell0[0])
             self.record(free, float(prog), True, ell)
         finally:
-            s.constraints.insert(i, self.length)
+            hold(s, self.length, True, push)
             self.solver = solver
         return L
 
