@@ -155,8 +155,9 @@ def sweep_summary(payload: Mapping, parent: str, by_case: Mapping) -> tuple[list
 
 
 def sweep_figures(parent: str, pts: Mapping, by_case: Mapping, fig_dir: Path) -> list[Path]:
-    """2-D slices (one row per method, one column per value of the third axis) and a 3-D
-    scatter coloured by the reduced-Hessian verdict and by its lowest eigenvalue."""
+    """2-D slices (one row per method, one column per value of the third axis; black:
+    failed or undecided) and 3-D scatters coloured by the thesis criterion's and the reduced
+    Hessian's verdicts and by the lowest reduced-Hessian eigenvalue."""
     names = list(pts)
     keys = list(pts[names[0]])
     short = [".".join(k.split(".")[1:]) for k in keys]
@@ -195,16 +196,22 @@ def sweep_figures(parent: str, pts: Mapping, by_case: Mapping, fig_dir: Path) ->
         plt.close(fig)
         out.append(p)
     if X.shape[1] >= 3:
-        fig = plt.figure(figsize=(9, 4))
-        ref = [verdict(by_case[n].get(REFERENCE)) for n in names]
+        fig = plt.figure(figsize=(13, 4))
         eig = np.array([number(by_case[n].get(REFERENCE)) for n in names])
-        ax = fig.add_subplot(1, 2, 1, projection="3d")
-        ax.scatter(*X.T, c=[colour.get(v, "k") for v in ref], s=12)
-        ax.set_title("reduced Hessian verdict (blue stable, red unstable)", fontsize=8)
-        ax2 = fig.add_subplot(1, 2, 2, projection="3d")
-        sc = ax2.scatter(*X.T, c=eig, cmap="viridis", s=12)
-        fig.colorbar(sc, ax=ax2, shrink=0.6, label="lowest reduced-Hessian eigenvalue (scaled)")
-        for a in (ax, ax2):
+        axes = []
+        for i, model in enumerate(("thesis-force-method", REFERENCE)):
+            vs = [verdict(by_case[n].get(model)) for n in names]
+            ax = fig.add_subplot(1, 3, i + 1, projection="3d")
+            ax.scatter(*X.T, c=[colour.get(v, "k") for v in vs], s=12)
+            label = dict(METHODS)[model]
+            ax.set_title(f"{label} verdict (blue stable, red unstable)", fontsize=8)
+            axes.append(ax)
+        ax = fig.add_subplot(1, 3, 3, projection="3d")
+        sc = ax.scatter(*X.T, c=eig, cmap="viridis", s=12)
+        ax.set_title("lowest reduced-Hessian eigenvalue (scaled)", fontsize=8)
+        fig.colorbar(sc, ax=ax, shrink=0.6, pad=0.12)
+        axes.append(ax)
+        for a in axes:
             a.set_xlabel(short[0], fontsize=7)
             a.set_ylabel(short[1], fontsize=7)
             a.set_zlabel(short[2], fontsize=7)
