@@ -36,6 +36,7 @@ def test_config4_exact_equilibrium(scene):
     assert sol.status == "converged", sol.message
     last = sol.steps[-1]
     assert last.factor == 2.0 and last.stable is True
+    assert last.info["reduced_hessian_min"] > 0.0  # the mapped margin agrees with the verdict
     c30 = math.cos(math.radians(30.0))
     exact = {"J2": (0.1 + 0.3 * c30, 0.15), "J3": (0.1, 0.3), "J4": (0.05, 0.3), "J5": (0.0, 0.3)}
     exact["J6"] = (-0.3 * c30, 0.15)

@@ -22,7 +22,10 @@ curvature of every constraint, the boom's included) on the tangent space of the 
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
+import scipy.linalg as sla
 import scipy.optimize as so
 
 from cases.schema import Scene
@@ -133,6 +136,23 @@ class Deploy(Run):
         self.row = sum(c.m for c in sysm.constraints[: sysm.constraints.index(self.length)])
         self.ell0 = self.length.target.copy()
         self.ids = [b.id for b in sysm.scene.booms]
+
+    def record(
+        self, st: State, factor: float, hold_driver: bool, extra: dict | None = None
+    ) -> None:
+        """As ``Run.record``, plus ``info["reduced_hessian_min"]``: the lowest eigenvalue of
+        the reduced Hessian Z' W Z (N m; Z an orthonormal basis of the constraints' tangent
+        space in coordinates scaled to length Lref and radians) -- the stability margin the
+        report maps."""
+        super().record(st, factor, hold_driver, extra)
+        s = self.s
+        _, W, _, J = s.reduced(st.q, st.lam, st.mu)
+        kind = np.array(s.lay.kind)[s.free]
+        d = np.where(kind == "r", 1.0, s.lay.Lref)
+        Z = sla.null_space(J * d[None, :]) if J.shape[0] else np.eye(len(d))
+        low = float(np.linalg.eigvalsh(Z.T @ (d[:, None] * W * d[None, :]) @ Z)[0])
+        last = self.steps[-1]
+        self.steps[-1] = replace(last, info={**last.info, "reduced_hessian_min": low})
 
     def at(self, st: State, ell: np.ndarray) -> State:
         """Equilibrium with the boom lengths held at ``ell`` (Newton from ``st``)."""

@@ -68,7 +68,7 @@ def number(rec: Mapping | None) -> float:
     if rec["model"] == "thesis-force-method":
         return float((rec.get("extras") or {}).get("stability_number", np.nan))
     info = _last(rec).get("info") or {}
-    return float(info.get("min_eig", info.get("lowest_eigenvalue", np.nan)))
+    return float(info.get("reduced_hessian_min", info.get("lowest_eigenvalue", np.nan)))
 
 
 def _positions(rec: Mapping | None) -> dict[str, float]:
@@ -208,7 +208,7 @@ def sweep_figures(parent: str, pts: Mapping, by_case: Mapping, fig_dir: Path) ->
             axes.append(ax)
         ax = fig.add_subplot(1, 3, 3, projection="3d")
         sc = ax.scatter(*X.T, c=eig, cmap="viridis", s=12)
-        ax.set_title("lowest reduced-Hessian eigenvalue (scaled)", fontsize=8)
+        ax.set_title("lowest reduced-Hessian eigenvalue (N m)", fontsize=8)
         fig.colorbar(sc, ax=ax, shrink=0.6, pad=0.12)
         axes.append(ax)
         for a in axes:
