@@ -20,8 +20,8 @@ import numpy as np
 import pytest
 
 import cases
-from reduced_models.mechanism.deploy import BoomForceTerm, BoomLength, Deploy
 from reduced_models.mechanism.builder import build
+from reduced_models.mechanism.deploy import BoomForceTerm, BoomLength, Deploy
 from reduced_models.thesis_force_method import ThesisForceMethod
 from reports import api
 
