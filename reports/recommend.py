@@ -305,6 +305,10 @@ def recommend(
         import cases
 
         scene = cases.load(scene)
+    if scene.analysis.kind == "sweep":  # a sweep case is answered at its first grid point
+        from cases.sweep import expand
+
+        scene = expand(scene)[0]
     tol = parse_tolerance(tol)
     known = set(scene.output_keys()) | {"factor"}
     for key in tol.per_output:
