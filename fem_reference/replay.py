@@ -169,10 +169,13 @@ class _Run:
                 X = solve(Gc.T)
                 d = d - X @ np.linalg.solve(Gc @ X, Gc @ d - gc)
             dist = float(np.max(np.abs(self.w * d))) / self.L
-        except RuntimeError:  # singular tangent (neutral mechanism): judge by motion only
+        except RuntimeError:  # singular tangent: no distance; the residual itself must be tiny
             dist = float("nan")
-        if dist > o.settle_tol:
-            return None
+        if not (dist <= o.settle_tol):  # nan passes only on a residual at the settle level
+            fs = float(np.max(np.abs(self.sys.external(s.q)), initial=0.0)) * max(abs(s.lam), 1)
+            rf = float(np.max(np.abs(rt), initial=0.0)) / max(fs, 1e-300)
+            if not (math.isnan(dist) and rf <= o.settle_tol):
+                return None
         return {"residual": float(np.max(np.abs(rt))), "distance": dist, "K": K, "G": Gc}
 
     def hold(self, lam: float) -> tuple[ev.State, dict]:

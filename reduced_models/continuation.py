@@ -31,12 +31,12 @@ keep_branch=True, load_gradient=None, symmetric=None) -> PathResult``
 * ``fixed``: indices of unknowns held at their ``x0`` value (supports).  Their rows and
   columns are replaced by identity rows so band structure is kept; callers may also do this
   themselves.
-* Convergence: a Newton iteration evaluates ``g, H`` at ``x_k`` and solves for the update
-  ``dx_k``; the iteration is converged when ``max |dx_k,i / scale_i| <= xtol`` (and, with
-  ``gtol``, ``max |g(x_k)| <= gtol``).  The accepted state is ``x_k + dx_k`` -- the same
-  state and the same test as a "converged after the update" rule -- but no extra evaluation
-  is spent at it: the reported residual is ``max |g(x_k)|`` measured at the last evaluated
-  iterate, which over-states the residual of the accepted state (quadratically smaller).
+* Convergence is judged on the state returned: a Newton iteration evaluates ``g, H`` at
+  ``x_k`` and solves for the update ``dx_k = -H^{-1} g(x_k)``; ``x_k`` is accepted when
+  that correction, computed from its own residual, is small, ``max |dx_k,i / scale_i| <=
+  xtol`` (and, with ``gtol``, ``max |g(x_k)| <= gtol``).  The accepted state is ``x_k``
+  itself (not the unevaluated ``x_k + dx_k``): its residual, factorisation, tangent and
+  stability are all measured on it, at no extra evaluation.
   ``scale`` (shape (n,)) gives each unknown's typical size (default 1).  A residual that
   stops falling while the update is already below ``xtol`` (a round-off floor above
   ``gtol``) fails the attempt.
@@ -134,9 +134,9 @@ class PathResult:
 class _Converged:
     """One converged Newton solve: accepted state and what was measured on the way."""
 
-    x: np.ndarray  # accepted state x_k + dx_k
+    x: np.ndarray  # accepted state x_k (its residual was evaluated)
     its: int
-    res: float  # max |g(x_k)| at the last evaluated iterate
+    res: float  # max |g(x_k)| of the accepted state
     stable: bool | None
     x_eval: np.ndarray  # x_k
     factor: tuple  # factorisation of H(x_k)
@@ -206,14 +206,14 @@ class _Solver:
             dx = -sol
             if size <= xtol:
                 if gtol is None or res <= gtol:
-                    x_new = update(x, dx) if update is not None else x + dx
+                    # the accepted state is the evaluated one (its residual was just checked)
                     if self.stability is None:
                         st = None
                     elif chol and pd is not None:
                         st = pd
                     else:
                         st = self.stability(x, lam, H)
-                    return _Converged(x_new, it, res, st, x, factor), it, ""
+                    return _Converged(x, it, res, st, x, factor), it, ""
                 if res > 0.5 * prev_res:
                     return None, it, f"residual {res:.3g} stalls above gtol {gtol:.3g}"
             elif size > 1e6:

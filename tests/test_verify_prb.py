@@ -175,7 +175,8 @@ def test_prb1r_model_tip_on_characteristic_circle_and_slope_factor():
     assert math.hypot(x - (1.0 - g), y) == pytest.approx(g, rel=1e-12)
     assert rot == pytest.approx(c * theta, rel=1e-12)
     # equilibrium alpha (cos Theta + n sin Theta) = K_Theta Theta (Howell), n = 0
-    assert 5.0 * math.cos(theta) == pytest.approx(T.howell_k_theta(0.0) * theta, rel=1e-9)
+    # to the model's stated residual tolerance RESIDUAL_TOL EI/L (EI = L = 1)
+    assert 5.0 * math.cos(theta) == pytest.approx(T.howell_k_theta(0.0) * theta, abs=1e-8)
 
 
 def test_prb1r_small_load_bias_against_linear_theory():
