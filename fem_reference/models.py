@@ -27,6 +27,7 @@ import numpy as np
 from cases.schema import Scene
 from fem_reference import static as S
 from fem_reference.assembly import FEMSystem, ModelError, build
+from fem_reference.bifurcation import Watch
 from reduced_models.base import ModelCard, Solution, Step, load_factors, not_applicable
 
 MODELS: dict[str, str] = {
@@ -51,6 +52,7 @@ _OPTION_KEYS = (
     "rigid_factor",
     "dense_max",
     "limit_points",
+    "bifurcation",
 )
 
 
@@ -96,6 +98,7 @@ class Runner:
         self.steps: list[Step] = []
         self.states: list[S.State] = []
         self.extras: dict = {"n_elements": n, "ndof": self.system.ndof}
+        self.notes: list[str] = []  # said in the message of a converged run
 
     # -- helpers ---------------------------------------------------------------------------
     def stab(self, st: S.State, exclude: int | None = None) -> dict | None:
@@ -165,7 +168,7 @@ class Runner:
             return "failed", str(err)
         except (np.linalg.LinAlgError, FloatingPointError, ValueError) as err:
             return "failed", f"{type(err).__name__}: {err}"
-        return "converged", ""
+        return "converged", "; ".join(self.notes)
 
     def _push(
         self,
@@ -182,9 +185,18 @@ class Runner:
         st = self.initial()
         self._push(st, 0.0)
         f = load_factors(self.scene)
+        watch = Watch(self.system, self.opts) if self.o.get("bifurcation", True) else None
         for prev, fk in zip(f[:-1], f[1:]):
-            st = S.reach_factor(self.system, st, float(fk), float(fk - prev), self.opts)
+            new = S.reach_factor(self.system, st, float(fk), float(fk - prev), self.opts)
+            st = watch.check(st, new, float(fk)) if watch else new
             self._push(st, float(fk))
+        if watch:
+            self.extras["critical_points"] = watch.points
+            if not watch.note and watch.active and not watch.stable(st):
+                watch.note = f"the path ends on an unstable equilibrium (factor {st.lam:.6g})"
+            if watch.note:  # the runner does not score models against such a path
+                self.notes.append(watch.note)
+                self.extras["reference_usable"] = False
 
     def run_driver(self, kind: str) -> None:
         a, sysm = self.scene.analysis, self.system

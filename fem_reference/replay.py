@@ -374,6 +374,9 @@ def replay_system(
     if status == "converged":
         res = max(s.info["residual"] for s in steps)
         message = f"settled {len(steps)} states; max residual {res:.2e}; {len(jumps)} jump(s)"
+        if steps and steps[-1].stable is False:  # said, and not used as a reference
+            message += "; the last state is an unstable equilibrium"
+            extras["reference_usable"] = False
     return Solution(case, "replay", status, message, tuple(steps), extras)
 
 

@@ -161,7 +161,10 @@ def combine(scene: Scene, name: str, sequence: tuple[int, ...], runs: list) -> S
             extras,
         )
     kind = scene.analysis.kind
-    message = ""
+    message = fmsg  # the finest run's own note (e.g. an unstable end) is kept
+    if fin.extras.get("reference_usable") is False:
+        extras["reference_usable"] = False
+    _critical(runs, sequence, extras)
     usable = [(n, r) for n, (r, st, _) in zip(sequence, runs) if st == "converged"]
     if kind == "path":
         key = scene.analysis.stop_output
@@ -170,7 +173,8 @@ def combine(scene: Scene, name: str, sequence: tuple[int, ...], runs: list) -> S
         if mono:
             usable = [(n, r) for n, r in usable[:-1] if _retrace(r, key, vals)] + [usable[-1]]
         else:
-            message = (
+            message = message + "; " if message else ""
+            message += (
                 "path not monotone in its stop output: steps are the finest mesh's; "
                 "error estimates from the end point and the limit points"
             )
@@ -212,6 +216,32 @@ def combine(scene: Scene, name: str, sequence: tuple[int, ...], runs: list) -> S
     if kind == "path":
         _limit_and_end(scene, fin, usable, extras, end=False)
     return Solution(scene.name, name, "converged", message, tuple(steps), extras)
+
+
+def _critical(runs: list, sequence: tuple[int, ...], extras: dict) -> None:
+    """The finest run's critical points (``bifurcation.Watch``), each with its factor
+    Richardson-extrapolated over the meshes that found a point of the same kind at the same
+    position in their list."""
+    fin = runs[-1][0]
+    pts = fin.extras.get("critical_points")
+    if pts is None:
+        return
+    out = []
+    for i, cp in enumerate(pts):
+        same = [
+            (n, r.extras["critical_points"][i]["factor"])
+            for n, (r, _, _) in zip(sequence, runs)
+            if len(r.extras.get("critical_points", ())) > i
+            and r.extras["critical_points"][i]["kind"] == cp["kind"]
+        ]
+        item = dict(cp)
+        if len(same) >= 2:
+            e = extrapolate(
+                np.array([f for _, f in same]), np.array([n for n, _ in same]), abs(cp["factor"])
+            )
+            item.update(factor_extrapolated=e.value, error=e.error, order=e.order)
+        out.append(item)
+    extras["critical_points"] = out
 
 
 def _limit_and_end(scene: Scene, fin: Runner, usable: list, extras: dict, end: bool = True) -> None:

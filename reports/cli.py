@@ -115,6 +115,8 @@ _JSON_EXTRAS = (
     "error_estimate",
     "observed_order",
     "limit_points",
+    "critical_points",
+    "reference_usable",
     "jumps",
     "validity_warning",
     "validity_message",

@@ -257,13 +257,14 @@ def test_fe_probe_agrees_with_fe_tangent_test():
     """FE column (P_cr = pi^2 / 4 = 2.47): straight at P = 1.5 stable, at P = 3 unstable; the
     kick verdicts agree with the static FE reference's tangent test."""
     sc = cases.loads(COLUMN)
-    fs = FEM(8).solve(sc)
+    fs = FEM(8, bifurcation=False).solve(sc)  # the straight branch, as the replay settles
     rp = Replay(8).solve(sc)
     assert fs.ok and rp.ok, (fs.message, rp.message)
     assert [s.stable for s in fs.steps] == [True, True, False]
     assert [s.stable for s in rp.steps] == [True, True, False]
     assert rp.extras["probes"][-1]["verdict"] == "departed"
     assert abs(rp.steps[-1].outputs["tip.ux"]) < 1e-9  # settled on the (unstable) straight state
+    assert "unstable" in rp.message and rp.extras["reference_usable"] is False
     # the thesis's probe: a lateral nodal impulse at the tip instead of the modal kick
     rn = Replay(8, probe_node="B", probe_impulse=(1e-3, 0.0)).solve(sc)
     assert [s.stable for s in rn.steps] == [True, True, False]
