@@ -195,4 +195,5 @@ class ChainModel:
         msg = f"{len(steps)} steps, {int(res.iterations.sum())} Newton iterations"
         if warned:
             msg += "; outside validity range: " + "; ".join(warned.values())
+        msg += single_beam.unstable_note(steps)
         return Solution(scene.name, self.name, "converged", msg, tuple(steps), extras)

@@ -11,6 +11,7 @@ elastica -- are in ``reduced_models.prb_chain`` (re-exported here).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -27,7 +28,7 @@ from reduced_models.prb_chain import (
     recover_tip_loads_batch,
     shape_and_stress,
 )
-from reduced_models.single_beam import Cantilever, cantilever_of, tip_outputs
+from reduced_models.single_beam import Cantilever, cantilever_of, tip_outputs, unstable_note
 
 __all__ = [
     "RESIDUAL_TOL",
@@ -168,6 +169,7 @@ class PRBModel:
         msg = "converged" + (f"; {note}" if note else "")
         if np.any(np.isfinite(matrix[:, 1])) and chain.ne == 0:
             msg += "; axial springs treated as rigid (EA not given)"
+        msg += unstable_note(steps)
         return Solution(scene.name, self.name, "converged", msg, tuple(steps), extras)
 
 
@@ -198,6 +200,17 @@ class PRBShort(PRBModel):
 
     def __init__(self, shapes: bool = True) -> None:
         super().__init__(T.PRB_SHORT, shapes)
+
+    def solve(self, scene: Scene) -> Solution:
+        """As every PRB model, flagged outside its validity range: a single-beam scene is a
+        uniform beam, never a short flexural pivot next to a rigid link."""
+        sol = super().solve(scene)
+        if sol.status != "converged":
+            return sol
+        why = "a uniform beam is not a short flexural pivot (Howell & Midha 1994)"
+        extras = {**sol.extras, "validity_warning": True, "validity_message": why}
+        msg = f"{sol.message}; outside validity range: {why}"
+        return dataclasses.replace(sol, message=msg, extras=extras)
 
 
 class PRB1R(PRBModel):

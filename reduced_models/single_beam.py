@@ -9,11 +9,13 @@ reason it cannot; ``tip_outputs`` maps a beam-frame solution back to the scene's
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from cases.schema import Scene
+from reduced_models.base import Step
 
 
 @dataclass(frozen=True)
@@ -74,6 +76,11 @@ def cantilever_of(scene: Scene) -> Cantilever | str:
             guided = True
         else:
             return "the free end is supported (only a 'guided' tip is modelled)"
+    ends = {mem.a: mem.end_a, mem.b: mem.end_b}
+    if ends[root] != "weld":
+        return "the beam is pinned (end 'pin') to its clamped node: a pinned root, not a cantilever"
+    if ends[tip] != "weld" and (guided or any(ld.moment for ld in scene.loads)):
+        return "the beam's tip end is a free hinge: the guide or tip moment does not act on it"
     if any(ld.node != tip or ld.member is not None for ld in scene.loads):
         return "loads must act at the free end of the beam"
     follower = {ld.follower for ld in scene.loads if ld.fx or ld.fy}
@@ -130,3 +137,15 @@ def stress_from_curvature(scene: Scene, beam: Cantilever, kappa: np.ndarray) -> 
     if mem.thickness is None or mem.E is None:
         return None
     return float(mem.E * mem.thickness * np.max(np.abs(kappa)) / 2.0)
+
+
+def unstable_note(steps: Sequence[Step]) -> str:
+    """``"; ..."`` saying that a path ends on an unstable equilibrium (its stability test
+    says so), else ``""``: a converged answer on an unstable branch is never silent."""
+    if steps and steps[-1].stable is False:
+        first = next(s.factor for s in steps if s.stable is False)
+        return (
+            f"; unstable equilibria from factor {first:.4g} to the end (the path stayed on "
+            "a branch that lost stability: a bifurcation needs an imperfection)"
+        )
+    return ""

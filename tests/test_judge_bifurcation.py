@@ -88,3 +88,16 @@ def test_runner_does_not_score_against_an_unstable_reference():
         {"reference_model": "fem-auto"}, {"fem-auto": bad, "elastica": good}
     )
     assert name == "elastica" and "unusable" in note
+
+
+@pytest.mark.parametrize("model", ["elastica", "linear-8", "bcm", "cbcm-4", "prb-3r", "prb-fsm-8"])
+def test_reduced_models_on_a_perfect_column_say_when_unstable(model):
+    """Past Euler's load a model either follows the buckled branch (as fem-auto), declines,
+    fails, or says that its answer is an unstable equilibrium: never silent."""
+    scene = cases.load("tests/data/traps/column-3x-euler.toml")
+    sol = reports.solve(scene, model)
+    if sol.status != "converged":
+        assert sol.message
+        return
+    buckled = abs(sol.steps[-1].outputs["tip.uy"]) > 0.1
+    assert buckled or (sol.steps[-1].stable is False and "unstable" in sol.message)
