@@ -43,17 +43,19 @@ _REFS = (
     "Battini & Pacoste, CMAME 191:1755-1789 (2002), doi 10.1016/S0045-7825(01)00352-8",
     "Roache, Verification and Validation in Computational Science and Engineering, 1998 (RE)",
 )
-_OPTION_KEYS = (
-    "rtol",
-    "max_iter",
-    "arc_length",
-    "arc_length_max",
-    "stability",
-    "rigid_factor",
-    "dense_max",
-    "limit_points",
-    "bifurcation",
-)
+# declared options (checked by ``reduced_models.registry.build``): (kind, lo, hi, choices, doc)
+FEM_OPTIONS: dict[str, tuple] = {
+    "rtol": ("float", 1e-14, 1e-4, (), "Newton force tolerance / force scale"),
+    "max_iter": ("int", 2, 1000, (), "Newton iterations per solve"),
+    "arc_length": ("float", 1e-12, 1e3, (), "initial arc length (W-norm)"),
+    "arc_length_max": ("float", 1e-12, 1e3, (), "largest arc length"),
+    "stability": ("bool", None, None, (), "tangent stability test per step"),
+    "rigid_factor": ("float", 1e2, 1e12, (), "rigid link stiffness / member stiffness"),
+    "dense_max": ("int", 1, 100_000, (), "largest dense eigenproblem"),
+    "limit_points": ("bool", None, None, (), "refine limit points of paths"),
+    "bifurcation": ("bool", None, None, (), "detect bifurcations and switch branch"),
+}
+_OPTION_KEYS = tuple(FEM_OPTIONS)
 
 
 def _rec(
@@ -314,6 +316,8 @@ class FEM:
         references=_REFS,
     )
 
+    OPTIONS = FEM_OPTIONS
+
     def __init__(self, n: int = 32, **options: object):
         self.n = int(n)
         self.name = f"fem-{self.n}"
@@ -368,6 +372,8 @@ class FEMAuto:
         validity="as fem-N; the error estimate is meaningful when the observed order is near 2",
         references=_REFS,
     )
+
+    OPTIONS = {**FEM_OPTIONS, "sequence": ("ints", 1, 100_000, (), "element counts")}
 
     def __init__(self, sequence: tuple[int, ...] | list[int] = (8, 16, 32, 64), **options):
         self.sequence = tuple(int(n) for n in sequence)

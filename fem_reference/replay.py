@@ -428,6 +428,26 @@ class Replay:
         references=_REFERENCES,
     )
 
+    # declared options (checked by ``reduced_models.registry.build``): (kind, lo, hi, choices)
+    OPTIONS = {
+        "n_elements": ("int", 1, 100_000),
+        "zeta": ("float", 1e-3, 100.0),
+        "damping": ("str", None, None, ("mass", "current", "initial")),
+        "rho_inf": ("float", 0.0, 1.0),
+        "ramp_periods": ("float", 1e-2, 1e4),
+        "settle_tol": ("float", 1e-14, 1e-2),
+        "lte_tol": ("float", 1e-10, 1.0),
+        "dt_max": ("float", 1e-6, 1e3),
+        "max_hold": ("float", 1.0, 1e6),
+        "probe": ("str", None, None, ("all", "last", "none")),
+        "probe_amplitude": ("float", 1e-12, 1.0),
+        "probe_node": ("str",),
+        "probe_impulse": ("floats",),
+        "jump_dissipation": ("float", 1e-6, 1.0),
+        "history_samples": ("int", 2, 10_000_000),
+        "frames": ("int", 1, 100_000),
+    }
+
     def __init__(
         self, n_elements: int = 32, events: object = (), factors: object = None, **options: object
     ) -> None:

@@ -20,6 +20,7 @@ from reduced_models import single_beam
 from reduced_models.base import ModelCard, Solution, Step, load_factors, not_applicable
 from reduced_models.chain import ChainProblem, SegmentLaw, chain_shape, local_coords
 from reduced_models.continuation import minimize_path
+from reduced_models.options import Option
 
 __all__ = ["ChainModel"]
 
@@ -50,6 +51,8 @@ class ChainModel:
         template = cls.__dict__.get("_card")
         if template is not None:
             cls.card = dataclasses.replace(template, summary=template.summary.format(N="N"))
+
+    OPTIONS = {"shape_points": Option("int", 2, 100_000, doc="points per segment shape")}
 
     def __init__(self, n: int = 1, shape_points: int | None = None) -> None:
         if int(n) < 1:

@@ -329,6 +329,7 @@ class Elastica:
     """Exact inextensible elastica of a single clamped beam (free or guided tip)."""
 
     name = "elastica"
+    OPTIONS: dict = {}  # no options
     card = ModelCard(
         name="elastica",
         family="elastica",

@@ -19,6 +19,7 @@ import numpy as np
 from cases.schema import Scene
 from reduced_models import prb_tables as T
 from reduced_models.base import ModelCard, Solution, Step, load_factors, not_applicable
+from reduced_models.options import SHAPES, Option
 from reduced_models.prb_chain import (
     RESIDUAL_TOL,
     PRBChain,
@@ -64,6 +65,8 @@ class PRBModel:
 
     name = "prb"
     card = ModelCard(name="prb", family="prb", summary="PRB chain", assumptions=_COMMON)
+
+    OPTIONS = dict(SHAPES)
 
     def __init__(self, matrix: object = None, shapes: bool = True) -> None:
         self._matrix = None if matrix is None else check_matrix(matrix)
@@ -243,6 +246,8 @@ class PRB1R(PRBModel):
         ),
     )
 
+    OPTIONS = {**SHAPES, "params": Option("str", choices=("fit", "average"), doc="gamma(n)")}
+
     def __init__(self, params: str = "fit", shapes: bool = True) -> None:
         super().__init__(None, shapes)
         if params not in ("fit", "average"):
@@ -306,6 +311,8 @@ class PRB3R(PRBModel):
         assumptions=_COMMON,
         references=("Su, J. Mechanisms Robotics 1(2):021008, 2009, doi 10.1115/1.3046148",),
     )
+
+    OPTIONS = {**SHAPES, "stiffness": Option("str", choices=tuple(sorted(T.SU_K)))}
 
     def __init__(self, stiffness: str | None = None, shapes: bool = True) -> None:
         kset = stiffness or self.kset
@@ -378,6 +385,8 @@ class PRBFSM(PRBModel):
         references=("Howell & Midha, J. Mech. Des. 116:280-290, 1994, doi 10.1115/1.2919359",),
     )
 
+    OPTIONS = {**SHAPES, "placement": Option("str", choices=("mid", "end"), doc="springs")}
+
     def __init__(self, n: int, placement: str = "mid", shapes: bool = True) -> None:
         super().__init__(T.fsm_matrix(int(n), placement), shapes)
         where = "element centres" if placement == "mid" else "proximal element ends"
@@ -410,6 +419,12 @@ class PRBCustom(PRBModel):
         validity="whatever the matrix was fitted for",
         references=(_REF, _SEED),
     )
+
+    OPTIONS = {
+        **SHAPES,
+        "matrix": Option("matrix", doc="PRB matrix [[k_theta, k_ex, gamma], ...]"),
+        "tip_angle_factor": Option("float", 0.0, 10.0, doc="tip slope / last link angle"),
+    }
 
     def __init__(
         self, matrix: object = None, tip_angle_factor: float = 1.0, shapes: bool = True

@@ -57,7 +57,7 @@ def _fail(message: str) -> int:
 
 
 def _user_errors() -> tuple[type[BaseException], ...]:
-    errs: list[type[BaseException]] = [UsageError, api.UnknownModelError]
+    errs: list[type[BaseException]] = [UsageError, api.UnknownModelError, api.OptionError]
     try:
         import cases
 
