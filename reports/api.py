@@ -100,7 +100,7 @@ def make_model(name: str, scene: Scene | None = None, options: dict | None = Non
     try:
         return build(name, target, n, options)
     except OptionError as exc:  # already names model, option and reason
-        raise OptionError(f"{where}[[models]] options: {exc}") from exc
+        raise OptionError(f"{where}[[models]] bad options: {exc}") from exc
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{where}model {name!r}: bad options {options!r}: {exc}") from exc
 
@@ -115,7 +115,7 @@ def check_options(scene: Scene, name: str, target: str, options: dict) -> None:
         _registry.validate(name, declared, options)
     except OptionError as exc:
         where = f"{scene.path}: " if scene.path else ""
-        raise OptionError(f"{where}[[models]] options: {exc}") from None
+        raise OptionError(f"{where}[[models]] bad options: {exc}") from None
 
 
 def card_of(name: str) -> ModelCard | None:
