@@ -88,6 +88,10 @@ def cantilever_of(scene: Scene) -> Cantilever | str:
         return "mixed dead and follower tip forces"
     if scene.analysis.kind not in ("load", "path"):
         return f"analysis kind {scene.analysis.kind!r} is not a load ramp"
+    if not math.isfinite(scene.analysis.factor_end):
+        return "a path traced to its stop output (no factor_end) needs arc-length continuation"
+    if mem.sweep_deg:
+        return "the member is a circular arc (sweep_deg): single-beam models are straight"
     r, t = scene.node(root), scene.node(tip)
     angle = math.atan2(t.y - r.y, t.x - r.x)
     c, s = math.cos(angle), math.sin(angle)
