@@ -27,7 +27,8 @@ import numpy as np
 from cases.schema import Scene
 from fem_reference import static as S
 from fem_reference.assembly import FEMSystem, ModelError, build
-from fem_reference.bifurcation import Watch
+from fem_reference.bifurcation import Watch, is_conservative
+from fem_reference.integrity import violation
 from reduced_models.base import ModelCard, Solution, Step, load_factors, not_applicable
 
 MODELS: dict[str, str] = {
@@ -104,7 +105,9 @@ class Runner:
 
     # -- helpers ---------------------------------------------------------------------------
     def stab(self, st: S.State, exclude: int | None = None) -> dict | None:
-        if not self.o.get("stability", True):
+        # follower loads: the tangent is unsymmetric and its symmetric part says nothing
+        # about stability (flutter needs a dynamic test): no verdict
+        if not self.o.get("stability", True) or not is_conservative(self.system):
             return None
         return S.stability(
             self.system, st.u, st.lam, int(self.o.get("dense_max", 60)), exclude=exclude
@@ -180,6 +183,9 @@ class Runner:
         exclude: int | None = None,
         info: dict | None = None,
     ) -> None:
+        why = violation(self.system, st.u)  # rigid links stretched, strains beyond the model
+        if why:
+            raise S.SolveError(f"at factor {st.lam:.6g}: {why}")
         self.states.append(st)
         self.steps.append(_rec(self.system, st, factor, self.stab(st, exclude), extra_out, info))
 
@@ -309,7 +315,9 @@ class FEM:
             "Euler-Bernoulli beams: no shear deformation; linear elastic local law",
             "small strains, arbitrarily large rotations (corotational)",
             "rigid links = one stiff element (relative compliance ~1e-6)",
-            "stability from the lowest eigenvalue of the symmetric tangent part",
+            "stability from the lowest eigenvalue of the symmetric tangent (conservative loads "
+            "only; under follower loads the verdict is None)",
+            "rigid links = stiff elements whose stretch is checked (<= 1e-4) at every state",
         ),
         validity="any planar scene of the case format; discretisation error O(h^2) in "
         "displacements (use fem-auto for an error estimate)",
