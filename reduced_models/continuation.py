@@ -227,6 +227,31 @@ class _Solver:
         return None, self.max_iter, f"no convergence in {self.max_iter} its"
 
 
+def _min_abs_eig(solver: _Solver, x: np.ndarray, lam: float) -> float:
+    """Smallest |eigenvalue| of the symmetric part of the tangent at ``(x, lam)`` (dense; a
+    diagnosis after failure, never in the Newton loop)."""
+    _, H = solver.evaluate(x, lam)
+    A = H.to_dense() if isinstance(H, Banded) else (H.toarray() if sp.issparse(H) else H)
+    A = np.asarray(A, dtype=float)
+    return float(np.min(np.abs(np.linalg.eigvalsh(0.5 * (A + A.T)))))
+
+
+def _diagnose(solver: _Solver, x: np.ndarray, lam: float, lam0: float, x0: np.ndarray) -> str:
+    """Why load control stopped: the model's own limit point (its tangent turned singular:
+    smallest |eigenvalue| below 1 % of the unloaded state's) or an unexplained failure."""
+    try:
+        ratio = _min_abs_eig(solver, x, lam) / max(_min_abs_eig(solver, x0, lam0), 1e-300)
+    except (np.linalg.LinAlgError, ValueError):
+        return "limit point or loss of equilibrium?"
+    if ratio < 1e-2:
+        return (
+            f"the model's own limit point at factor ~{lam:.6g} (its tangent is singular "
+            f"there: smallest |eigenvalue| {ratio:.1e} of the unloaded one); load control "
+            "cannot pass it and this model has no equilibrium just beyond on this branch"
+        )
+    return f"no limit point of the model found (tangent ratio {ratio:.1e}): loss of equilibrium?"
+
+
 def minimize_path(
     grad_hess: Callable,
     x0: np.ndarray,
@@ -406,8 +431,8 @@ def minimize_path(
                     return result(
                         False,
                         f"Newton failed between factors {lam_cur:.6g} and {lam_try:.6g} "
-                        f"after {cuts_total} step cuts ({why}); limit point or loss of "
-                        "equilibrium?",
+                        f"after {cuts_total} step cuts ({why}); "
+                        + _diagnose(solver, cur.x, lam_cur, float(factors[0]), x0),
                     )
                 continue
             consecutive = 0
