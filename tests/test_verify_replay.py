@@ -319,8 +319,10 @@ def test_bistable_toggle_snap_matches_fe_far_branch():
     assert status == "converged", msg
     lam_max = max(lp["factor"] for lp in runner.extras["limit_points"] if lp["kind"] == "max")
     (j,) = rp.extras["jumps"]
-    # the dynamic trajectory lags the ramp, so it leaves the stable region after lam_max
-    assert j["from_factor"] < lam_max <= j["factor"] <= j["to_factor"]
+    # the dynamic trajectory lags the ramp, so it leaves the stable region after lam_max;
+    # the jump is reported at the static path's stability loss, the FE limit point
+    assert j["from_factor"] < lam_max <= j["factor_dynamic"] <= j["to_factor"]
+    assert j["factor"] == j["factor_static"] == pytest.approx(lam_max, rel=1e-5)
     assert j["after"]["apex.uy"] < -0.2 < j["before"]["apex.uy"]
     lam_min = min(lp["factor"] for lp in runner.extras["limit_points"] if lp["kind"] == "min")
     assert lam_min < 0.0  # bistable: the far branch is stable unloaded
