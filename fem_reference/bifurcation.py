@@ -15,7 +15,11 @@ reported state of ``Runner.run_load`` (``models.py``):
    bifurcation (the load does no work on the mode), otherwise a limit point.
 4. *Switch* (bifurcations only): the mode is imposed with amplitude ``SWITCH_AMPLITUDE * L``
    on the DOF where it is largest (Newton bordered by that displacement constraint, the load
-   factor free), for both signs of the mode; the first stable result is kept.  That is a
+   factor free), for both signs of the mode; of the stable results the one with the lower
+   total potential is kept (an imperfect structure's own branch; a tie keeps the + sign).  When the
+   fundamental path cannot be re-solved inside the bracket (an imperfect near-bifurcation that
+   load control crossed onto the complementary branch) the critical factor is interpolated
+   from the eigenvalues and the switch starts from the last stable state.  That is a
    displacement-controlled imperfection of 1e-2 L, independent of the mesh and removed as
    soon as the state is reached (the path is then followed by plain load control, which
    carries no imperfection).  Subcritical bifurcations (no stable state next to the
@@ -125,14 +129,22 @@ class Watch:
                 rtol=1e-13,
             )
             crit = fundamental(lam_c)
-        except (S.SolveError, ValueError) as err:
-            self.note = f"stability lost between factors {prev.lam:.6g} and {cur.lam:.6g} ({err})"
-            return cur
-        _, phi, _ = lowest_mode(sysm, crit.u, lam_c, scale)
+            _, phi, _ = lowest_mode(sysm, crit.u, lam_c, scale)
+            located = True
+        except (S.SolveError, ValueError):
+            # an imperfect near-bifurcation: the fundamental path cannot be re-solved inside
+            # the bracket (load control jumped onto the complementary branch).  Critical
+            # factor by linear interpolation of the eigenvalue; the switch starts from the
+            # last stable state with the mode of the unstable one.
+            ep, ec = self._eig(prev, scale), self._eig(cur, scale)
+            lam_c = prev.lam + (cur.lam - prev.lam) * ep / (ep - ec)
+            crit, located = prev, False
+            _, phi, _ = lowest_mode(sysm, cur.u, cur.lam, scale)
         f = np.asarray(sysm.external(crit.u), dtype=float)
         work = abs(float(phi @ f)) / max(np.linalg.norm(phi) * np.linalg.norm(f), 1e-300)
         kind = "bifurcation" if work < KIND_TOL else "limit"
         point = {"factor": float(lam_c), "kind": kind, "load_work": work, "switched": False}
+        point["located"] = located
         self.points.append(point)
         if kind != "bifurcation":
             self.note = f"stability lost at a limit point (factor {lam_c:.8g}) not crossed"
@@ -155,6 +167,7 @@ class Watch:
         a = SWITCH_AMPLITUDE * sysm.length_scale()
         if sysm.is_rotation[i]:
             a = SWITCH_AMPLITUDE
+        found = []
         for sign in (1.0, -1.0):
             step = sign * a / phi[i]
             try:
@@ -170,8 +183,19 @@ class Watch:
                 continue
             if self._eig(land) > 0.0:
                 land.info = {**land.info, "branch_switch": 1.0}
-                return land
-        return None
+                found.append((self._potential(land), land))
+        if not found:
+            return None
+        # the lower total potential: an imperfect structure's own branch (ties -> first sign)
+        best = min(found, key=lambda e: e[0])
+        if abs(found[0][0] - best[0]) <= 1e-12 * max(abs(found[0][0]), 1e-300):
+            return found[0][1]
+        return best[1]
+
+    def _potential(self, st: S.State) -> float:
+        """Total potential U(u) - lam f . u of a state (dead loads: conservative)."""
+        f = np.asarray(self.sys.external(st.u), dtype=float)
+        return float(self.sys.strain_energy(st.u)) - st.lam * float(f @ st.u)
 
     def _follow(self, st: S.State, target: float, ds: float) -> S.State:
         """Arc-length along the new branch from ``st`` until the factor crosses ``target``,

@@ -101,3 +101,14 @@ def test_reduced_models_on_a_perfect_column_say_when_unstable(model):
         return
     buckled = abs(sol.steps[-1].outputs["tip.uy"]) > 0.1
     assert buckled or (sol.steps[-1].stable is False and "unstable" in sol.message)
+
+
+def test_tiny_imperfection_follows_its_own_buckled_branch():
+    """1e-9 P transverse imperfection: load control crosses onto the complementary
+    (unstable) branch; the watch switches to the stable branch on the imperfection's side."""
+    scene = cases.load("tests/data/traps/column-3x-euler-imperfect.toml")
+    sol = reports.solve(scene, "fem-16")
+    assert sol.status == "converged" and sol.message == ""
+    y, _, _ = elastica_post(3.0)
+    last = sol.steps[-1]
+    assert last.stable is True and last.outputs["tip.uy"] == pytest.approx(y, rel=2e-2)
