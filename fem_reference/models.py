@@ -260,6 +260,9 @@ class Runner:
             self._push(st, st.lam)
         if self.o.get("limit_points", True):
             self.limit_points()
+        last = self.steps[-1] if self.steps else None
+        if status == "converged" and last is not None and last.stable is False:
+            message = "the path ends on an unstable equilibrium (traced, not settled there)"
         return status, message
 
     def limit_points(self) -> None:
