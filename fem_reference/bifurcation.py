@@ -41,6 +41,7 @@ import scipy.sparse.linalg as spla
 from scipy.optimize import brentq
 
 from fem_reference import static as S
+from fem_reference.banded import BAND_MAX, symmetric_upper_band
 
 KIND_TOL = 1e-3
 SWITCH_AMPLITUDE = 1e-2
@@ -90,17 +91,36 @@ class Watch:
         self.points: list[dict] = []
         self.note = ""
         self.active = is_conservative(system)
-        self._cache: tuple = (None, False, None)  # (id, stable, state kept alive for the id)
+        self._cache: tuple = (None, None, None)  # (id, stability dict, state kept alive)
+        self.dense_max = 60
+        self._fast: tuple = (None, False)  # (state, positive definite) of the last fast check
 
     def _eig(self, st: S.State, scale: np.ndarray | None = None) -> float:
         return lowest_mode(self.sys, st.u, st.lam, scale)[0]
 
     def stable(self, st: S.State) -> bool:
-        """Positive definiteness of the scaled symmetric tangent (banded Cholesky when
-        narrow; cached per state)."""
-        key = id(st)
-        if self._cache[0] != key:
-            self._cache = (key, bool(S.stability(self.sys, st.u, st.lam)["stable"]), st)
+        """Positive definiteness of the symmetric tangent: Cholesky (LAPACK ``dpbtrf``) of
+        its Jacobi-scaled band (well conditioned even for EA L^2/EI ~ 1e8, where the
+        length-scaled matrix lets round-off pass an indefinite one); the full
+        ``static.stability`` when it is cached anyway or there is no band fast path."""
+        if self._cache[2] is st:
+            return bool(self._cache[1]["stable"])
+        if self._fast[0] is st:  # the previous step's current state
+            return self._fast[1]
+        bw = getattr(self.sys, "bandwidth", None)
+        if not hasattr(self.sys, "tangent_band") or bw is None or bw > BAND_MAX:
+            return bool(self.stability(st)["stable"])
+        ab = self.sys.tangent_band(self.sys.evaluate(st.u, st.lam))
+        d = np.abs(ab[2 * bw])
+        up = symmetric_upper_band(ab, bw, 1.0 / np.sqrt(np.where(d > 0.0, d, 1.0)))
+        self._fast = (st, bool(sla.lapack.dpbtrf(up, lower=0)[1] == 0))
+        return self._fast[1]
+
+    def stability(self, st: S.State) -> dict:
+        """``static.stability`` of ``st`` (cached for the last state asked: the runner
+        reports the same dict instead of computing it twice)."""
+        if self._cache[0] != id(st) or self._cache[2] is not st:
+            self._cache = (id(st), S.stability(self.sys, st.u, st.lam, self.dense_max), st)
         return self._cache[1]
 
     def check(self, prev: S.State, cur: S.State, target: float) -> S.State:

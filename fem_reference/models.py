@@ -102,6 +102,7 @@ class Runner:
         self.states: list[S.State] = []
         self.extras: dict = {"n_elements": n, "ndof": self.system.ndof}
         self.notes: list[str] = []  # said in the message of a converged run
+        self.watch: Watch | None = None  # the stability watch of a load run
 
     # -- helpers ---------------------------------------------------------------------------
     def stab(self, st: S.State, exclude: int | None = None) -> dict | None:
@@ -109,6 +110,8 @@ class Runner:
         # about stability (flutter needs a dynamic test): no verdict
         if not self.o.get("stability", True) or not is_conservative(self.system):
             return None
+        if exclude is None and self.watch is not None:
+            return self.watch.stability(st)  # computed once for the watch and the report
         return S.stability(
             self.system, st.u, st.lam, int(self.o.get("dense_max", 60)), exclude=exclude
         )
@@ -194,6 +197,9 @@ class Runner:
         self._push(st, 0.0)
         f = load_factors(self.scene)
         watch = Watch(self.system, self.opts) if self.o.get("bifurcation", True) else None
+        if watch is not None:
+            watch.dense_max = int(self.o.get("dense_max", 60))
+        self.watch = watch
         for prev, fk in zip(f[:-1], f[1:]):
             new = S.reach_factor(self.system, st, float(fk), float(fk - prev), self.opts)
             st = watch.check(st, new, float(fk)) if watch else new
