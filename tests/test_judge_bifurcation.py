@@ -112,3 +112,20 @@ def test_tiny_imperfection_follows_its_own_buckled_branch():
     y, _, _ = elastica_post(3.0)
     last = sol.steps[-1]
     assert last.stable is True and last.outputs["tip.uy"] == pytest.approx(y, rel=2e-2)
+
+
+def test_spring_restrained_column_critical_factor_and_pinned_mechanism():
+    """Pin + ground torsion spring k at the root, axial tip load: buckles where
+    beta L tan(beta L) = k L / EI, beta^2 = P / EI (Timoshenko & Gere 1961, Sec. 2.2).  The
+    same beam pinned without the spring is a mechanism: the loader refuses it (exit 2), so
+    no inverted pendulum is ever returned as converged."""
+    path = "tests/data/traps/spring-root-column.toml"
+    sol = reports.solve(cases.load(path), "fem-auto")
+    assert sol.status == "converged" and sol.steps[-1].stable is True
+    (cp,) = sol.extras["critical_points"]
+    bl = brentq(lambda b: b * math.tan(b) - 2.0, 0.1, 1.5)
+    assert cp["factor_extrapolated"] * 3.0 == pytest.approx(bl**2, rel=1e-4)
+    text = open(path).read()
+    start, end = text.index("[[torsion_springs]]"), text.index("[analysis]")
+    with pytest.raises(cases.CaseError, match="rigid-body"):
+        cases.loads(text[:start] + text[end:])
