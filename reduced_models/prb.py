@@ -254,6 +254,26 @@ class PRB1R(PRBModel):
             raise ValueError("prb-1r option params must be 'fit' or 'average'")
         self.params = params
 
+    def solve(self, scene: Scene) -> Solution:
+        """As ``PRBModel.solve``; states past Howell's Theta_max get a validity warning
+        (64.3 deg for forces -- tabulated for n = 0 -- and 124.4 deg / c_theta for a moment)."""
+        sol = super().solve(scene)
+        theta = np.abs([q[0] for q in sol.extras.get("prb_states", ())])
+        moment = sol.extras.get("tip_angle_factor") == T.HOWELL_MOMENT["c_theta"]
+        p = T.HOWELL_MOMENT if moment else T.HOWELL_N0
+        limit = p["Theta_max_deg"] / (p["c_theta"] if moment else 1.0)
+        past = np.flatnonzero(np.degrees(theta) > limit)
+        if past.size == 0:
+            return sol
+        j = int(past[0])
+        warn = (
+            f"PRB angle Theta {np.degrees(theta.max()):.1f} deg > Howell's {limit:.1f} deg "
+            f"(from factor {sol.steps[j].factor:.4g})"
+        )
+        extras = {**sol.extras, "validity_warning": True, "validity_message": warn}
+        msg = f"{sol.message}; outside validity range: {warn}"
+        return dataclasses.replace(sol, message=msg, extras=extras)
+
     def setup(self, beam: Cantilever) -> tuple[np.ndarray, float, str] | str:
         """Howell's parameters for this cantilever's load ratio."""
         fx, fy, m = beam.fx, beam.fy, beam.m

@@ -5,6 +5,8 @@
     flexbench cases                          list the catalog (name, title, tags)
     flexbench models                         list the registry with each model's card summary
     flexbench solve CASE --model M [--json]  solve one case (catalog name or .toml path)
+    flexbench recommend CASE [--tol 1%] [--json]   cheapest model within the tolerance
+    flexbench teach [--out DIR] [--quick]    teaching page: atlases, cards, worked advice
     flexbench run [--cases GLOB] [--models LIST] [--out DIR] [--quick] [--workers N]
                   [--dask ADDRESS] [--history PATH] [--fresh] [--no-report] [--time-limit S]
     flexbench compare BASE CURRENT [--abs-tol X] [--rel-factor F]   exit 1 on regression
@@ -187,6 +189,32 @@ def cmd_solve(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_recommend(args: argparse.Namespace) -> int:
+    from reports.recommend import format_text, recommend
+    from reports.tolerance import ToleranceError, parse_tolerance
+
+    try:
+        tol = parse_tolerance(args.tol)
+        result = recommend(_load(args.case), tol)
+    except ToleranceError as exc:
+        raise UsageError(str(exc)) from None
+    print(json.dumps(result.as_json(), allow_nan=False) if args.json else format_text(result))
+    return 0
+
+
+def cmd_teach(args: argparse.Namespace) -> int:
+    import cases
+    from reports.render import teaching
+
+    names = [s.name for s in select_cases(args.cases)] if args.cases else cases.catalog_names()
+    small = {"n_mag": 20, "n_ang": 21} if args.quick else {}
+    tols = ("1%",) if args.quick else ("1%", "0.1%")
+    data = teaching.build_data(names, tols, workers=args.workers, progress=print, **small)
+    path = teaching.write_page(data, Path(args.out) / "teaching.html")
+    print(f"teaching.html: {path} ({data['seconds']:.1f} s; atlases {data['atlas_seconds']} s)")
+    return 0
+
+
 def select_cases(patterns: str | None) -> list[Any]:
     """Scenes for ``--cases``: comma-separated catalog globs or .toml paths/globs."""
     import cases
@@ -227,6 +255,17 @@ def cmd_run(args: argparse.Namespace) -> int:
                 "--dask needs dask[distributed] (pip install flexbench[dask])"
             ) from None
     scenes = select_cases(args.cases)
+    tol = None
+    if args.tol is not None:
+        from reports.tolerance import ToleranceError, parse_tolerance
+
+        try:
+            tol = parse_tolerance(args.tol)
+        except ToleranceError as exc:
+            raise UsageError(str(exc)) from None
+        if tol.per_output or tol.default is None:
+            raise UsageError("--tol for run takes one value (e.g. 1%), not per-output values")
+        tol = tol.default
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise UsageError(f"--out {out}: exists and is not a directory")
@@ -242,6 +281,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             fresh=args.fresh,
             render=not args.no_report,
             time_limit="auto" if args.time_limit is None else (args.time_limit or None),
+            tolerance=tol,
         )
     except KeyboardInterrupt:
         print(
@@ -323,6 +363,19 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--model", "-m", required=True, help="registry name, e.g. elastica, linear-8")
     s.add_argument("--json", action="store_true", help="print the contract JSON object")
     s.set_defaults(func=cmd_solve)
+    rc = sub.add_parser("recommend", help="the cheapest model within a tolerance for one case")
+    rc.add_argument("case", help="catalog name or path to a .toml case file")
+    rc.add_argument(
+        "--tol", default="1%", help="path error allowed: 1%%, 1e-3 or tip.uy=0.5%%,tip.rot=1e-3"
+    )
+    rc.add_argument("--json", action="store_true", help="print the contract JSON object")
+    rc.set_defaults(func=cmd_recommend)
+    te = sub.add_parser("teach", help="write the teaching page (atlases, which model to use)")
+    te.add_argument("--out", default="out", help="output directory (default: out)")
+    te.add_argument("--cases", help="catalog globs for the worked recommendations (default: all)")
+    te.add_argument("--quick", action="store_true", help="20 x 21 atlases, 1 %% only")
+    te.add_argument("--workers", type=int, default=2, help="processes for the atlases")
+    te.set_defaults(func=cmd_teach)
     r = sub.add_parser("run", help="run the case x model matrix and render the report")
     r.add_argument("--cases", help="comma-separated catalog globs or .toml paths (default: all)")
     r.add_argument("--models", help="comma-separated model names (default: case list + defaults)")
@@ -340,6 +393,7 @@ def build_parser() -> argparse.ArgumentParser:
         f" --quick {QUICK_TIME_LIMIT:g})",
     )
     r.add_argument("--no-report", action="store_true", help="results only, no HTML/MD/PNG")
+    r.add_argument("--tol", help="grade every model against this tolerance (default: per family)")
     r.set_defaults(func=cmd_run)
     c = sub.add_parser("compare", help="regression check of CURRENT against BASE")
     c.add_argument("base", help="BASE results.json (or its directory)")

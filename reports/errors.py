@@ -97,10 +97,12 @@ def path_errors(
     -------
     dict with ``per_output`` (key -> error, None if not comparable), ``summary`` (float or
     None), ``n_points``, ``abscissa`` (``factor`` or the stop output), ``interpolated``,
-    ``coverage`` (fraction of the reference's final abscissa the model reached) and ``note``.
+    ``coverage`` (fraction of the reference's final abscissa the model reached), ``note`` and
+    ``per_output_at`` (key -> model load factor where that output's error is largest).
     """
     out: dict[str, Any] = {
         "per_output": {},
+        "per_output_at": {},
         "summary": None,
         "n_points": 0,
         "abscissa": None,
@@ -147,6 +149,7 @@ def path_errors(
             continue
         err = float(np.nanmax(diff)) / _scale(key, ref, length)
         out["per_output"][key] = err
+        out["per_output_at"][key] = _num(model_steps[idx_m[int(np.nanargmax(diff))]]["factor"])
         if key.rsplit(".", 1)[-1] in SUMMARY_QUANTITIES:
             summary.append(err)
     if summary:

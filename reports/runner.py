@@ -541,6 +541,7 @@ def run_matrix(
     time_limit: float | None | str = "auto",
     export: ExportPolicy | None | str = "auto",
     render_shapes: bool | None = None,
+    tolerance: float | None = None,
 ) -> RunResult:
     """Solve the matrix, store everything under ``out_dir`` and render the report.
 
@@ -589,6 +590,7 @@ def run_matrix(
     finally:
         bar.close()
     config = {
+        "tolerance": tolerance,  # grading.py: user tolerance (None: per-family defaults)
         "quick": quick,
         "models": list(models) if models else None,
         "cases": list(metas),

@@ -69,7 +69,7 @@ def test_report_files_and_content(run):
 def test_store_csv_and_sqlite_history(run, dummies):
     out = run.out_dir
     rows = (out / "results.csv").read_text().splitlines()
-    assert rows[0].split(",") == list(store.CSV_COLUMNS)
+    assert rows[0].split(",") == list(store.CSV_COLUMNS + store.GRADE_COLUMNS)
     assert len(rows) == 1 + 10
     again = runner.run_matrix(
         [dummy_scene("dummy-a"), dummy_scene("dummy-b")], MODELS, out, workers=1, render=False

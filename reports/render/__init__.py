@@ -16,6 +16,8 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from reports import grading
+
 Block = tuple
 
 RENDER_WIDTH_PX = 600  # the render is 1200 x 900 px; shown at half size
@@ -170,6 +172,7 @@ def _case_blocks(name: str, case: Mapping, recs: Sequence[Mapping], figs: Mappin
         "[min, max] ×n",
         "vs ref",
         "summary error",
+        "grade",
         *(f"err {k}" for k in keys),
         "note",
     ]
@@ -179,6 +182,14 @@ def _case_blocks(name: str, case: Mapping, recs: Sequence[Mapping], figs: Mappin
         per = (r.get("errors") or {}).get("per_output") or {}
         notes = [] if r["status"] == "converged" else [r.get("message") or ""]
         notes += r.get("warnings") or []
+        fid = (r.get("extras") or {}).get("fidelity")
+        if isinstance(fid, Mapping):  # *-auto models: the N they chose for their target
+            notes.append(
+                f"chose N = {fid.get('n')} (tried {fid.get('sequence')}; estimate "
+                f"{fmt_num(fid.get('estimate'))}, target {fmt_num(fid.get('target'))})"
+            )
+        if (r.get("grade") or {}).get("validity_warning"):
+            notes.append("⚠ " + r["grade"]["validity_warning"])
         err = r.get("errors") or {}
         if err.get("coverage") is not None and err["coverage"] < 0.999:
             notes.append(f"reached {err['coverage']:.0%} of the reference path")
@@ -196,6 +207,7 @@ def _case_blocks(name: str, case: Mapping, recs: Sequence[Mapping], figs: Mappin
                 fmt_ratio(r.get("speedup_vs_reference")),
                 fmt_num(r.get("summary_error"))
                 + (" (refs)" if r.get("summary_basis") == "references" else ""),
+                grading.label(r.get("grade")),
                 *(fmt_num(per.get(k)) for k in keys),
                 "; ".join(n for n in notes if n),
             ]
@@ -257,6 +269,7 @@ def build_document(payload: Mapping, figures: Mapping[str, Mapping[str, str]]) -
     if any(r.get("exports") for r in results):
         blocks.append(("p", PARAVIEW_NOTE))
     blocks.append(("h2", "Overview"))
+    blocks.append(("p", grading.summary_text((payload.get("config") or {}).get("tolerance"))))
     orows = []
     for name, case in payload["cases"].items():
         recs = [r for r in results if r["case"] == name]
@@ -509,6 +522,9 @@ def render_report(
     backend = None if not render else ("matplotlib" if pyvista is False else "auto")
     figs = render_figures(payload, out, backend)
     blocks = build_document(payload, figs)
+    if (out / "teaching.html").is_file():  # written by `flexbench teach` (render/teaching.py)
+        note = "Teaching page: model cards, validity atlases, which model to use per case"
+        blocks.insert(1, ("links", note, [("teaching.html", "teaching.html")]))
     html_path, md_path = out / "report.html", out / "report.md"
     html_path.write_text(to_html(blocks, "FlexBench report"), encoding="utf-8")
     md_path.write_text(to_markdown(blocks), encoding="utf-8")
