@@ -123,10 +123,11 @@ class Watch:
             self._cache = (id(st), S.stability(self.sys, st.u, st.lam, self.dense_max), st)
         return self._cache[1]
 
-    def check(self, prev: S.State, cur: S.State, target: float) -> S.State:
+    def check(self, prev: S.State, cur: S.State, target: float, path: bool = False) -> S.State:
         """``cur`` if the path stayed stable (or cannot be judged); otherwise the state at
         ``target`` on the stable branch after the critical point, or ``cur`` with
-        ``self.note`` saying why it is unstable."""
+        ``self.note`` saying why it is unstable.  ``path``: an arc-length step of a path
+        analysis, where limit points are traced, not notes."""
         if not self.active or self.note:
             return cur
         if not self.stable(prev) or self.stable(cur):
@@ -165,10 +166,12 @@ class Watch:
         kind = "bifurcation" if work < KIND_TOL else "limit"
         point = {"factor": float(lam_c), "kind": kind, "load_work": work, "switched": False}
         point["located"] = located
-        self.points.append(point)
         if kind != "bifurcation":
-            self.note = f"stability lost at a limit point (factor {lam_c:.8g}) not crossed"
+            if not path:  # (a path analysis refines its limit points itself)
+                self.points.append(point)
+                self.note = f"stability lost at a limit point (factor {lam_c:.8g}) not crossed"
             return cur
+        self.points.append(point)
         new = self._switch(crit, phi, target)
         if new is None:
             self.note = (

@@ -238,6 +238,7 @@ class Runner:
         sgn = 1.0 if a.factor_end >= 0 else -1.0
         arc = S.ArcLength(sysm, st, ds, opts, direction=sgn, ds_max=ds_max)
         func = sysm.output_functional(a.stop_output) if a.stop_output else None
+        watch = Watch(sysm, opts) if self.o.get("bifurcation", True) else None
 
         def val(s: S.State) -> float:
             return func[2] + func[1] * s.u[func[0]] if func[0] >= 0 else func[2]
@@ -247,6 +248,11 @@ class Runner:
             prev = st
             try:
                 st = arc.step()
+                if watch is not None and sgn * (st.lam - prev.lam) > 0:  # not at a fold
+                    new = watch.check(prev, st, st.lam, path=True)
+                    if new is not st:  # switched at a bifurcation: trace the new branch on
+                        st = new
+                        arc = S.ArcLength(sysm, st, arc.ds, opts, direction=sgn, ds_max=ds_max)
             except S.SolveError as err:
                 status, message = "failed", str(err)
                 break
@@ -264,10 +270,14 @@ class Runner:
                 status, message = "converged", ""
                 break
             self._push(st, st.lam)
+        if watch is not None:
+            self.extras["critical_points"] = watch.points
+            if watch.note and status == "converged":
+                message = watch.note
         if self.o.get("limit_points", True):
             self.limit_points()
         last = self.steps[-1] if self.steps else None
-        if status == "converged" and last is not None and last.stable is False:
+        if status == "converged" and last is not None and last.stable is False and not message:
             message = "the path ends on an unstable equilibrium (traced, not settled there)"
         return status, message
 

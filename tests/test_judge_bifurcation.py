@@ -129,3 +129,21 @@ def test_spring_restrained_column_critical_factor_and_pinned_mechanism():
     start, end = text.index("[[torsion_springs]]"), text.index("[analysis]")
     with pytest.raises(cases.CaseError, match="rigid-body"):
         cases.loads(text[:start] + text[end:])
+
+
+def test_path_analysis_of_a_perfect_column_switches_and_traces_the_buckled_branch():
+    """Arc-length path to tip rotation 1.5 rad (no factor_end): the elastica gives
+    P/Pe = (2 K(k) / pi)^2 with k = sin(0.75) there."""
+    import dataclasses
+
+    sc = beam_scene(-PE, 0.0, A=1e8, steps=20)
+    a = dataclasses.replace(
+        sc.analysis, kind="path", stop_output="tip.rot", stop_value=1.5, factor_end=math.inf
+    )
+    sol = reports.solve(dataclasses.replace(sc, analysis=a), "fem-16")
+    assert sol.status == "converged" and sol.steps[-1].outputs["tip.rot"] == pytest.approx(1.5)
+    (cp,) = sol.extras["critical_points"]
+    assert cp["kind"] == "bifurcation" and cp["switched"]
+    k = math.sin(0.75)
+    exact = (2.0 * ellipk(k * k) / math.pi) ** 2
+    assert sol.steps[-1].factor == pytest.approx(exact, rel=1e-3)  # 16 elements: 5e-4
