@@ -172,6 +172,8 @@ class Watch:
                 self.note = f"stability lost at a limit point (factor {lam_c:.8g}) not crossed"
             return cur
         self.points.append(point)
+        if path:
+            return self._branch_off(crit, phi, point, cur)
         new = self._switch(crit, phi, target)
         if new is None:
             self.note = (
@@ -214,6 +216,31 @@ class Watch:
         if abs(found[0][0] - best[0]) <= 1e-12 * max(abs(found[0][0]), 1e-300):
             return found[0][1]
         return best[1]
+
+    def _branch_off(self, crit: S.State, phi: np.ndarray, point: dict, cur: S.State) -> S.State:
+        """Path analyses: the first state on the bifurcated branch (mode amplitude
+        ``SWITCH_AMPLITUDE``) if that branch rises (supercritical: arc-length traces on from
+        it); a falling branch (subcritical) is not switched to -- the traced path stays on the
+        fundamental branch and the note says so."""
+        sysm = self.sys
+        i = int(np.argmax(np.abs(phi) * np.sqrt(S.Scaler.of(sysm).w)))
+        a = SWITCH_AMPLITUDE * (1.0 if sysm.is_rotation[i] else sysm.length_scale())
+        try:
+            off = S.newton(
+                sysm, crit.u + a * phi / phi[i], crit.lam, self.opts,
+                constraint=(i, 1.0, crit.u[i] + a),
+            )  # fmt: skip
+        except S.SolveError:
+            off = None
+        if off is None or off.lam <= crit.lam:
+            self.note = (
+                f"bifurcation at factor {point['factor']:.8g} (subcritical or not followed): "
+                "the traced path stays on the fundamental branch, unstable beyond it"
+            )
+            return cur
+        point["switched"] = True
+        off.info = {**off.info, "branch_switch": 1.0}
+        return off
 
     def _potential(self, st: S.State) -> float:
         """Total potential U(u) - lam f . u of a state (dead loads: conservative)."""
