@@ -134,6 +134,12 @@ class Watch:
             return cur
         if cur.info.get("snap"):
             return cur  # a limit point crossed by arc-length: the snapped-to state is judged
+        lam_c, crit, phi, located = self.locate(prev, cur)
+        return self._act(lam_c, crit, phi, located, cur, target, path)
+
+    def locate(self, prev: S.State, cur: S.State) -> tuple:
+        """``(lam_c, critical state, mode, located)`` of the stability loss between a stable
+        ``prev`` and an unstable ``cur`` on one branch (see the module docstring)."""
         sysm, opts = self.sys, self.opts
 
         def fundamental(lam: float) -> S.State:
@@ -161,6 +167,20 @@ class Watch:
             lam_c = prev.lam + (cur.lam - prev.lam) * ep / (ep - ec)
             crit, located = prev, False
             _, phi, _ = lowest_mode(sysm, cur.u, cur.lam, scale)
+        return float(lam_c), crit, phi, located
+
+    def _act(
+        self,
+        lam_c: float,
+        crit: S.State,
+        phi: np.ndarray,
+        located: bool,
+        cur: S.State,
+        target: float,
+        path: bool,
+    ) -> S.State:
+        """Classify the critical point and switch (``check``)."""
+        sysm = self.sys
         f = np.asarray(sysm.external(crit.u), dtype=float)
         work = abs(float(phi @ f)) / max(np.linalg.norm(phi) * np.linalg.norm(f), 1e-300)
         kind = "bifurcation" if work < KIND_TOL else "limit"

@@ -48,17 +48,27 @@ def worst_mesh_error(est: dict[str, float], length: float) -> float:
 
 
 def static_limit(system: object, q: np.ndarray, lam: float, target: float) -> float | None:
-    """Factor at which static load control from the equilibrium ``(q, lam)`` towards
-    ``target`` stalls (a limit point), or None if it gets there (no static snap)."""
+    """Factor at which the static path from the equilibrium ``(q, lam)`` towards ``target``
+    loses stability: a bifurcation on the way (``bifurcation.Watch.locate``) or else the
+    limit point where load control stalls; None if it gets there stably (no static snap)."""
+    from fem_reference.bifurcation import Watch
+
+    opts = S.Options()
+    start = S.State(np.array(q, float), lam)
     try:
-        S.load_control(
-            system, S.State(np.array(q, float), lam), target, abs(target - lam) / 4, S.Options()
-        )
-    except S.SolveError as err:
-        return None if err.state is None else float(err.state.lam)
-    except (AttributeError, TypeError, ValueError, np.linalg.LinAlgError):
+        try:
+            end = S.load_control(system, start, target, abs(target - lam) / 4, opts)
+            stall = None
+        except S.SolveError as err:
+            if err.state is None:
+                return None
+            end, stall = err.state, float(err.state.lam)
+        watch = Watch(system, opts)
+        if watch.active and watch.stable(start) and not watch.stable(end):
+            return watch.locate(start, end)[0]
+        return stall
+    except (AttributeError, TypeError, ValueError, np.linalg.LinAlgError, S.SolveError):
         return None
-    return None
 
 
 class Deadline:

@@ -320,9 +320,12 @@ def test_bistable_toggle_snap_matches_fe_far_branch():
     lam_max = max(lp["factor"] for lp in runner.extras["limit_points"] if lp["kind"] == "max")
     (j,) = rp.extras["jumps"]
     # the dynamic trajectory lags the ramp, so it leaves the stable region after lam_max;
-    # the jump is reported at the static path's stability loss, the FE limit point
+    # the jump is reported where the static path loses stability: the FE path's asymmetric
+    # bifurcation, just before its symmetric limit point
     assert j["from_factor"] < lam_max <= j["factor_dynamic"] <= j["to_factor"]
-    assert j["factor"] == j["factor_static"] == pytest.approx(lam_max, rel=1e-5)
+    (cp,) = runner.extras["critical_points"]
+    assert cp["kind"] == "bifurcation" and cp["factor"] < lam_max
+    assert j["factor"] == j["factor_static"] == pytest.approx(cp["factor"], rel=1e-6)
     assert j["after"]["apex.uy"] < -0.2 < j["before"]["apex.uy"]
     lam_min = min(lp["factor"] for lp in runner.extras["limit_points"] if lp["kind"] == "min")
     assert lam_min < 0.0  # bistable: the far branch is stable unloaded
