@@ -24,7 +24,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from cases.schema import Scene
-from reduced_models.base import Model, ModelCard, Solution, not_applicable
+from reduced_models.base import Model, ModelCard, Solution, not_applicable, post_process
 from reduced_models.options import Option
 
 P_RANGE = (0.5, 6.0)
@@ -127,6 +127,13 @@ class AutoFidelity:
             ns.append(n_next)
             sols.append(self.make(n_next).solve(scene))
         return self._result(scene, sols[-1], ns, p, est, "")
+
+    def postprocess(self, scene: Scene, sol: Solution) -> Solution:
+        """Shapes and stress by the chosen N's own model (its ``postprocess``)."""
+        fidelity = sol.extras.get("fidelity") or {}
+        if "n" not in fidelity:
+            return sol
+        return post_process(self.make(int(fidelity["n"])), scene, sol)
 
     def _result(
         self, scene: Scene, sol: Solution, ns: list[int], p: float, est: float, failure: str

@@ -11,6 +11,7 @@
                   [--dask ADDRESS] [--history PATH] [--fresh] [--no-report] [--time-limit S]
     flexbench compare BASE CURRENT [--abs-tol X] [--rel-factor F]   exit 1 on regression
     flexbench report DIR                     re-render report.html/.md from DIR/results.json
+    flexbench history [DIR|PATH] [--case C]  runs in history.sqlite (or one case's trend)
     flexbench fit-prb ...                    fit a PRB matrix (reduced_models.prb_fit)
 
 Exit codes: 0 success, 1 regression (compare) or a report that could not be rendered (run),
@@ -344,6 +345,15 @@ def cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_history(args: argparse.Namespace) -> int:
+    from reports import history
+
+    try:
+        return history.cmd_history(args)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+
+
 def cmd_fit_prb(argv: Sequence[str]) -> int:
     try:
         from reduced_models.prb_fit import fit_prb_cli
@@ -411,6 +421,10 @@ def build_parser() -> argparse.ArgumentParser:
         help="require pyvista renders (default: pyvista when it works, else matplotlib)",
     )
     rp.set_defaults(func=cmd_report)
+    from reports.history import add_parser as add_history
+
+    add_history(sub)
+    sub.choices["history"].set_defaults(func=cmd_history)
     sub.add_parser(
         "fit-prb", help="fit a PRB matrix (see flexbench fit-prb --help)", add_help=False
     )

@@ -267,7 +267,7 @@ def attach_errors(meta: Mapping, records: Sequence[dict]) -> dict[str, Any]:
         if isinstance(extras.get(est_key), Mapping):
             uncertainty = estimate_scale(extras[est_key], length)
             break
-    t_ref = ref["timing"]["median_s"] if ref is not None and ref.get("timing") else None
+    t_ref = cost_s(ref)
     for rec in records:
         rec["is_reference"] = rec["model"] == ref_name
         rec["refchecks"] = reference_checks(
@@ -285,9 +285,15 @@ def attach_errors(meta: Mapping, records: Sequence[dict]) -> dict[str, Any]:
             errs = [c["error"] for c in rec["refchecks"] if c["error"] is not None]
             if errs:
                 rec["summary_error"], rec["summary_basis"] = max(errs), "references"
-        t = rec["timing"]["median_s"] if rec.get("timing") else None
+        t = cost_s(rec)
         rec["speedup_vs_reference"] = t_ref / t if t_ref and t else None
     return {"reference": ref_name, "note": note, "uncertainty": uncertainty}
+
+
+def cost_s(rec: Mapping | None) -> float | None:
+    """A pair's cost for ratios: median CPU time of its solve (wall time in older records)."""
+    t = (rec or {}).get("timing") or {}
+    return t.get("cpu_median_s", t.get("median_s"))
 
 
 def speed_ratios(records: Sequence[dict]) -> list[dict]:
@@ -300,7 +306,7 @@ def speed_ratios(records: Sequence[dict]) -> list[dict]:
             continue
         if rec["status"] != "converged" or base["status"] != "converged":
             continue
-        t, tb = rec["timing"]["median_s"], base["timing"]["median_s"]
+        t, tb = cost_s(rec), cost_s(base)
         rows.append(
             {
                 "case": case,
@@ -308,7 +314,7 @@ def speed_ratios(records: Sequence[dict]) -> list[dict]:
                 "baseline": base["model"],
                 "model_s": t,
                 "baseline_s": tb,
-                "ratio": tb / t if t > 0 else None,
+                "ratio": tb / t if t and tb else None,
             }
         )
     return rows

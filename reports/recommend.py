@@ -269,7 +269,7 @@ def reference_of(scene: Scene) -> tuple[str | None, Solution | None, float | Non
         except ValueError as exc:
             notes.append(str(exc))
             continue
-        sol, cpu = timed(lambda m=model: api.run_model(m, scene), max_runs=3)
+        sol, cpu = timed(lambda m=model: api.run_model(m, scene, post=False), max_runs=3)
         if sol.ok and sol.steps:
             return name, sol, cpu, "; ".join(notes)
         notes.append(f"{name}: {sol.status} ({sol.message})")
@@ -372,7 +372,7 @@ def _walk(
         if why:
             cand.status, cand.message = "not-applicable", str(why)
             continue  # a larger N declines for the same reason
-        sol, cpu = timed(lambda m=model: api.run_model(m, scene), max_runs=repeats)
+        sol, cpu = timed(lambda m=model: api.run_model(m, scene, post=False), max_runs=repeats)
         cand.status, cand.cpu_s = sol.status, cpu
         cand.message = sol.message
         if sol.steps:
