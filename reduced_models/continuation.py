@@ -93,7 +93,7 @@ from reduced_models.linalg import (
     positive_definite,
     solve_linear,
 )
-from reduced_models.path_result import PathResult
+from reduced_models.path_result import PathResult, limit_note
 
 __all__ = [
     "Banded",
@@ -216,14 +216,8 @@ def _diagnose(solver: _Solver, x: np.ndarray, lam: float, lam0: float, x0: np.nd
     try:
         ratio = _min_abs_eig(solver, x, lam) / max(_min_abs_eig(solver, x0, lam0), 1e-300)
     except (np.linalg.LinAlgError, ValueError):
-        return "limit point or loss of equilibrium?"
-    if ratio < 1e-2:
-        return (
-            f"the model's own limit point at factor ~{lam:.6g} (its tangent is singular "
-            f"there: smallest |eigenvalue| {ratio:.1e} of the unloaded one); load control "
-            "cannot pass it and this model has no equilibrium just beyond on this branch"
-        )
-    return f"no limit point of the model found (tangent ratio {ratio:.1e}): loss of equilibrium?"
+        ratio = float("nan")
+    return limit_note(ratio, lam)
 
 
 def minimize_path(
