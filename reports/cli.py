@@ -120,6 +120,7 @@ _JSON_EXTRAS = (
     "limit_points",
     "critical_points",
     "reference_usable",
+    "mesh_error_worst",
     "jumps",
     "validity_warning",
     "validity_message",
