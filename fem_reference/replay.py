@@ -438,6 +438,10 @@ class Replay:
             "are all below settle_tol * L (1e-7 L by default)",
             "stability: a kick along the lowest mode (or a nodal impulse) returns / departs",
             "boom events: exact length lock with a plastic latch (no penalty stop)",
+            "fixed mesh (n_elements, default 32): settled to the static FE of that mesh, which "
+            "differs from fem-auto by its discretisation error -- estimated and stated in the "
+            "message (extras mesh_error_estimate); snap-through reported where the static "
+            "path loses stability, the dynamic onset alongside",
         ),
         validity="load analyses of any scene the FE reference represents; transients are "
         "only as physical as the damping (quasi-static replay, not a vibration model)",
