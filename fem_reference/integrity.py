@@ -4,9 +4,10 @@
   compliance ~1e-6); a link stretched by more than ``RIGID_STRETCH_MAX`` (relative) means the
   scene asks for the impossible -- a driver beyond the mechanism's reach, or loads that only
   the link's artificial axial compliance can carry -- and the run fails with that reason.
-* *Small strains*: the element's local law is linear elastic for small axial strain; a
-  flexible member strained beyond ``STRAIN_MAX`` (5 %, far past any elastic material) is
-  outside the model (a tip driven to 500 % strain) and the run fails with that reason.
+* *Moderate strains*: the element's local law is linear in the engineering strain; beyond
+  ``STRAIN_MAX`` (20 %: strain measures differ by ~10 % there, and no elastic flexure material
+  gets near it; a DAS-2D bistable switch reaches 5 %) the member is outside the model (a tip
+  driven to 500 % strain) and the run fails with that reason.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import numpy as np
 from fem_reference import corotational as cr
 
 RIGID_STRETCH_MAX = 1e-4  # 100x the stiff-link compliance of the default rigid_factor
-STRAIN_MAX = 0.05
+STRAIN_MAX = 0.2
 
 
 def strains(system: object, u: np.ndarray) -> dict[str, tuple[str, float]]:
@@ -44,6 +45,6 @@ def violation(system: object, u: np.ndarray) -> str | None:
         if kind == "flexible" and e > STRAIN_MAX:
             return (
                 f"member {mid!r} strained by {e:.2g} (bound {STRAIN_MAX:g}): beyond the "
-                "small-strain elastic model"
+                "moderate-strain elastic model"
             )
     return None
