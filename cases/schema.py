@@ -244,8 +244,8 @@ class Analysis:
     ``load``: factor 0 -> ``factor_end`` in ``steps`` equal increments (solvers may cut steps
     internally; they report these steps).  ``path``: arc-length continuation until
     ``stop_output`` reaches ``stop_value`` or the factor reaches ``factor_end`` (inf when a
-    stop output is given without it), at most ``max_steps`` steps.  ``distance``/``energy``: the ``driver`` goes from start to stop in
-    ``steps``.  ``sweep``: ``load`` repeated for each value of ``sweep_values`` of the scene
+    stop output is given without it), at most ``max_steps`` steps.  ``distance``/``energy``:
+    the ``driver`` goes from start to stop in ``steps``.  ``sweep``: ``load`` repeated for each value of ``sweep_values`` of the scene
     parameter ``sweep_key``; or, with ``grid``, the analysis ``sweep_of`` (``load`` or
     ``deploy``) at every point of the cartesian product of the grid axes (``sweep_key`` /
     ``sweep_values`` are read as a one-axis grid).  ``deploy``: the scene's booms push
