@@ -243,20 +243,20 @@ class Analysis:
 
     ``load``: factor 0 -> ``factor_end`` in ``steps`` equal increments (solvers may cut steps
     internally; they report these steps).  ``path``: arc-length continuation until
-    ``stop_output`` reaches ``stop_value`` or the factor reaches ``factor_end`` (inf when a
-    stop output is given without it), at most ``max_steps`` steps.  ``distance``/``energy``:
-    the ``driver`` goes from start to stop in ``steps``.  ``sweep``: ``load`` repeated for each value of ``sweep_values`` of the scene
-    parameter ``sweep_key``; or, with ``grid``, the analysis ``sweep_of`` (``load`` or
-    ``deploy``) at every point of the cartesian product of the grid axes (``sweep_key`` /
-    ``sweep_values`` are read as a one-axis grid).  ``deploy``: the scene's booms push
-    (Part 1) until they reach their length or stall, reported at ``steps`` + 1 points,
-    ``Step.factor`` = boom extension progress (L - L0) / (L_deployed - L0) in [0, 1]; then
-    (Part 2) the booms lock and the mechanism settles: one more step with ``factor`` = 2.
-    Every deploy step reports ``<boom id>.length``.
-    ``kinematics``: rigid-body motion of a mechanism without
-    flexible members, driven by ``driver`` (``Step.factor`` = driver coordinate); ``mobility``
-    is the expected mobility (Gruebler count, checked by the solver).  ``synthesis``: see
-    ``Synthesis``.  ``ma``: mechanical advantage output (``MechanicalAdvantage``).
+    ``stop_output`` reaches ``stop_value`` or the factor reaches ``factor_end`` (inf when a stop
+    output is given without it), at most ``max_steps`` steps.  ``distance``/``energy``: the
+    ``driver`` goes from start to stop in ``steps``.  ``sweep``: ``load`` repeated for each
+    value of ``sweep_values`` of the scene parameter ``sweep_key``; or, with ``grid``, the
+    analysis ``sweep_of`` (``load`` or ``deploy``) at every point of the cartesian product of
+    the grid axes (``sweep_key`` / ``sweep_values`` are read as a one-axis grid).  ``deploy``:
+    the scene's booms push (Part 1) until they reach their length or stall, reported at
+    ``steps`` + 1 points, ``Step.factor`` = boom extension progress (L - L0) / (L_deployed - L0)
+    in [0, 1]; then (Part 2) the booms lock and the mechanism settles: one more step with
+    ``factor`` = 2. Every deploy step reports ``<boom id>.length``.
+    ``kinematics``: rigid-body motion of a mechanism without flexible members, driven by
+    ``driver`` (``Step.factor`` = driver coordinate); ``mobility`` is the expected mobility
+    (Gruebler count, checked by the solver).  ``synthesis``: see ``Synthesis``.  ``ma``:
+    mechanical advantage output (``MechanicalAdvantage``).
     """
 
     kind: str = "load"
