@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from cases.arc import MAX_SWEEP_DEG
 from cases.schema import (
     ANALYSIS_KINDS,
     END_KINDS,
@@ -297,6 +298,7 @@ class _Builder:
             "k",
             "free_length",
             "density",
+            "sweep_deg",
             "model",
             "model_options",
         )
@@ -334,6 +336,11 @@ class _Builder:
                 raise self.fail(f"{p}.k", "missing: a spring member needs stiffness k > 0")
             if kind != "spring" and k is not None:
                 raise self.fail(f"{p}.k", f"only spring members take k (kind is {kind!r})")
+            sweep = self.num(t, "sweep_deg", p, default=0.0)
+            if sweep and kind != "flexible":
+                raise self.fail(f"{p}.sweep_deg", f"only flexible members are arcs (kind {kind!r})")
+            if abs(sweep) > MAX_SWEEP_DEG:
+                raise self.fail(f"{p}.sweep_deg", f"|sweep_deg| must be <= {MAX_SWEEP_DEG:g}")
             model, model_options = self.member_model(t, p, kind)
             out.append(
                 Member(
@@ -351,6 +358,7 @@ class _Builder:
                     k=k,
                     free_length=self.num(t, "free_length", p, nonneg=True),
                     density=self.num(t, "density", p, positive=True),
+                    sweep_deg=sweep,
                     model=model,
                     model_options=model_options,
                 )
@@ -566,7 +574,8 @@ class _Builder:
         return Analysis(
             kind=kind,
             steps=self.int_(t, "steps", p, 20),
-            factor_end=self.num(t, "factor_end", p, default=1.0),
+            # a path traced to a stop output goes on until it gets there (DESIGN.md): no bound
+            factor_end=self.num(t, "factor_end", p, default=math.inf if stop_output else 1.0),
             stop_output=stop_output,
             stop_value=stop_value,
             max_steps=self.int_(t, "max_steps", p, 400),

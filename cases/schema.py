@@ -21,6 +21,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+from cases.arc import arc_length
+
 UNITS: dict[str, str] = {
     "m-N-Pa": "lengths in m, forces in N, moduli in Pa",
     "mm-N-MPa": "lengths in mm, forces in N, moduli in MPa (N/mm^2)",
@@ -87,6 +89,7 @@ class Member:
     k: float | None = None
     free_length: float | None = None
     density: float | None = None
+    sweep_deg: float = 0.0  # circular arc from a to b through this central angle (cases.arc)
     model: str | None = None
     model_options: dict[str, Any] = field(default_factory=dict, hash=False, compare=False)
 
@@ -240,20 +243,20 @@ class Analysis:
 
     ``load``: factor 0 -> ``factor_end`` in ``steps`` equal increments (solvers may cut steps
     internally; they report these steps).  ``path``: arc-length continuation until
-    ``stop_output`` reaches ``stop_value`` or the factor reaches ``factor_end``, at most
-    ``max_steps`` steps.  ``distance``/``energy``: the ``driver`` goes from start to stop in
-    ``steps``.  ``sweep``: ``load`` repeated for each value of ``sweep_values`` of the scene
-    parameter ``sweep_key``; or, with ``grid``, the analysis ``sweep_of`` (``load`` or
-    ``deploy``) at every point of the cartesian product of the grid axes (``sweep_key`` /
-    ``sweep_values`` are read as a one-axis grid).  ``deploy``: the scene's booms push
-    (Part 1) until they reach their length or stall, reported at ``steps`` + 1 points,
-    ``Step.factor`` = boom extension progress (L - L0) / (L_deployed - L0) in [0, 1]; then
-    (Part 2) the booms lock and the mechanism settles: one more step with ``factor`` = 2.
-    Every deploy step reports ``<boom id>.length``.
-    ``kinematics``: rigid-body motion of a mechanism without
-    flexible members, driven by ``driver`` (``Step.factor`` = driver coordinate); ``mobility``
-    is the expected mobility (Gruebler count, checked by the solver).  ``synthesis``: see
-    ``Synthesis``.  ``ma``: mechanical advantage output (``MechanicalAdvantage``).
+    ``stop_output`` reaches ``stop_value`` or the factor reaches ``factor_end`` (inf when a stop
+    output is given without it), at most ``max_steps`` steps.  ``distance``/``energy``: the
+    ``driver`` goes from start to stop in ``steps``.  ``sweep``: ``load`` repeated for each
+    value of ``sweep_values`` of the scene parameter ``sweep_key``; or, with ``grid``, the
+    analysis ``sweep_of`` (``load`` or ``deploy``) at every point of the cartesian product of
+    the grid axes (``sweep_key`` / ``sweep_values`` are read as a one-axis grid).  ``deploy``:
+    the scene's booms push (Part 1) until they reach their length or stall, reported at
+    ``steps`` + 1 points, ``Step.factor`` = boom extension progress (L - L0) / (L_deployed - L0)
+    in [0, 1]; then (Part 2) the booms lock and the mechanism settles: one more step with
+    ``factor`` = 2. Every deploy step reports ``<boom id>.length``.
+    ``kinematics``: rigid-body motion of a mechanism without flexible members, driven by
+    ``driver`` (``Step.factor`` = driver coordinate); ``mobility`` is the expected mobility
+    (Gruebler count, checked by the solver).  ``synthesis``: see ``Synthesis``.  ``ma``:
+    mechanical advantage output (``MechanicalAdvantage``).
     """
 
     kind: str = "load"
@@ -358,10 +361,10 @@ class Scene:
         return None
 
     def member_length(self, member_id: str) -> float:
-        """Undeformed length of a member (length units)."""
+        """Undeformed length of a member (length units; the arc length of a curved one)."""
         m = self.member(member_id)
         a, b = self.node(m.a), self.node(m.b)
-        return math.hypot(b.x - a.x, b.y - a.y)
+        return arc_length(math.hypot(b.x - a.x, b.y - a.y), m.sweep_deg)
 
     def output_keys(self) -> list[str]:
         """All scalar output keys this scene reports, in order."""

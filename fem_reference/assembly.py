@@ -40,6 +40,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import reverse_cuthill_mckee
 
+from cases.arc import arc_points
 from cases.schema import Member, Scene
 from fem_reference import corotational as cr
 from fem_reference.femsystem import Evaluation, FEMSystem, MemberMesh, ModelError
@@ -151,10 +152,9 @@ def build(
     mean_A = np.mean([m.A for m in flex if m.A is not None] or [1.0])
     for m in beams_m:
         a, b = scene.node(m.a), scene.node(m.b)
-        L = math.hypot(b.x - a.x, b.y - a.y)
+        L = scene.member_length(m.id)  # arc length of a curved member
         if L <= 0:
             raise ModelError(f"member {m.id!r} has zero length")
-        ex, ey = (b.x - a.x) / L, (b.y - a.y) / L
         fr = sorted(
             {0.0, 1.0}
             | {float(ld.fraction) for ld in scene.loads if ld.member == m.id and ld.fraction}
@@ -164,18 +164,26 @@ def build(
             k = 1 if m.kind == "rigid" else max(1, round(n_elements * (f1 - f0)))
             s.extend(np.linspace(f0 * L, f1 * L, k + 1)[1:].tolist())
         s = np.array(s)
+        # nodes on the exact member line (straight or circular arc, ``cases.arc``); the
+        # straight elements between them are its chords, and the mesh coordinate is the
+        # accumulated chord length, so every element is stress-free as drawn (the polygon
+        # converges to the arc at O(h^2), the element's own order)
+        xy = arc_points((a.x, a.y), (b.x, b.y), m.sweep_deg, s)
+        xy[-1] = (b.x, b.y)
+        dxy = np.diff(xy, axis=0)
+        s_arc, s = s, np.concatenate([[0.0], np.cumsum(np.hypot(dxy[:, 0], dxy[:, 1]))])
         mesh = cr.line_mesh(s)
         p_ids = [nodes[m.a]]
-        for si in s[1:-1]:
+        for si in xy[1:-1]:
             p_ids.append(len(pts))
-            pts.append([a.x + ex * si, a.y + ey * si])
+            pts.append([float(si[0]), float(si[1])])
             trans.append([nfull, nfull + 1])
             rot_of_point[p_ids[-1]] = nfull + 2
             nfull += 3
         p_ids.append(nodes[m.b])
         p_ids = np.array(p_ids)
         for f in fr[1:-1]:
-            load_points[(m.id, f)] = (int(p_ids[np.argmin(np.abs(s - f * L))]), 0)
+            load_points[(m.id, f)] = (int(p_ids[np.argmin(np.abs(s_arc - f * L))]), 0)
         rots = [end_rot[(m.id, "a")]] + [rot_of_point[p] for p in p_ids[1:-1]]
         rots.append(end_rot[(m.id, "b")])
         if m.kind == "flexible":
@@ -201,7 +209,7 @@ def build(
         mA.append(cr.local_mass(mesh, rho * A))
         mR.append(cr.local_mass(mesh, rot_line))
         ne = l0.size
-        X21.append(np.outer(l0, [ex, ey]))
+        X21.append(dxy)
         L0.append(l0)
         ka.append(k_a)
         kb.append(k_b)

@@ -189,7 +189,10 @@ def band_stability(up: np.ndarray, bw: int, warm: dict | None = None) -> dict | 
             lam, x = inverse_iteration(solve, n)
         if warm is not None and x is not None:
             warm["x"] = x
-        return {"stable": True, "min_eig": lam, "n_neg": 0}
+        if not lam < 0.0:
+            return {"stable": True, "min_eig": lam, "n_neg": 0}
+        # Cholesky ran through on an ill-conditioned (EA L^2/EI ~ 1e8) indefinite matrix:
+        # the eigenvalue found on its factor is the verdict, the bisection below the count
     if n > EIG_BANDED_MAX:
         return None
     norm = inf_norm(up, bw)

@@ -27,7 +27,9 @@ import numpy as np
 from cases.schema import Scene
 from fem_reference import static as S
 from fem_reference.assembly import FEMSystem, ModelError, build
+from fem_reference.bifurcation import Watch, is_conservative
 from fem_reference.driver_post import post_process
+from fem_reference.integrity import violation
 from reduced_models.base import ModelCard, Solution, Step, load_factors, not_applicable
 
 MODELS: dict[str, str] = {
@@ -43,16 +45,19 @@ _REFS = (
     "Battini & Pacoste, CMAME 191:1755-1789 (2002), doi 10.1016/S0045-7825(01)00352-8",
     "Roache, Verification and Validation in Computational Science and Engineering, 1998 (RE)",
 )
-_OPTION_KEYS = (
-    "rtol",
-    "max_iter",
-    "arc_length",
-    "arc_length_max",
-    "stability",
-    "rigid_factor",
-    "dense_max",
-    "limit_points",
-)
+# declared options (checked by ``reduced_models.registry.build``): (kind, lo, hi, choices, doc)
+FEM_OPTIONS: dict[str, tuple] = {
+    "rtol": ("float", 1e-14, 1e-4, (), "Newton force tolerance / force scale"),
+    "max_iter": ("int", 2, 1000, (), "Newton iterations per solve"),
+    "arc_length": ("float", 1e-12, 1e3, (), "initial arc length (W-norm)"),
+    "arc_length_max": ("float", 1e-12, 1e3, (), "largest arc length"),
+    "stability": ("bool", None, None, (), "tangent stability test per step"),
+    "rigid_factor": ("float", 1e2, 1e12, (), "rigid link stiffness / member stiffness"),
+    "dense_max": ("int", 1, 100_000, (), "largest dense eigenproblem"),
+    "limit_points": ("bool", None, None, (), "refine limit points of paths"),
+    "bifurcation": ("bool", None, None, (), "detect bifurcations and switch branch"),
+}
+_OPTION_KEYS = tuple(FEM_OPTIONS)
 
 
 def _rec(
@@ -97,11 +102,17 @@ class Runner:
         self.steps: list[Step] = []
         self.states: list[S.State] = []
         self.extras: dict = {"n_elements": n, "ndof": self.system.ndof}
+        self.notes: list[str] = []  # said in the message of a converged run
+        self.watch: Watch | None = None  # the stability watch of a load run
 
     # -- helpers ---------------------------------------------------------------------------
     def stab(self, st: S.State, exclude: int | None = None) -> dict | None:
-        if not self.o.get("stability", True):
+        # follower loads: the tangent is unsymmetric and its symmetric part says nothing
+        # about stability (flutter needs a dynamic test): no verdict
+        if not self.o.get("stability", True) or not is_conservative(self.system):
             return None
+        if exclude is None and self.watch is not None:
+            return self.watch.stability(st)  # computed once for the watch and the report
         return S.stability(
             self.system, st.u, st.lam, int(self.o.get("dense_max", 60)), exclude=exclude
         )
@@ -166,7 +177,7 @@ class Runner:
             return "failed", str(err)
         except (np.linalg.LinAlgError, FloatingPointError, ValueError) as err:
             return "failed", f"{type(err).__name__}: {err}"
-        return "converged", ""
+        return "converged", "; ".join(self.notes)
 
     def _push(
         self,
@@ -176,6 +187,9 @@ class Runner:
         exclude: int | None = None,
         info: dict | None = None,
     ) -> None:
+        why = violation(self.system, st.u)  # rigid links stretched, strains beyond the model
+        if why:
+            raise S.SolveError(f"at factor {st.lam:.6g}: {why}")
         self.states.append(st)
         self.steps.append(_rec(self.system, st, factor, self.stab(st, exclude), extra_out, info))
 
@@ -183,9 +197,21 @@ class Runner:
         st = self.initial()
         self._push(st, 0.0)
         f = load_factors(self.scene)
+        watch = Watch(self.system, self.opts) if self.o.get("bifurcation", True) else None
+        if watch is not None:
+            watch.dense_max = int(self.o.get("dense_max", 60))
+        self.watch = watch
         for prev, fk in zip(f[:-1], f[1:]):
-            st = S.reach_factor(self.system, st, float(fk), float(fk - prev), self.opts)
+            new = S.reach_factor(self.system, st, float(fk), float(fk - prev), self.opts)
+            st = watch.check(st, new, float(fk)) if watch else new
             self._push(st, float(fk))
+        if watch:
+            self.extras["critical_points"] = watch.points
+            if not watch.note and watch.active and not watch.stable(st):
+                watch.note = f"the path ends on an unstable equilibrium (factor {st.lam:.6g})"
+            if watch.note:  # the runner does not score models against such a path
+                self.notes.append(watch.note)
+                self.extras["reference_usable"] = False
 
     def run_driver(self, kind: str) -> None:
         a, sysm = self.scene.analysis, self.system
@@ -213,6 +239,7 @@ class Runner:
         sgn = 1.0 if a.factor_end >= 0 else -1.0
         arc = S.ArcLength(sysm, st, ds, opts, direction=sgn, ds_max=ds_max)
         func = sysm.output_functional(a.stop_output) if a.stop_output else None
+        watch = Watch(sysm, opts) if self.o.get("bifurcation", True) else None
 
         def val(s: S.State) -> float:
             return func[2] + func[1] * s.u[func[0]] if func[0] >= 0 else func[2]
@@ -222,6 +249,11 @@ class Runner:
             prev = st
             try:
                 st = arc.step()
+                if watch is not None and sgn * (st.lam - prev.lam) > 0:  # not at a fold
+                    new = watch.check(prev, st, st.lam, path=True)
+                    if new is not st:  # switched at a bifurcation: trace the new branch on
+                        st = new
+                        arc = S.ArcLength(sysm, st, arc.ds, opts, direction=sgn, ds_max=ds_max)
             except S.SolveError as err:
                 status, message = "failed", str(err)
                 break
@@ -239,8 +271,15 @@ class Runner:
                 status, message = "converged", ""
                 break
             self._push(st, st.lam)
+        if watch is not None:
+            self.extras["critical_points"] = watch.points
+            if watch.note and status == "converged":
+                message = watch.note
         if self.o.get("limit_points", True):
             self.limit_points()
+        last = self.steps[-1] if self.steps else None
+        if status == "converged" and last is not None and last.stable is False and not message:
+            message = "the path ends on an unstable equilibrium (traced, not settled there)"
         return status, message
 
     def limit_points(self) -> None:
@@ -296,12 +335,16 @@ class FEM:
             "Euler-Bernoulli beams: no shear deformation; linear elastic local law",
             "small strains, arbitrarily large rotations (corotational)",
             "rigid links = one stiff element (relative compliance ~1e-6)",
-            "stability from the lowest eigenvalue of the symmetric tangent part",
+            "stability from the lowest eigenvalue of the symmetric tangent (conservative loads "
+            "only; under follower loads the verdict is None)",
+            "rigid links = stiff elements whose stretch is checked (<= 1e-4) at every state",
         ),
         validity="any planar scene of the case format; discretisation error O(h^2) in "
         "displacements (use fem-auto for an error estimate)",
         references=_REFS,
     )
+
+    OPTIONS = FEM_OPTIONS
 
     def __init__(self, n: int = 32, **options: object):
         self.n = int(n)
@@ -361,6 +404,8 @@ class FEMAuto:
         validity="as fem-N; the error estimate is meaningful when the observed order is near 2",
         references=_REFS,
     )
+
+    OPTIONS = {**FEM_OPTIONS, "sequence": ("ints", 1, 100_000, (), "element counts")}
 
     def __init__(self, sequence: tuple[int, ...] | list[int] = (8, 16, 32, 64), **options):
         self.sequence = tuple(int(n) for n in sequence)

@@ -332,11 +332,11 @@ class ReissnerBeam:
             dx[fr] = spla.spsolve(K[fr][:, fr].tocsc(), -rf)
             if not np.all(np.isfinite(dx)):
                 return x, False, it
+            if abs(dx[fr] @ rf) <= (rtol * fscale * self.L) ** 2:  # x (evaluated) is at
+                return x, True, it + 1  # its round-off floor: accept it, not x + dx
             eps_lin, gam_lin = self.quad_strains(x, dx)
             stress = (self.EA * eps_lin, self.GA * gam_lin)
             x += dx
-            if abs(dx[fr] @ rf) <= (rtol * fscale * self.L) ** 2:
-                return x, True, it + 1
         return x, False, max_iter
 
 

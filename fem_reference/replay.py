@@ -25,6 +25,7 @@ import scipy.sparse.linalg as spla
 
 from cases.schema import Scene
 from fem_reference import replay_events as ev
+from fem_reference import replay_honesty as honest
 from fem_reference.assembly import ModelError, build
 from reduced_models.base import ModelCard, Solution, Step, load_factors, not_applicable
 
@@ -62,6 +63,7 @@ class ReplayOptions:
     jump_dissipation: float = 0.5
     history_samples: int = 2000
     frames: int = 120
+    time_limit_s: float = 600.0  # wall clock; past it the replay fails with the reason
     locks: tuple[ev.LengthLock, ...] = ()
 
 
@@ -94,6 +96,7 @@ class _Run:
         self.events: list[dict] = []
         self.s = self.integ.start(0.0, 0.0, np.zeros(n), np.zeros(n))
         self._record(self.s)
+        self.deadline = honest.Deadline(o.time_limit_s)
 
     def _record(self, s: ev.State) -> None:
         h = self.hist
@@ -113,6 +116,11 @@ class _Run:
         hmax = o.dt_max * self.T1
         s = self.s
         while s.t < t_stop * (1 - 1e-14):
+            if self.deadline.passed():
+                raise ev.ReplayError(
+                    f"time limit {self.deadline.seconds:g} s reached at t = {s.t:.4g} "
+                    f"(factor {s.lam:.6g}, step {self.h:.2g}): the replay stalled"
+                )
             h = min(self.h, hmax, t_stop - s.t)
             s1 = integ.step(s, h, lam_of_t(s.t + h))
             err = math.inf if s1 is None else integ.error(s, s1, h)
@@ -169,10 +177,13 @@ class _Run:
                 X = solve(Gc.T)
                 d = d - X @ np.linalg.solve(Gc @ X, Gc @ d - gc)
             dist = float(np.max(np.abs(self.w * d))) / self.L
-        except RuntimeError:  # singular tangent (neutral mechanism): judge by motion only
+        except RuntimeError:  # singular tangent: no distance; the residual itself must be tiny
             dist = float("nan")
-        if dist > o.settle_tol:
-            return None
+        if not (dist <= o.settle_tol):  # nan passes only on a residual at the settle level
+            fs = float(np.max(np.abs(self.sys.external(s.q)), initial=0.0)) * max(abs(s.lam), 1)
+            rf = float(np.max(np.abs(rt), initial=0.0)) / max(fs, 1e-300)
+            if not (math.isnan(dist) and rf <= o.settle_tol):
+                return None
         return {"residual": float(np.max(np.abs(rt))), "distance": dist, "K": K, "G": Gc}
 
     def hold(self, lam: float) -> tuple[ev.State, dict]:
@@ -202,6 +213,9 @@ class _Run:
         scale = max(abs(self.W - W0), abs(h.strain[-1] - U0), 1e-300)
         if dD <= self.o.jump_dissipation * scale:
             return None
+        dist = np.max(np.abs(self.w * (h.q[-1] - q_prev))) / self.L
+        if dist < honest.JUMP_MIN_DISTANCE:  # a settling move, not a snap
+            return None
         kin = np.asarray(h.kinetic[i0:])
         ipk = i0 + int(np.argmax(kin))
 
@@ -225,8 +239,13 @@ class _Run:
         f = np.asarray(self.sys.external(h.q[lo]), dtype=float)
         r0 = np.asarray(self.sys.residual(h.q[lo], 0.0), dtype=float)
         lam_eq = float(r0 @ f / (f @ f)) if f @ f > 0 else math.nan
-        dist = np.max(np.abs(self.w * (h.q[-1] - q_prev))) / self.L
-        out = dict(factor=float(h.factor[lo]), factor_equilibrium=lam_eq, t=float(h.t[lo]))
+        # reported at the static path's stability loss; the dynamic onset alongside
+        lam_s = None
+        if prev is not None:
+            lam_s = honest.static_limit(self.sys, q_prev, float(prev.factor), after.factor)
+        lam_d = float(h.factor[lo])
+        out = dict(factor=lam_d if lam_s is None else lam_s, factor_dynamic=lam_d)
+        out.update(factor_static=lam_s, factor_equilibrium=lam_eq, t=float(h.t[lo]))
         out.update(from_factor=float(prev.factor) if prev else math.nan, to_factor=after.factor)
         out.update(dissipated=float(dD), dissipated_ratio=float(dD / scale))
         out.update(peak_kinetic=float(kin.max()), jump_distance=float(dist))
@@ -371,6 +390,9 @@ def replay_system(
     if status == "converged":
         res = max(s.info["residual"] for s in steps)
         message = f"settled {len(steps)} states; max residual {res:.2e}; {len(jumps)} jump(s)"
+        if steps and steps[-1].stable is False:  # said, and not used as a reference
+            message += "; the last state is an unstable equilibrium"
+            extras["reference_usable"] = False
     return Solution(case, "replay", status, message, tuple(steps), extras)
 
 
@@ -416,11 +438,36 @@ class Replay:
             "are all below settle_tol * L (1e-7 L by default)",
             "stability: a kick along the lowest mode (or a nodal impulse) returns / departs",
             "boom events: exact length lock with a plastic latch (no penalty stop)",
+            "fixed mesh (n_elements, default 32): settled to the static FE of that mesh, which "
+            "differs from fem-auto by its discretisation error -- estimated and stated in the "
+            "message (extras mesh_error_estimate); snap-through reported where the static "
+            "path loses stability, the dynamic onset alongside",
         ),
         validity="load analyses of any scene the FE reference represents; transients are "
         "only as physical as the damping (quasi-static replay, not a vibration model)",
         references=_REFERENCES,
     )
+
+    # declared options (checked by ``reduced_models.registry.build``): (kind, lo, hi, choices)
+    OPTIONS = {
+        "n_elements": ("int", 1, 100_000),
+        "zeta": ("float", 1e-3, 100.0),
+        "damping": ("str", None, None, ("mass", "current", "initial")),
+        "rho_inf": ("float", 0.0, 1.0),
+        "ramp_periods": ("float", 1e-2, 1e4),
+        "settle_tol": ("float", 1e-14, 1e-2),
+        "lte_tol": ("float", 1e-10, 1.0),
+        "dt_max": ("float", 1e-6, 1e3),
+        "max_hold": ("float", 1.0, 1e6),
+        "probe": ("str", None, None, ("all", "last", "none")),
+        "probe_amplitude": ("float", 1e-12, 1.0),
+        "probe_node": ("str",),
+        "probe_impulse": ("floats",),
+        "jump_dissipation": ("float", 1e-6, 1.0),
+        "history_samples": ("int", 2, 10_000_000),
+        "frames": ("int", 1, 100_000),
+        "time_limit_s": ("float", 1e-3, 1e6),
+    }
 
     def __init__(
         self, n_elements: int = 32, events: object = (), factors: object = None, **options: object
@@ -464,7 +511,16 @@ class Replay:
             return solve_energy(scene, self.n_elements, self.options)
         system = build(scene, self.n_elements)
         lams = load_factors(scene) if self.factors is None else self.factors
-        return replay_system(system, lams, scene=scene, case=scene.name, options=self.options)
+        sol = replay_system(system, lams, scene=scene, case=scene.name, options=self.options)
+        if sol.status != "converged" or self.factors is not None:
+            return sol
+        est = honest.mesh_error(scene, self.n_elements)  # its error against fem-auto, stated
+        if est is None:
+            return sol
+        worst = honest.worst_mesh_error(est, system.length_scale())
+        msg = f"{sol.message}; mesh error vs fem-auto ~{worst:.1e} L (n = {self.n_elements})"
+        extras = {**sol.extras, "mesh_error_estimate": est, "mesh_error_worst": worst}
+        return replace(sol, message=msg, extras=extras)
 
 
 # -- outputs -----------------------------------------------------------------------------------

@@ -215,7 +215,8 @@ class GenAlpha:
     pairs : resolved LengthLocks (mutated: ``locked`` flips at the event).
     w : (ndof,) weights turning DOFs into lengths (1 for translations, L for rotations).
     L : length scale; rho_inf : spectral radius at infinite step (numerical dissipation).
-    newton_tol : Newton stops when max|w dq| <= newton_tol * L.
+    newton_tol : Newton accepts the evaluated state whose correction max|w dq| computed from
+        its own residual is <= newton_tol * L (the state returned is the one evaluated).
     """
 
     def __init__(
@@ -353,19 +354,21 @@ class GenAlpha:
                 return None
             self.factorizations += 1
             dq = -solve(R)
+            dmu = None
             if mu.size:
                 X = solve(Gc.T)
                 dmu = np.linalg.solve(Gc @ X, Gc @ dq + gc)
                 dq = dq - X @ dmu
-                mu = mu + dmu
             if not np.all(np.isfinite(dq)):
                 return None
-            q = q + dq
-            acc = acc + cq * dq
             err = float(np.max(np.abs(self.w * dq)))
             self.newton_iterations += 1
-            if err <= tol:
+            if err <= tol:  # accept the evaluated state: its own correction is within tol
                 break
+            q = q + dq
+            acc = acc + cq * dq
+            if dmu is not None:
+                mu = mu + dmu
             if it > 3 and err > 0.5 * prev:  # not contracting: let the caller cut h
                 return None
             prev = err

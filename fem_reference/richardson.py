@@ -1,4 +1,4 @@
-"""Richardson extrapolation and observed order of convergence for the ``fem-auto`` model.
+"""Richardson extrapolation, observed order and honest error estimates for ``fem-auto``.
 
 For a quantity computed on meshes with mesh sizes h1 > h2 > h3 (element counts n1 < n2 < n3)
 and an error ``f(h) - f* ~ C h^p``, the observed order p solves
@@ -7,11 +7,22 @@ r = h1/h2 = h2/h3: ``p = log(|f2 - f1| / |f3 - f2|) / log r``) and the extrapola
 ``f* = f3 + (f3 - f2) / ((h2/h3)^p - 1)`` (Roache, Verification and Validation in Computational
 Science and Engineering, 1998, Ch. 5; Celik et al., J. Fluids Eng. 130:078001, 2008).
 
-When the three values do not converge monotonically (differences change sign, or p falls
-outside ``P_RANGE``) the formal order of the corotational element (p = 2 for displacements
-and load factors) is used instead and the error estimate is made conservative
-(max of the correction and the last difference).  Values that agree to round-off get a zero
-order (``nan``) and the last difference as error.
+Each estimate describes the value it is attached to (``Extrapolation.basis``):
+
+* *Asymptotic range* -- the observed order is within ``ASYMPTOTIC_TOL`` of the formal order
+  ``P_FORMAL`` = 2 of the corotational element (Celik et al. 2008 ask for such a check before
+  trusting an extrapolation).  The value is the extrapolated ``f*``.  With four or more
+  meshes its error is estimated from two successive extrapolations (the last three meshes and
+  the three before): ``FS_EXTRAPOLATED |f*_last - f*_prev| / (r^(p+2) - 1)``, the next term of
+  the error expansion being assumed two orders higher and ``FS_EXTRAPOLATED`` = 3 the safety
+  factor of an assumed order (Roache 1998, Sec. 5.9).  With three meshes only the correction
+  ``|f* - f3|`` -- the finest mesh's error -- bounds it (cautious: 10-100x pessimistic).
+* *Outside the asymptotic range* (order far from 2, differences changing sign, or two meshes):
+  no extrapolation.  The value is the finest mesh's ``f3`` and its error the Grid Convergence
+  Index with the formal order and Roache's safety factor for an assumed order,
+  ``FS_ASSUMED |f3 - f2| / (r^2 - 1)``, ``FS_ASSUMED`` = 3 (``fallback = True``).
+
+Values that agree to round-off get a zero order (``nan``) and the last difference as error.
 """
 
 from __future__ import annotations
@@ -30,18 +41,23 @@ if TYPE_CHECKING:  # the runner lives in models.py, which imports this module
     from fem_reference.models import Runner
 
 P_FORMAL = 2.0
-P_RANGE = (0.5, 6.0)
+ASYMPTOTIC_TOL = 0.2  # |p_observed - P_FORMAL| within this: asymptotic range
+FS_ASSUMED = 3.0  # Roache's GCI safety factor when the order is assumed, not observed
+FS_EXTRAPOLATED = 3.0  # same factor on the assumed next order of the extrapolated values
 
 
 @dataclass(frozen=True)
 class Extrapolation:
-    """Result for one quantity: extrapolated value, error estimate of it (absolute), observed
-    order (nan when undefined), and whether the formal order had to be used."""
+    """Result for one quantity: the reported value, the error estimate *of that value*
+    (absolute), the observed order (nan when undefined), whether the asymptotic-range check
+    failed (``fallback``: the value is the finest mesh's), and ``basis`` = ``"extrapolated"``
+    | ``"finest"``."""
 
     value: float
     error: float
     order: float
     fallback: bool
+    basis: str = "extrapolated"
 
 
 def observed_order(f: np.ndarray, n: np.ndarray) -> float:
@@ -66,29 +82,42 @@ def observed_order(f: np.ndarray, n: np.ndarray) -> float:
         return math.nan
 
 
+def _richardson(f: np.ndarray, n: np.ndarray) -> tuple[float, float]:
+    """(f*, observed order) of the last three values (f* = nan outside the asymptotic
+    range)."""
+    p = observed_order(f, n)
+    if math.isnan(p) or abs(p - P_FORMAL) > ASYMPTOTIC_TOL:
+        return math.nan, p
+    rr = float(n[-1] / n[-2])
+    return float(f[-1]) + (float(f[-1]) - float(f[-2])) / (rr**p - 1.0), p
+
+
 def extrapolate(f: np.ndarray, n: np.ndarray, scale: float = 0.0) -> Extrapolation:
-    """Richardson-extrapolate values ``f`` (m,) computed on element counts ``n`` (m,).
+    """Value and honest error estimate from values ``f`` (m,) on element counts ``n`` (m,)
+    (see the module docstring).
 
     ``scale`` is a magnitude for the round-off test (e.g. a length for displacements).
-    With two meshes only, the formal order is assumed.
     """
     f = np.asarray(f, dtype=float)
     n = np.asarray(n, dtype=float)
     if f.size == 1:
-        return Extrapolation(float(f[0]), math.nan, math.nan, True)
+        return Extrapolation(float(f[0]), math.nan, math.nan, True, "finest")
     f2, f3 = float(f[-2]), float(f[-1])
     d32 = f3 - f2
     floor = 1e-11 * max(abs(f3), abs(scale), 1e-300)
     if abs(d32) <= floor:
-        return Extrapolation(f3, abs(d32), math.nan, False)
+        return Extrapolation(f3, abs(d32), math.nan, False, "finest")
     rr = float(n[-1] / n[-2])
-    p = observed_order(f, n) if f.size >= 3 else math.nan
-    fallback = not (P_RANGE[0] <= p <= P_RANGE[1]) if not math.isnan(p) else True
-    if fallback:
-        corr = d32 / (rr**P_FORMAL - 1.0)
-        return Extrapolation(f3 + corr, max(abs(corr), abs(d32)), p, True)
-    corr = d32 / (rr**p - 1.0)
-    return Extrapolation(f3 + corr, abs(corr), p, False)
+    star, p = _richardson(f, n) if f.size >= 3 else (math.nan, math.nan)
+    if math.isnan(star):  # outside the asymptotic range: the finest value with its GCI
+        gci = FS_ASSUMED * abs(d32) / (rr**P_FORMAL - 1.0)
+        return Extrapolation(f3, gci, p, True, "finest")
+    if f.size >= 4:
+        prev, _ = _richardson(f[:-1], n[:-1])
+        if not math.isnan(prev):
+            err = FS_EXTRAPOLATED * abs(star - prev) / (rr ** (p + 2.0) - 1.0)
+            return Extrapolation(star, max(err, floor), p, False)
+    return Extrapolation(star, abs(star - f3), p, False)
 
 
 def extrapolate_table(
@@ -161,7 +190,10 @@ def combine(scene: Scene, name: str, sequence: tuple[int, ...], runs: list) -> S
             extras,
         )
     kind = scene.analysis.kind
-    message = ""
+    message = fmsg  # the finest run's own note (e.g. an unstable end) is kept
+    if fin.extras.get("reference_usable") is False:
+        extras["reference_usable"] = False
+    _critical(runs, sequence, extras)
     usable = [(n, r) for n, (r, st, _) in zip(sequence, runs) if st == "converged"]
     if kind == "path":
         key = scene.analysis.stop_output
@@ -170,7 +202,8 @@ def combine(scene: Scene, name: str, sequence: tuple[int, ...], runs: list) -> S
         if mono:
             usable = [(n, r) for n, r in usable[:-1] if _retrace(r, key, vals)] + [usable[-1]]
         else:
-            message = (
+            message = message + "; " if message else ""
+            message += (
                 "path not monotone in its stop output: steps are the finest mesh's; "
                 "error estimates from the end point and the limit points"
             )
@@ -212,6 +245,32 @@ def combine(scene: Scene, name: str, sequence: tuple[int, ...], runs: list) -> S
     if kind == "path":
         _limit_and_end(scene, fin, usable, extras, end=False)
     return Solution(scene.name, name, "converged", message, tuple(steps), extras)
+
+
+def _critical(runs: list, sequence: tuple[int, ...], extras: dict) -> None:
+    """The finest run's critical points (``bifurcation.Watch``), each with its factor
+    Richardson-extrapolated over the meshes that found a point of the same kind at the same
+    position in their list."""
+    fin = runs[-1][0]
+    pts = fin.extras.get("critical_points")
+    if pts is None:
+        return
+    out = []
+    for i, cp in enumerate(pts):
+        same = [
+            (n, r.extras["critical_points"][i]["factor"])
+            for n, (r, _, _) in zip(sequence, runs)
+            if len(r.extras.get("critical_points", ())) > i
+            and r.extras["critical_points"][i]["kind"] == cp["kind"]
+        ]
+        item = dict(cp)
+        if len(same) >= 2:
+            e = extrapolate(
+                np.array([f for _, f in same]), np.array([n for n, _ in same]), abs(cp["factor"])
+            )
+            item.update(factor_extrapolated=e.value, error=e.error, order=e.order)
+        out.append(item)
+    extras["critical_points"] = out
 
 
 def _limit_and_end(scene: Scene, fin: Runner, usable: list, extras: dict, end: bool = True) -> None:

@@ -304,7 +304,7 @@ def stability(
         Ks = Ks[keep][:, keep].tocsr()
     if n <= dense_max:
         w = sla.eigvalsh(Ks.toarray())
-        tol = 1e-11 * max(abs(w[-1]), 1e-300)
+        tol = 100.0 * np.finfo(float).eps * max(abs(w[-1]), 1e-300)  # eigvalsh accuracy
         n_neg = int(np.sum(w < -tol))
         return {"stable": n_neg == 0, "min_eig": float(w[0]), "n_neg": n_neg}
     try:

@@ -25,6 +25,7 @@ from scipy.optimize import brentq
 
 from cases.schema import Scene
 from reduced_models.base import Model, ModelCard, Solution, not_applicable, post_process
+from reduced_models.options import Option
 
 P_RANGE = (0.5, 6.0)
 MARGIN = 1.1
@@ -76,6 +77,12 @@ class AutoFidelity:
     default_start = 4
     make: Callable[[int], Model]
     card: ModelCard
+
+    OPTIONS = {  # declared options (reduced_models.options, checked by registry.build)
+        "target": Option("float", 1e-12, 1.0, doc="error target (fraction of L or rad)"),
+        "start": Option("int", 1, 100_000, doc="first N"),
+        "max_n": Option("int", 2, 100_000, doc="largest N tried"),
+    }
 
     def __init__(self, target: float = 1e-3, start: int | None = None, max_n: int = 512) -> None:
         if not (math.isfinite(float(target)) and float(target) > 0):

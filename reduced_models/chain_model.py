@@ -21,6 +21,7 @@ from reduced_models.base import ModelCard, Solution, Step, load_factors, not_app
 from reduced_models.chain import ChainProblem, SegmentLaw, chain_shape, local_coords
 from reduced_models.chain_small import solve_single_segment
 from reduced_models.continuation import minimize_path
+from reduced_models.options import Option
 from reduced_models.path_result import PathResult
 
 __all__ = ["ChainModel"]
@@ -52,6 +53,8 @@ class ChainModel:
         template = cls.__dict__.get("_card")
         if template is not None:
             cls.card = dataclasses.replace(template, summary=template.summary.format(N="N"))
+
+    OPTIONS = {"shape_points": Option("int", 2, 100_000, doc="points per segment shape")}
 
     def __init__(self, n: int = 1, shape_points: int | None = None) -> None:
         if int(n) < 1:
@@ -222,4 +225,5 @@ class ChainModel:
         msg = f"{len(steps)} steps, {int(res.iterations.sum())} Newton iterations"
         if warned:
             msg += "; outside validity range: " + "; ".join(warned.values())
+        msg += single_beam.unstable_note(steps)
         return Solution(scene.name, self.name, "converged", msg, tuple(steps), extras)

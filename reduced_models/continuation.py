@@ -31,12 +31,12 @@ keep_branch=True, load_gradient=None, symmetric=None) -> PathResult``
 * ``fixed``: indices of unknowns held at their ``x0`` value (supports).  Their rows and
   columns are replaced by identity rows so band structure is kept; callers may also do this
   themselves.
-* Convergence: a Newton iteration evaluates ``g, H`` at ``x_k`` and solves for the update
-  ``dx_k``; the iteration is converged when ``max |dx_k,i / scale_i| <= xtol`` (and, with
-  ``gtol``, ``max |g(x_k)| <= gtol``).  The accepted state is ``x_k + dx_k`` -- the same
-  state and the same test as a "converged after the update" rule -- but no extra evaluation
-  is spent at it: the reported residual is ``max |g(x_k)|`` measured at the last evaluated
-  iterate, which over-states the residual of the accepted state (quadratically smaller).
+* Convergence is judged on the state returned: a Newton iteration evaluates ``g, H`` at
+  ``x_k`` and solves for the update ``dx_k = -H^{-1} g(x_k)``; ``x_k`` is accepted when
+  that correction, computed from its own residual, is small, ``max |dx_k,i / scale_i| <=
+  xtol`` (and, with ``gtol``, ``max |g(x_k)| <= gtol``).  The accepted state is ``x_k``
+  itself (not the unevaluated ``x_k + dx_k``): its residual, factorisation, tangent and
+  stability are all measured on it, at no extra evaluation.
   ``scale`` (shape (n,)) gives each unknown's typical size (default 1).  A residual that
   stops falling while the update is already below ``xtol`` (a round-off floor above
   ``gtol``) fails the attempt.
@@ -93,7 +93,7 @@ from reduced_models.linalg import (
     positive_definite,
     solve_linear,
 )
-from reduced_models.path_result import PathResult
+from reduced_models.path_result import PathResult, limit_note
 
 __all__ = [
     "Banded",
@@ -108,9 +108,9 @@ __all__ = [
 class _Converged:
     """One converged Newton solve: accepted state and what was measured on the way."""
 
-    x: np.ndarray  # accepted state x_k + dx_k
+    x: np.ndarray  # accepted state x_k (its residual was evaluated)
     its: int
-    res: float  # max |g(x_k)| at the last evaluated iterate
+    res: float  # max |g(x_k)| of the accepted state
     stable: bool | None
     x_eval: np.ndarray  # x_k
     factor: tuple  # factorisation of H(x_k)
@@ -180,14 +180,14 @@ class _Solver:
             dx = -sol
             if size <= xtol:
                 if gtol is None or res <= gtol:
-                    x_new = update(x, dx) if update is not None else x + dx
+                    # the accepted state is the evaluated one (its residual was just checked)
                     if self.stability is None:
                         st = None
                     elif chol and pd is not None:
                         st = pd
                     else:
                         st = self.stability(x, lam, H)
-                    return _Converged(x_new, it, res, st, x, factor), it, ""
+                    return _Converged(x, it, res, st, x, factor), it, ""
                 if res > 0.5 * prev_res:
                     return None, it, f"residual {res:.3g} stalls above gtol {gtol:.3g}"
             elif size > 1e6:
@@ -199,6 +199,25 @@ class _Solver:
             prev_res = res
             x = update(x, dx) if update is not None else x + dx
         return None, self.max_iter, f"no convergence in {self.max_iter} its"
+
+
+def _min_abs_eig(solver: _Solver, x: np.ndarray, lam: float) -> float:
+    """Smallest |eigenvalue| of the symmetric part of the tangent at ``(x, lam)`` (dense; a
+    diagnosis after failure, never in the Newton loop)."""
+    _, H = solver.evaluate(x, lam)
+    A = H.to_dense() if isinstance(H, Banded) else (H.toarray() if sp.issparse(H) else H)
+    A = np.asarray(A, dtype=float)
+    return float(np.min(np.abs(np.linalg.eigvalsh(0.5 * (A + A.T)))))
+
+
+def _diagnose(solver: _Solver, x: np.ndarray, lam: float, lam0: float, x0: np.ndarray) -> str:
+    """Why load control stopped: the model's own limit point (its tangent turned singular:
+    smallest |eigenvalue| below 1 % of the unloaded state's) or an unexplained failure."""
+    try:
+        ratio = _min_abs_eig(solver, x, lam) / max(_min_abs_eig(solver, x0, lam0), 1e-300)
+    except (np.linalg.LinAlgError, ValueError):
+        ratio = float("nan")
+    return limit_note(ratio, lam)
 
 
 def minimize_path(
@@ -380,8 +399,8 @@ def minimize_path(
                     return result(
                         False,
                         f"Newton failed between factors {lam_cur:.6g} and {lam_try:.6g} "
-                        f"after {cuts_total} step cuts ({why}); limit point or loss of "
-                        "equilibrium?",
+                        f"after {cuts_total} step cuts ({why}); "
+                        + _diagnose(solver, cur.x, lam_cur, float(factors[0]), x0),
                     )
                 continue
             consecutive = 0

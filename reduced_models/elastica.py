@@ -189,9 +189,11 @@ def _safe_newton(f, x: float, lo: float, hi: float, increasing: bool, lamL: floa
             hi = x
         else:
             lo = x
+        if abs(g) <= 1e-15 * (1.0 + lamL):  # the evaluated state meets the tolerance
+            return x, its
         xn = x - g / d
-        if abs(xn - x) <= 4e-16 * abs(x) or abs(g) <= 1e-15 * (1.0 + lamL):
-            return xn, its
+        if abs(xn - x) <= 4e-16 * abs(x):  # a correction at round-off: x is the root
+            return x, its
         x = xn if lo < xn < hi else 0.5 * (lo + hi)
     return x, 60
 
@@ -327,6 +329,7 @@ class Elastica:
     """Exact inextensible elastica of a single clamped beam (free or guided tip)."""
 
     name = "elastica"
+    OPTIONS: dict = {}  # no options
     card = ModelCard(
         name="elastica",
         family="elastica",

@@ -18,6 +18,7 @@ from scipy.integrate import solve_bvp
 
 from cases.schema import Scene
 from reduced_models.base import ModelCard, Solution, Step, load_factors, not_applicable
+from reduced_models.options import Option
 from reduced_models.single_beam import (
     Cantilever,
     cantilever_of,
@@ -33,6 +34,10 @@ class ElasticaBVP:
     """Inextensible elastica of a single clamped beam by collocation (``solve_bvp``)."""
 
     name = "elastica-bvp"
+    OPTIONS = {
+        "tol": Option("float", 1e-14, 1e-3, doc="solve_bvp tolerance"),
+        "max_nodes": Option("int", 10, 10_000_000, doc="solve_bvp mesh limit"),
+    }
     card = ModelCard(
         name="elastica-bvp",
         family="elastica",

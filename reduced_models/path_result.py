@@ -36,3 +36,18 @@ class PathResult:
     stable: list
     ok: bool
     reason: str
+
+
+def limit_note(ratio: float, lam: float) -> str:
+    """Why load control stopped, from ``ratio`` = smallest |eigenvalue| of the tangent at the
+    last converged state over that of the unloaded state: below 1 % the model's own limit
+    point (a fold of its equilibrium path), otherwise an unexplained loss of equilibrium."""
+    if ratio < 1e-2:
+        return (
+            f"the model's own limit point at factor ~{lam:.6g} (its tangent is singular "
+            f"there: smallest |eigenvalue| {ratio:.1e} of the unloaded one); load control "
+            "cannot pass it and this model has no equilibrium just beyond on this branch"
+        )
+    if not np.isfinite(ratio):
+        return "limit point or loss of equilibrium?"
+    return f"no limit point of the model found (tangent ratio {ratio:.1e}): loss of equilibrium?"

@@ -20,6 +20,7 @@ import numpy as np
 from cases.schema import Scene
 from reduced_models import prb_tables as T
 from reduced_models.base import ModelCard, Solution, Step, load_factors, not_applicable
+from reduced_models.options import SHAPES, Option
 from reduced_models.prb_chain import (
     RESIDUAL_TOL,
     PRBChain,
@@ -29,7 +30,7 @@ from reduced_models.prb_chain import (
     recover_tip_loads_batch,
     shape_and_stress,
 )
-from reduced_models.single_beam import Cantilever, cantilever_of, output_map
+from reduced_models.single_beam import Cantilever, cantilever_of, output_map, unstable_note
 
 __all__ = [
     "RESIDUAL_TOL",
@@ -66,6 +67,8 @@ class PRBModel:
 
     name = "prb"
     card = ModelCard(name="prb", family="prb", summary="PRB chain", assumptions=_COMMON)
+
+    OPTIONS = dict(SHAPES)
 
     def __init__(self, matrix: object = None, shapes: bool = True) -> None:
         self._matrix = None if matrix is None else check_matrix(matrix)
@@ -166,6 +169,7 @@ class PRBModel:
         msg = "converged" + (f"; {note}" if note else "")
         if np.any(np.isfinite(matrix[:, 1])) and chain.ne == 0:
             msg += "; axial springs treated as rigid (EA not given)"
+        msg += unstable_note(steps)
         return Solution(scene.name, self.name, "converged", msg, tuple(steps), extras)
 
     def postprocess(self, scene: Scene, sol: Solution) -> Solution:
@@ -222,6 +226,17 @@ class PRBShort(PRBModel):
     def __init__(self, shapes: bool = True) -> None:
         super().__init__(T.PRB_SHORT, shapes)
 
+    def solve(self, scene: Scene) -> Solution:
+        """As every PRB model, flagged outside its validity range: a single-beam scene is a
+        uniform beam, never a short flexural pivot next to a rigid link."""
+        sol = super().solve(scene)
+        if sol.status != "converged":
+            return sol
+        why = "a uniform beam is not a short flexural pivot (Howell & Midha 1994)"
+        extras = {**sol.extras, "validity_warning": True, "validity_message": why}
+        msg = f"{sol.message}; outside validity range: {why}"
+        return dataclasses.replace(sol, message=msg, extras=extras)
+
 
 class PRB1R(PRBModel):
     """Howell's PRB-1R with load-ratio-dependent gamma(n), K_Theta(n), c_theta(n)."""
@@ -252,6 +267,8 @@ class PRB1R(PRBModel):
             "Howell, Compliant Mechanisms, Wiley 2001, Sec. 5.5-5.6, Table 5.1",
         ),
     )
+
+    OPTIONS = {**SHAPES, "params": Option("str", choices=("fit", "average"), doc="gamma(n)")}
 
     def __init__(self, params: str = "fit", shapes: bool = True) -> None:
         super().__init__(None, shapes)
@@ -337,6 +354,8 @@ class PRB3R(PRBModel):
         references=("Su, J. Mechanisms Robotics 1(2):021008, 2009, doi 10.1115/1.3046148",),
     )
 
+    OPTIONS = {**SHAPES, "stiffness": Option("str", choices=tuple(sorted(T.SU_K)))}
+
     def __init__(self, stiffness: str | None = None, shapes: bool = True) -> None:
         kset = stiffness or self.kset
         if kset not in T.SU_K:
@@ -408,6 +427,8 @@ class PRBFSM(PRBModel):
         references=("Howell & Midha, J. Mech. Des. 116:280-290, 1994, doi 10.1115/1.2919359",),
     )
 
+    OPTIONS = {**SHAPES, "placement": Option("str", choices=("mid", "end"), doc="springs")}
+
     def __init__(self, n: int, placement: str = "mid", shapes: bool = True) -> None:
         super().__init__(T.fsm_matrix(int(n), placement), shapes)
         where = "element centres" if placement == "mid" else "proximal element ends"
@@ -440,6 +461,12 @@ class PRBCustom(PRBModel):
         validity="whatever the matrix was fitted for",
         references=(_REF, _SEED),
     )
+
+    OPTIONS = {
+        **SHAPES,
+        "matrix": Option("matrix", doc="PRB matrix [[k_theta, k_ex, gamma], ...]"),
+        "tip_angle_factor": Option("float", 0.0, 10.0, doc="tip slope / last link angle"),
+    }
 
     def __init__(
         self, matrix: object = None, tip_angle_factor: float = 1.0, shapes: bool = True

@@ -16,6 +16,7 @@ import re
 from collections.abc import Callable
 
 from reduced_models.base import Model
+from reduced_models.options import validate
 
 # name (with "-N" for parametrised families) -> "module:factory"
 _ENTRIES: dict[str, str] = {
@@ -115,6 +116,9 @@ def build(name: str, target: str, n: int | None, options: dict | None = None) ->
     """Instantiate a parsed model (``n`` as first positional argument, options as kwargs)."""
     make_ = factory(target)
     kwargs = dict(options or {})
+    declared = getattr(make_, "OPTIONS", None)
+    if declared is not None:  # names, types and ranges declared next to the model
+        validate(name, declared, kwargs)
     model = make_(n, **kwargs) if n is not None else make_(**kwargs)
     model.name = name
     if target.startswith(_SINGLE_BEAM):

@@ -9,12 +9,13 @@ reason it cannot; ``tip_outputs`` maps a beam-frame solution back to the scene's
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from cases.schema import Scene
+from reduced_models.base import Step
 
 
 @dataclass(frozen=True)
@@ -75,6 +76,11 @@ def cantilever_of(scene: Scene) -> Cantilever | str:
             guided = True
         else:
             return "the free end is supported (only a 'guided' tip is modelled)"
+    ends = {mem.a: mem.end_a, mem.b: mem.end_b}
+    if ends[root] != "weld":
+        return "the beam is pinned (end 'pin') to its clamped node: a pinned root, not a cantilever"
+    if ends[tip] != "weld" and (guided or any(ld.moment for ld in scene.loads)):
+        return "the beam's tip end is a free hinge: the guide or tip moment does not act on it"
     if any(ld.node != tip or ld.member is not None for ld in scene.loads):
         return "loads must act at the free end of the beam"
     follower = {ld.follower for ld in scene.loads if ld.fx or ld.fy}
@@ -82,6 +88,10 @@ def cantilever_of(scene: Scene) -> Cantilever | str:
         return "mixed dead and follower tip forces"
     if scene.analysis.kind not in ("load", "path"):
         return f"analysis kind {scene.analysis.kind!r} is not a load ramp"
+    if not math.isfinite(scene.analysis.factor_end):
+        return "a path traced to its stop output (no factor_end) needs arc-length continuation"
+    if mem.sweep_deg:
+        return "the member is a circular arc (sweep_deg): single-beam models are straight"
     r, t = scene.node(root), scene.node(tip)
     angle = math.atan2(t.y - r.y, t.x - r.x)
     c, s = math.cos(angle), math.sin(angle)
@@ -141,3 +151,15 @@ def stress_from_curvature(scene: Scene, beam: Cantilever, kappa: np.ndarray) -> 
     if mem.thickness is None or mem.E is None:
         return None
     return float(mem.E * mem.thickness * np.max(np.abs(kappa)) / 2.0)
+
+
+def unstable_note(steps: Sequence[Step]) -> str:
+    """``"; ..."`` saying that a path ends on an unstable equilibrium (its stability test
+    says so), else ``""``: a converged answer on an unstable branch is never silent."""
+    if steps and steps[-1].stable is False:
+        first = next(s.factor for s in steps if s.stable is False)
+        return (
+            f"; unstable equilibria from factor {first:.4g} to the end (the path stayed on "
+            "a branch that lost stability: a bifurcation needs an imperfection)"
+        )
+    return ""

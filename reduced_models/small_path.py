@@ -30,7 +30,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from reduced_models.path_result import PathResult
+from reduced_models.path_result import PathResult, limit_note
 
 MAX_N = 24  # above, numpy's banded solves beat Python loops
 
@@ -196,6 +196,27 @@ class _Newton:
         return None, self.max_iter, f"no convergence in {self.max_iter} its"
 
 
+def _min_abs_eig(newton: _Newton, x: Sequence[float], lam: float) -> float:
+    """Smallest |eigenvalue| of the Hessian at ``(x, lam)`` (a diagnosis after failure)."""
+    _, H = newton.evaluate([float(v) for v in x], lam)
+    if isinstance(H, tuple):
+        d, e = H
+        A = np.diag(d) + np.diag(e, 1) + np.diag(e, -1)
+    else:
+        A = np.array(H, dtype=float)
+    return float(np.min(np.abs(np.linalg.eigvalsh(0.5 * (A + A.T)))))
+
+
+def _diagnose(newton: _Newton, x: Sequence[float], lam: float, x0: Sequence[float],
+              lam0: float) -> str:  # fmt: skip
+    """Why load control stopped (``path_result.limit_note``)."""
+    try:
+        ratio = _min_abs_eig(newton, x, lam) / max(_min_abs_eig(newton, x0, lam0), 1e-300)
+    except (np.linalg.LinAlgError, ValueError):
+        ratio = float("nan")
+    return limit_note(ratio, lam)
+
+
 def minimize_path_small(
     grad_hess: Callable,
     x0: Sequence[float],
@@ -299,8 +320,8 @@ def minimize_path_small(
                     return result(
                         False,
                         f"Newton failed between factors {lam_cur:.6g} and {lam_try:.6g} "
-                        f"after {cuts_total} step cuts ({why}); limit point or loss of "
-                        "equilibrium?",
+                        f"after {cuts_total} step cuts ({why}); "
+                        + _diagnose(newton, cur[0], lam_cur, x0, float(factors[0])),
                     )
                 continue
             consecutive = 0

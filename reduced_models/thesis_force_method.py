@@ -344,6 +344,7 @@ class ThesisForceMethod:
     """
 
     name = "thesis-force-method"
+    OPTIONS: dict = {}  # declared options (reduced_models.options): none
     card = ModelCard(
         name="thesis-force-method",
         family="mechanism",

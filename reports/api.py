@@ -18,6 +18,7 @@ import traceback
 from cases.schema import Scene
 from reduced_models import registry as _registry
 from reduced_models.base import Model, ModelCard, Solution, not_applicable, post_process
+from reduced_models.options import OptionError
 from reports.errors import SPEED_BASELINES  # noqa: F401  (re-exported)
 
 UnknownModelError = _registry.UnknownModelError
@@ -101,10 +102,26 @@ def make_model(name: str, scene: Scene | None = None, options: dict | None = Non
     _, n, target = resolve(name)
     if options is None:
         options = scene.model_options(name) if scene is not None else {}
+    where = f"{scene.path}: " if scene is not None and scene.path else ""
     try:
         return build(name, target, n, options)
+    except OptionError as exc:  # already names model, option and reason
+        raise OptionError(f"{where}[[models]] bad options: {exc}") from exc
     except (TypeError, ValueError) as exc:
-        raise ValueError(f"model {name!r}: bad options {options!r}: {exc}") from exc
+        raise ValueError(f"{where}model {name!r}: bad options {options!r}: {exc}") from exc
+
+
+def check_options(scene: Scene, name: str, target: str, options: dict) -> None:
+    """Raise ``OptionError`` (naming the case file) when ``options`` break the model's
+    declared ``OPTIONS`` (names, types, ranges); models without a declaration pass."""
+    declared = getattr(factory(target), "OPTIONS", None)
+    if declared is None:
+        return
+    try:
+        _registry.validate(name, declared, options)
+    except OptionError as exc:
+        where = f"{scene.path}: " if scene.path else ""
+        raise OptionError(f"{where}[[models]] bad options: {exc}") from None
 
 
 def card_of(name: str) -> ModelCard | None:

@@ -60,7 +60,7 @@ def _fail(message: str) -> int:
 
 
 def _user_errors() -> tuple[type[BaseException], ...]:
-    errs: list[type[BaseException]] = [UsageError, api.UnknownModelError]
+    errs: list[type[BaseException]] = [UsageError, api.UnknownModelError, api.OptionError]
     try:
         import cases
 
@@ -118,6 +118,9 @@ _JSON_EXTRAS = (
     "error_estimate",
     "observed_order",
     "limit_points",
+    "critical_points",
+    "reference_usable",
+    "mesh_error_worst",
     "jumps",
     "validity_warning",
     "validity_message",

@@ -235,12 +235,16 @@ def choose_reference(meta: Mapping, records: Mapping[str, Mapping]) -> tuple[str
     candidates = ([wanted] if wanted else []) + [c for c in FALLBACK_REFERENCES if c != wanted]
     for name in candidates:
         rec = records.get(name)
-        if rec is not None and rec["status"] == "converged" and rec["steps"]:
+        # a reference that ends on an unstable equilibrium says so (extras) and is not used
+        unusable = ((rec or {}).get("extras") or {}).get("reference_usable") is False
+        if rec is not None and rec["status"] == "converged" and rec["steps"] and not unusable:
             if name == wanted:
                 return name, ""
             why = "not run"
             if wanted in records:
-                why = f"{records[wanted]['status']}: {records[wanted]['message']}"
+                wr = records[wanted]
+                bad = (wr.get("extras") or {}).get("reference_usable") is False
+                why = f"{'unusable, ' if bad else ''}{wr['status']}: {wr['message']}"
             return (
                 name,
                 f"reference {wanted!r} unavailable ({why}); using {name!r}" if wanted else "",

@@ -213,6 +213,7 @@ def plan(
             base = {"key": key, "case": scene.name, "model": name, "role": role}
             try:
                 _, n, target = api.resolve(name, table)
+                api.check_options(scene, name, target, options)  # bad options: exit 2
             except api.UnknownModelError:
                 fixed.append(
                     store.record(base, "not-applicable", f"model {name!r} is not in the registry")

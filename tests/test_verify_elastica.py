@@ -362,12 +362,18 @@ def test_model_outputs_energy_and_stress_for_a_rotated_beam():
 def test_path_analysis_stops_after_passing_the_stop_value():
     sol = Elastica().solve(
         scene(fy=-10.0, analysis='kind = "path"\nstop_output = "tip.uy"\nstop_value = -0.5\n'
-              "max_steps = 100")
+              "factor_end = 1.0\nmax_steps = 100")
     )  # fmt: skip
     uy = sol.path("tip.uy")
     assert sol.status == "converged"
     assert uy[-1] <= -0.5 < uy[-2]
     assert sol.steps[-1].factor < 0.5
+    # without factor_end the path contract asks for tracing on: a load ramp declines
+    sol = Elastica().solve(
+        scene(fy=-10.0, analysis='kind = "path"\nstop_output = "tip.uy"\nstop_value = -0.5\n'
+              "max_steps = 100")
+    )  # fmt: skip
+    assert sol.status == "not-applicable" and "factor_end" in sol.message
 
 
 # -- failure honesty --------------------------------------------------------------------------

@@ -307,9 +307,10 @@ def test_column_postbuckling_with_imperfection_vs_elastica():
 
 
 def test_perfect_column_stability_flag_at_euler_load():
-    """The trivial path of a perfect column is stable below Pcr and unstable above it."""
+    """The trivial path of a perfect column is stable below Pcr and unstable above it
+    (branch switching off: ``bifurcation = false`` keeps the fundamental branch)."""
     pcr = math.pi**2 / 4.0
-    sol = FEM(32).solve(cantilever(fx=-1.1 * pcr, steps=11))
+    sol = FEM(32, bifurcation=False).solve(cantilever(fx=-1.1 * pcr, steps=11))
     assert sol.ok
     for st in sol.steps:
         below = st.factor * 1.1 < 0.999

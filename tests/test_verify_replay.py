@@ -257,13 +257,14 @@ def test_fe_probe_agrees_with_fe_tangent_test():
     """FE column (P_cr = pi^2 / 4 = 2.47): straight at P = 1.5 stable, at P = 3 unstable; the
     kick verdicts agree with the static FE reference's tangent test."""
     sc = cases.loads(COLUMN)
-    fs = FEM(8).solve(sc)
+    fs = FEM(8, bifurcation=False).solve(sc)  # the straight branch, as the replay settles
     rp = Replay(8).solve(sc)
     assert fs.ok and rp.ok, (fs.message, rp.message)
     assert [s.stable for s in fs.steps] == [True, True, False]
     assert [s.stable for s in rp.steps] == [True, True, False]
     assert rp.extras["probes"][-1]["verdict"] == "departed"
     assert abs(rp.steps[-1].outputs["tip.ux"]) < 1e-9  # settled on the (unstable) straight state
+    assert "unstable" in rp.message and rp.extras["reference_usable"] is False
     # the thesis's probe: a lateral nodal impulse at the tip instead of the modal kick
     rn = Replay(8, probe_node="B", probe_impulse=(1e-3, 0.0)).solve(sc)
     assert [s.stable for s in rn.steps] == [True, True, False]
@@ -318,8 +319,13 @@ def test_bistable_toggle_snap_matches_fe_far_branch():
     assert status == "converged", msg
     lam_max = max(lp["factor"] for lp in runner.extras["limit_points"] if lp["kind"] == "max")
     (j,) = rp.extras["jumps"]
-    # the dynamic trajectory lags the ramp, so it leaves the stable region after lam_max
-    assert j["from_factor"] < lam_max <= j["factor"] <= j["to_factor"]
+    # the dynamic trajectory lags the ramp, so it leaves the stable region after lam_max;
+    # the jump is reported where the static path loses stability: the FE path's asymmetric
+    # bifurcation, just before its symmetric limit point
+    assert j["from_factor"] < lam_max <= j["factor_dynamic"] <= j["to_factor"]
+    (cp,) = runner.extras["critical_points"]
+    assert cp["kind"] == "bifurcation" and cp["factor"] < lam_max
+    assert j["factor"] == j["factor_static"] == pytest.approx(cp["factor"], rel=1e-6)
     assert j["after"]["apex.uy"] < -0.2 < j["before"]["apex.uy"]
     lam_min = min(lp["factor"] for lp in runner.extras["limit_points"] if lp["kind"] == "min")
     assert lam_min < 0.0  # bistable: the far branch is stable unloaded

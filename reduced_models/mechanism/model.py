@@ -169,6 +169,8 @@ class MechanismModel:
 class Kinetostatic(MechanismModel):
     """``kinetostatic``: mechanisms of rigid links, springs (no flexible member)."""
 
+    OPTIONS: dict = {}  # declared options (reduced_models.options): none
+
     def __init__(self, **options) -> None:
         super().__init__("kinetostatic", options)
         self.card = ModelCard(
@@ -198,6 +200,8 @@ class Kinetostatic(MechanismModel):
 
 class Mixed(MechanismModel):
     """``mixed``: each flexible member gets its own ``model`` (DAS-2D Ex. 3)."""
+
+    OPTIONS: dict = {}  # declared options (reduced_models.options): none (per-member options)
 
     def __init__(self, **options) -> None:
         super().__init__("mixed", options)

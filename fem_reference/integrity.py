@@ -1,0 +1,50 @@
+"""Checks that a converged FE state is one the model may stand behind.
+
+* *Rigid stays rigid*: rigid links are stiff corotational elements (``rigid_factor``, relative
+  compliance ~1e-6); a link stretched by more than ``RIGID_STRETCH_MAX`` (relative) means the
+  scene asks for the impossible -- a driver beyond the mechanism's reach, or loads that only
+  the link's artificial axial compliance can carry -- and the run fails with that reason.
+* *Moderate strains*: the element's local law is linear in the engineering strain; beyond
+  ``STRAIN_MAX`` (20 %: strain measures differ by ~10 % there, and no elastic flexure material
+  gets near it; a DAS-2D bistable switch reaches 5 %) the member is outside the model (a tip
+  driven to 500 % strain) and the run fails with that reason.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fem_reference import corotational as cr
+
+RIGID_STRETCH_MAX = 1e-4  # 100x the stiff-link compliance of the default rigid_factor
+STRAIN_MAX = 0.2
+
+
+def strains(system: object, u: np.ndarray) -> dict[str, tuple[str, float]]:
+    """``{member id: (kind, largest |axial strain| of its elements)}`` of state ``u``."""
+    d = system.full(u)
+    st = cr.local_state(system.beams, d[system.beam_dofs])
+    eps = np.abs(st.ln / system.beams.L0 - 1.0)
+    return {
+        m.id: (m.kind, float(np.max(eps[m.elements], initial=0.0)))
+        for m in system.members
+        if m.kind in ("rigid", "flexible")
+    }
+
+
+def violation(system: object, u: np.ndarray) -> str | None:
+    """None, or why state ``u`` is outside what the FE model represents."""
+    if not hasattr(system, "beams") or not hasattr(system, "members"):
+        return None
+    for mid, (kind, e) in strains(system, u).items():
+        if kind == "rigid" and e > RIGID_STRETCH_MAX:
+            return (
+                f"rigid link {mid!r} stretched by {e:.2g} (bound {RIGID_STRETCH_MAX:g}): the "
+                "scene asks for more than its rigid links allow (a driver beyond reach?)"
+            )
+        if kind == "flexible" and e > STRAIN_MAX:
+            return (
+                f"member {mid!r} strained by {e:.2g} (bound {STRAIN_MAX:g}): beyond the "
+                "moderate-strain elastic model"
+            )
+    return None

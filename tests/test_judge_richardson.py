@@ -1,0 +1,73 @@
+"""Honest error estimates of fem-auto (issue 11, items 5 and 8).
+
+The effectivity index (estimate / true error) of the reported value must lie in [1, 10]: an
+estimate 10x too small or 100x too large fails.  True errors come from closed forms: the
+elastica under a tip force (Bisshopp & Drucker, Q. Appl. Math. 3:272, 1945, elliptic
+integrals), the post-buckled Euler column (Timoshenko & Gere 1961, Sec. 2.7) and the roll-up
+cantilever under an end moment (a circular arc of curvature M/EI).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import reports
+from fem_reference.richardson import extrapolate
+from reduced_models.elastica import tip_dead_force
+from tests.test_judge_bifurcation import PE, elastica_post
+from tests.test_verify_linear_bcm import beam_scene
+
+N = np.array([8, 16, 32, 64])
+
+
+def effectivity(est: float, err: float) -> float:
+    return est / err
+
+
+def test_asymptotic_sequence_is_extrapolated_with_an_estimate_of_the_extrapolated_value():
+    f = 1.0 + (1.0 / N) ** 2 + 3.0 * (1.0 / N) ** 4
+    e = extrapolate(f, N)
+    assert not e.fallback and e.basis == "extrapolated" and abs(e.order - 2.0) < 0.05
+    assert 1.0 <= effectivity(e.error, abs(e.value - 1.0)) <= 10.0
+
+
+@pytest.mark.parametrize(
+    "f",
+    [
+        1.0 + (1.0 / N) ** 1.5,  # converging, but far from the formal order 2
+        1.0 + (1.0 / N) ** 2 * np.array([1.0, -1.0, 1.0, -1.0]),  # oscillating
+    ],
+)
+def test_outside_the_asymptotic_range_the_finest_value_gets_a_cautious_gci(f):
+    e = extrapolate(f, N)
+    assert e.fallback and e.basis == "finest" and e.value == f[-1]
+    assert 1.0 <= effectivity(e.error, abs(e.value - 1.0)) <= 10.0
+
+
+def _cantilever():
+    x, y, th = tip_dead_force(1.0, 1.0, 0.0, -3.0)
+    return beam_scene(0.0, -3.0, A=1e8, steps=4), "tip.y", y
+
+
+def _column():
+    _, _, rot = elastica_post(3.0)
+    return beam_scene(-3.0 * PE, 0.0, A=1e8, steps=6), "tip.rot", rot
+
+
+def _rollup():
+    M = math.pi  # half a circle: tip at (0, 2 EI/M) with L = EI = 1
+    return beam_scene(0.0, 0.0, M, A=1e8, steps=4), "tip.y", 2.0 / M
+
+
+@pytest.mark.parametrize("make", [_cantilever, _column, _rollup])
+def test_effectivity_of_fem_auto_between_1_and_10(make):
+    scene, key, exact = make()
+    sol = reports.solve(scene, "fem-auto")
+    assert sol.status == "converged"
+    got = sol.steps[-1].outputs[key]
+    err = abs(abs(got) - abs(exact))
+    est = sol.extras["error_estimate"][key]
+    assert 1.0 <= effectivity(est, err) <= 10.0, (est, err)
