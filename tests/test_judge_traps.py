@@ -86,9 +86,8 @@ def test_every_trap_is_here():
 # Found by this test, owned by the mechanism assembler (issue 9): PRB-1R as the member law of a
 # beam pinned to its clamp with a guided tip misses fem-auto by 0.29 L.  strict: fixing it
 # turns this entry into a failure to remove.
-KNOWN = {
-    ("trap-free-hinge", "prb-1r"): "mechanism assembler PRB-1R on a pinned-guided member: 0.29 L"
-}
+# (trap, model) -> why it is a known miss (strict xfail: mend the model, then drop the entry)
+KNOWN: dict[tuple[str, str], str] = {}
 
 
 def params() -> list:
