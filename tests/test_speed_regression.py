@@ -57,8 +57,16 @@ def scene_for(case: str, model: str) -> cases.Scene:
     return dataclasses.replace(scene, analysis=a)
 
 
-def pairs() -> list[tuple[str, str]]:
-    out = [(c, m) for c in cases.catalog_names() for m in MODELS]
+# catalog cases whose scene changed after the fixture was recorded (no "before" to compare)
+CHANGED_SINCE = {"das2d-ex5-constant-force": "travel extended to 40 mm (commit 2400485)"}
+
+
+def pairs(recorded_only: bool = True) -> list[tuple[str, str]]:
+    """Catalog case x model pairs; ``recorded_only``: the cases the fixture holds (a case
+    added to the catalog later had no answer before the speed work to compare with)."""
+    known = {key.split("|")[0] for key in _FIXTURE}
+    names = [c for c in cases.catalog_names() if c in known or not recorded_only]
+    out = [(c, m) for c in names for m in MODELS]
     return out + [(c, "replay") for c in REPLAY_CASES]
 
 
@@ -121,6 +129,8 @@ def _assembler_scene(case: str, model: str) -> bool:
 
 @pytest.mark.parametrize("case,model", pairs())
 def test_same_answers_as_before(case: str, model: str) -> None:
+    if case in CHANGED_SINCE:
+        pytest.skip(f"scene changed since the fixture: {CHANGED_SINCE[case]}")
     before = _FIXTURE.get(f"{case}|{model}")
     if before is None:
         pytest.fail(f"{case}|{model} missing from the regression fixture")
@@ -148,6 +158,6 @@ def test_same_answers_as_before(case: str, model: str) -> None:
 
 
 if __name__ == "__main__" and "--write" in sys.argv:
-    data = {f"{c}|{m}": record(c, m) for c, m in pairs()}
+    data = {f"{c}|{m}": record(c, m) for c, m in pairs(recorded_only=False)}
     FIXTURE.write_text(json.dumps(data, separators=(",", ":"), sort_keys=True) + "\n")
     print(f"wrote {len(data)} pairs to {FIXTURE}")
