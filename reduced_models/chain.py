@@ -48,11 +48,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.linalg import lapack
 
-from reduced_models.linalg import Banded
+if TYPE_CHECKING:
+    from reduced_models.linalg import Banded
+
 
 NB = 4  # unknowns per node: X, Y, phi, p
 HALF_BAND = 2 * NB - 1  # block-tridiagonal with 4x4 blocks -> 7 off-diagonals
@@ -318,6 +320,8 @@ class ChainProblem:
 
     def grad_hess(self, x: np.ndarray, lam: float) -> tuple[np.ndarray, Banded]:
         """Residual (n,) and tangent (band storage, 7 + 7 diagonals) at load factor lam."""
+        from reduced_models.linalg import Banded  # lazy: a chain law's import needs no scipy
+
         gloc, Hloc = self.local(x)
         g = np.bincount(self.gdof, gloc.ravel(), minlength=self.n)
         nb = 2 * HALF_BAND + 1
@@ -361,6 +365,10 @@ class ChainProblem:
         """
         if self.follower:
             return None
+        from scipy.linalg import lapack  # lazy: a chain law's import needs no scipy
+
+        from reduced_models.linalg import Banded
+
         _, Hloc = self.local(x)
         Hpp = np.minimum(Hloc[:, 7, 7], -self.N * 1e-9)
         keep = self._keep
