@@ -28,7 +28,7 @@ from reduced_models.mechanism.system import SceneError
 from reduced_models.prb_chain import check_matrix
 from reduced_models.single_beam import cantilever_of
 
-ANALYSES = ("load", "path", "distance", "energy", "kinematics", "synthesis")
+ANALYSES = ("load", "path", "distance", "energy", "kinematics", "synthesis", "deploy")
 _PRB_FIXED = {
     "prb-short": lambda o: T.PRB_SHORT,
     "prb-2r": lambda o: T.PRB_2R,
@@ -248,6 +248,10 @@ def solve_with(scene: Scene, name: str, spec_of: Callable[[Member], tuple]) -> S
         sysm = build(scene, spec_of)
     except SceneError as err:
         return not_applicable(scene, name, str(err))
+    if kind == "deploy":
+        from reduced_models.mechanism.deploy import deploy
+
+        return deploy(sysm, name)
     r = analyses.run(sysm, kind)
     return finish(scene, name, r)
 
@@ -262,6 +266,14 @@ def finish(scene: Scene, name: str, r: analyses.Run) -> Solution:
         return Solution(scene.name, name, "failed", r.exc, tuple(r.steps), r.extras)
     its = sum(s.iterations for s in r.steps)
     msg = f"{len(r.steps)} steps, {its} Newton iterations, {r.extras['ndof']} unknowns"
+    lost = [s for s in r.steps if s.stable is False]
+    if scene.analysis.kind == "load" and lost:
+        # load control stays on the branch it started on: say so rather than let a path of
+        # unstable equilibria (a straight column past buckling) pass as the answer
+        msg += (
+            f"; equilibria unstable from load factor {lost[0].factor:g} on (reduced Hessian): "
+            "the load path crossed a bifurcation or limit point, run a `path` analysis"
+        )
     return Solution(scene.name, name, "converged", msg, tuple(r.steps), r.extras)
 
 
