@@ -15,6 +15,7 @@ import math
 from typing import TYPE_CHECKING
 
 import numpy as np
+from scipy.linalg.blas import dgbmv as _dgbmv
 
 from fem_reference.banded import BAND_MAX, BandedLU, csr_to_band
 
@@ -49,8 +50,13 @@ def step_band(integ: GenAlpha, s: State, h: float, lam: float) -> State | None:
     cv = integ.gamma_p / (integ.beta_p * h)
     acc = s.acc.copy()
     q = qh + acc / cq
-    C = integ.damping(s)
-    Cb = cv * csr_to_band(C, integ.bw) + cq * integ._Mb
+    a0, C, bw, n = integ.a0, None, integ.bw, s.q.shape[0]
+    if integ.a1 == 0.0:  # C = a0 M: its band is M's, and one band product M (acc + a0 v)
+        Cb = (cv * a0 + cq) * integ._Mb
+        Mg = np.asfortranarray(integ._Mb[bw:])  # dgbmv's storage: the rows below the fill-in
+    else:
+        C = integ.damping(s)
+        Cb = cv * csr_to_band(C, integ.bw) + cq * integ._Mb
     tol = integ.newton_tol * integ.L
     prev, solve, fresh = math.inf, None, False
     for it in range(1, 2 * integ.max_iter + 1):
@@ -63,7 +69,11 @@ def step_band(integ: GenAlpha, s: State, h: float, lam: float) -> State | None:
                 return None
             integ.factorizations += 1
             fresh = True
-        dq = -solve(integ.M @ acc + C @ v + ev_.r)
+        if C is None:
+            inertia = _dgbmv(n, n, bw, bw, 1.0, Mg, acc + a0 * v)
+        else:
+            inertia = integ.M @ acc + C @ v
+        dq = -solve(inertia + ev_.r)
         if not np.all(np.isfinite(dq)):
             return None
         q = q + dq

@@ -25,7 +25,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.integrate import cumulative_trapezoid
 
 from reduced_models.base import ModelCard
 from reduced_models.chain import SegmentLaw
@@ -132,6 +131,8 @@ def bcm_shape(
         yl = np.where(ok[:, None], yl, vh)
         kappa = np.where(ok[:, None], kappa, kh)
         th = np.where(ok[:, None], th, np.gradient(vh, np.asarray(sigma), axis=1))
+    from scipy.integrate import cumulative_trapezoid  # lazy: 1 s import, post-processing only
+
     xl = s * (1.0 + k * p[:, None]) - 0.5 * cumulative_trapezoid(th**2, sigma, axis=1, initial=0)
     xl = xl + s * ((1.0 + ux)[:, None] - xl[:, -1:])
     return xl, yl, kappa

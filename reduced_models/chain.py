@@ -48,11 +48,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.linalg import lapack
 
-from reduced_models.linalg import Banded
+if TYPE_CHECKING:
+    from reduced_models.linalg import Banded
+
 
 NB = 4  # unknowns per node: X, Y, phi, p
 HALF_BAND = 2 * NB - 1  # block-tridiagonal with 4x4 blocks -> 7 off-diagonals
@@ -76,7 +78,6 @@ _V_PATTERN[1, 0, [4, 0]] = _V_PATTERN[1, 1, [5, 1]] = (-1.0, 1.0)
 _V_PATTERN[2, 1, 2] = -1.0
 _V_PATTERN[3, 0, 2] = -1.0
 _V_PATTERN = _V_PATTERN.reshape(5, -1)
-_POW = np.arange(3.0)
 
 
 @dataclass(frozen=True)
@@ -130,12 +131,14 @@ class SegmentLaw:
     ) -> np.ndarray:
         """``[d2l | dl]``, shape (N, 4, 5): Hessian and gradient of l in (ux, y, a, p)."""
         n = ux.shape[0]
-        m2 = np.empty((n, 6))  # 1, y, a, y^2, y a, a^2
+        mono = np.empty((n, 3, 6))  # p^i times (1, y, a, y^2, y a, a^2), i = 0, 1, 2
+        m2 = mono[:, 0]
         m2[:, 0], m2[:, 1], m2[:, 2] = 1.0, y, a
         m2[:, 3:5] = y[:, None] * m2[:, 1:3]
         m2[:, 5] = a * a
-        mono = ((p[:, None] ** _POW)[:, :, None] * m2[:, None, :]).reshape(n, 18)
-        out = mono @ self.coefficients(k)
+        np.multiply(p[:, None], m2, out=mono[:, 1])  # products, not float powers (cheaper)
+        np.multiply(p[:, None], mono[:, 1], out=mono[:, 2])
+        out = mono.reshape(n, 18) @ self.coefficients(k)
         out[:, 19] += ux
         return out.reshape(n, 4, 5)
 
@@ -317,6 +320,8 @@ class ChainProblem:
 
     def grad_hess(self, x: np.ndarray, lam: float) -> tuple[np.ndarray, Banded]:
         """Residual (n,) and tangent (band storage, 7 + 7 diagonals) at load factor lam."""
+        from reduced_models.linalg import Banded  # lazy: a chain law's import needs no scipy
+
         gloc, Hloc = self.local(x)
         g = np.bincount(self.gdof, gloc.ravel(), minlength=self.n)
         nb = 2 * HALF_BAND + 1
@@ -360,6 +365,10 @@ class ChainProblem:
         """
         if self.follower:
             return None
+        from scipy.linalg import lapack  # lazy: a chain law's import needs no scipy
+
+        from reduced_models.linalg import Banded
+
         _, Hloc = self.local(x)
         Hpp = np.minimum(Hloc[:, 7, 7], -self.N * 1e-9)
         keep = self._keep

@@ -17,6 +17,7 @@ costs what its equations cost.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -59,16 +60,29 @@ def single_segment_functions(prob: ChainProblem) -> tuple:
         cross = [Pw[i] + 2.0 * p * Qw[i] for i in range(2)]
         return w, K, Kw, dp, cross, k - wQw
 
-    def grad_hess(x: list, lam: float) -> tuple[list, list]:
+    guided = prob.guided
+
+    def grad_hess(x: list, lam: float) -> tuple[list, Callable]:
         _, K, Kw, dp, cross, D = terms(x)
         g = [x[3] - lam * fX, Kw[0] - lam * fY, Kw[1] - lam * m, dp]
-        H = [
-            [0.0, 0.0, 0.0, 1.0],
-            [0.0, K[0][0], K[0][1], cross[0]],
-            [0.0, K[1][0], K[1][1], cross[1]],
-            [1.0, cross[0], cross[1], -D],
-        ]
-        return g, H
+        if guided:  # phi held: its equation is an identity row
+            g[2] = 0.0
+        (k00, k01), (k10, k11) = K
+        c0, c1 = cross
+        det = k00 * k11 - k01 * k10
+
+        def solve(b: list) -> list:
+            """H s = b for H = [[0, 0, 0, 1], [0, K, c], [1, c^T, -D]] (rows X, Y, phi, p):
+            the X row gives s_p, the (Y, phi) rows a 2x2 solve with K, the p row s_X."""
+            sp = b[0]
+            r0, r1 = b[1] - c0 * sp, b[2] - c1 * sp
+            if guided:
+                s1, s2 = r0 / k00, 0.0
+            else:
+                s1, s2 = (k11 * r0 - k01 * r1) / det, (k00 * r1 - k10 * r0) / det
+            return [b[3] - c0 * s1 - c1 * s2 + D * sp, s1, s2, sp]
+
+        return g, solve
 
     def load_gradient(x: list, lam: float) -> list:
         return [-fX, -fY, -m, 0.0]
@@ -93,7 +107,6 @@ def solve_single_segment(prob: ChainProblem, factors: np.ndarray) -> PathResult:
         [1.0, 0.0, 0.0, 0.0],
         factors,
         scale=prob.scale[4:].tolist(),
-        fixed=(2,) if prob.guided else (),
         load_gradient=lg,
         max_step=prob.max_step[4:].tolist(),
         stability=stab,

@@ -19,8 +19,11 @@ Functions handed in: ``grad_hess(x, lam) -> (g, d, e)`` with ``x``, ``g`` and th
 diagonal ``d`` lists of n floats and its off-diagonal ``e`` a list of n - 1, or
 ``-> (g, H)`` with a dense symmetric (possibly indefinite) H as a list of rows, solved by
 pivoted LU, whose stability is then judged by ``stability(x, lam) -> bool | None`` (a mixed
-Lagrangian's inertia test); ``load_gradient(x, lam) -> dg/dlam`` (list).  ``max_step``
-caps ``|dx_i / scale_i|`` per update (the update is shortened as a whole), as there.
+Lagrangian's inertia test), or ``-> (g, solve)`` with ``solve(b) -> list`` solving the tangent
+system in closed form (raising ZeroDivisionError when singular; fixed unknowns are then the
+caller's, and stability is judged by ``stability``); ``load_gradient(x, lam) -> dg/dlam``
+(list).  ``max_step`` caps ``|dx_i / scale_i|`` per update (the update is shortened as a
+whole), as there.
 """
 
 from __future__ import annotations
@@ -111,6 +114,8 @@ def _factor(d: list, e: list, n: int) -> tuple[tuple, bool]:
 
 
 def _solve(factor: tuple, b: Sequence[float], n: int) -> list:
+    if factor[0] == "fn":
+        return factor[1](b)
     return _ldl_solve(factor[1], b, n) if factor[0] == "ldl" else _lu_solve(factor[1], b, n)
 
 
@@ -139,6 +144,8 @@ class _Newton:
                     e[i] = 0.0
             return g, (d, e)
         (A,) = H
+        if callable(A):  # a closed-form tangent solve (fixed unknowns are the caller's)
+            return g, A
         for i in self.fixed:
             g[i] = 0.0
             for j in range(n):
@@ -154,6 +161,8 @@ class _Newton:
         """Factor and positive definiteness (None for a dense, possibly indefinite H)."""
         if isinstance(H, tuple):
             return _factor(*H, self.n)
+        if callable(H):
+            return ("fn", H), None
         fac = _lu(H, self.n)
         if fac is None:
             raise ZeroDivisionError("singular matrix")

@@ -221,9 +221,10 @@ def cli_wall(rounds: int = 5) -> tuple[float, float]:
     return _wall(solve, rounds), _wall([sys.executable, "-c", "import numpy"], rounds)
 
 
-def suite_shares() -> list[str]:
+def suite_shares() -> tuple[list[str], list[str]]:
     """CPU share of each model family in the default matrix (no report, one worker): of the
-    first solves (the answers) and of all timed solves (first + repeats)."""
+    first solves (the answers) and of all timed solves (first + repeats); and the verdict on
+    the replay's share of all timed solves (target < 20 %)."""
     from reports.runner import run_matrix
 
     scenes = [cases.load(c) for c in cases.catalog_names()]
@@ -249,7 +250,14 @@ def suite_shares() -> list[str]:
         lines.append(
             f"| {fam} | {f:.2f} | {100 * f / f_all:.1f} % | {t:.2f} | {100 * t / t_all:.1f} % |"
         )
-    return lines + [f"| total | {f_all:.2f} | | {t_all:.2f} | |"]
+    share = {fam: 100 * total.get(fam, 0.0) / t_all for fam in ("replay", "elastica-bvp")}
+    verdicts = [
+        f"- replay share of the default matrix < 20 %: {share['replay']:.1f} %, "
+        f"{_verdict(share['replay'], 20.0)}",
+        f"- elastica-bvp (speed baseline at tol 1e-10) share of the default matrix: "
+        f"{share['elastica-bvp']:.1f} %",
+    ]
+    return lines + [f"| total | {f_all:.2f} | | {t_all:.2f} | |"], verdicts
 
 
 def opensees_lines(rounds: int) -> list[str]:
@@ -324,7 +332,9 @@ def main(argv: list[str] | None = None) -> int:
         f"(`python -c 'import numpy'` alone: {floor:.2f} s in the same run)"
     )
     if args.suite:
-        out += ["## Default matrix: CPU share per family", ""] + suite_shares() + [""]
+        rows, v = suite_shares()
+        out += ["## Default matrix: CPU share per family", ""] + rows + [""]
+        verdicts += v
     out += ["## OpenSeesPy (optional)", ""] + opensees_lines(rounds) + [""]
     out += ["## Targets", ""] + verdicts + [""]
     text = "\n".join(out)

@@ -37,7 +37,7 @@ from typing import Any
 from reduced_models.base import Solution
 from reports import api
 from reports.compare import DEFAULT_ABS_TOL, DEFAULT_REL_FACTOR
-from reports.runner import DEFAULT_TIME_LIMIT, QUICK_TIME_LIMIT
+from reports.timing import DEFAULT_TIME_LIMIT, QUICK_TIME_LIMIT  # not the runner: lazy
 
 PROG = "flexbench"
 

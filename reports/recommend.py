@@ -42,7 +42,7 @@ from typing import Any
 
 from cases.schema import Scene
 from reduced_models.base import Solution
-from reports import api, errors, store
+from reports import api, errors
 from reports.tolerance import Tolerance, ToleranceError, parse_tolerance, pct
 
 # member N of each parametrised ladder (the FE starts at 2 elements per member)
@@ -201,6 +201,8 @@ def judge(
     ``uncertainty`` (normalised like the errors) is the reference's own error estimate: a
     model qualifies only if its measured error plus that stays within the tolerance.
     """
+    from reports import store  # lazy: ``import reports`` (the CLI) does not need sqlite
+
     steps, _, _ = store.steps_json(sol)
     stop = (meta.get("analysis") or {}).get("stop_output")
     pe = errors.path_errors(steps, ref_steps, meta["length_scale"], stop)
@@ -324,6 +326,8 @@ def recommend(
             reason = f"no reference path could be computed ({ref_note})"
             return Recommendation(scene.name, tol, None, reason, None, None, [])
         meta = case_meta(scene)
+        from reports import store
+
         ref_steps, _, _ = store.steps_json(ref_sol)
         est = ref_sol.extras.get("error_estimate")
         unc = errors.estimate_scale(est, meta["length_scale"]) if isinstance(est, Mapping) else 0

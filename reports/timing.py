@@ -23,6 +23,11 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+# s per pair (first solve) before it is failed: a pair this slow alone breaks the run's budget
+# (here, not in the runner, so the CLI's help needs no runner import)
+DEFAULT_TIME_LIMIT = 60.0
+QUICK_TIME_LIMIT = 20.0
+
 _pinned_modules = -1  # len(sys.modules) when BLAS was last pinned
 
 
