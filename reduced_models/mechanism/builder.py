@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import replace
 
 import numpy as np
 
@@ -38,9 +39,10 @@ def build(scene: Scene, spec_of: Callable[[Member], tuple]) -> MechanismSystem:
         raise SceneError(
             "follower loads are non-conservative: the energy-based assembler takes dead loads"
         )
-    scene = split_member_loads(scene)
+    scene, origin = _centred(split_member_loads(scene))
     lay = layout(scene)
     sysm = MechanismSystem(lay)
+    sysm.origin = origin
     closure: list = [[], [], [], [], [], []]  # ends, chain, len, ang, u, alpha
     chain_rows: dict[int, list] = {}
     joints: list[list] = [[], [], [], []]
@@ -60,6 +62,8 @@ def build(scene: Scene, spec_of: Callable[[Member], tuple]) -> MechanismSystem:
         spec = spec_of(m)
         if spec[0] == "chain":
             _add_chain(sysm, m, spec, L, alpha, xa, xb, ra, rb, chain_rows)
+        elif _root_at_b(scene, m, spec[1]):  # the PRB root (rigid first link) at end b
+            _add_prb(sysm, m, spec[1], L, alpha + math.pi, xb, xa, rb, ra, closure, joints)
         else:
             _add_prb(sysm, m, spec[1], L, alpha, xa, xb, ra, rb, closure, joints)
     for rows in chain_rows.values():
@@ -78,6 +82,45 @@ def build(scene: Scene, spec_of: Callable[[Member], tuple]) -> MechanismSystem:
     _driver(sysm, scene, lay)
     sysm.finish()
     return sysm
+
+
+def _fixity(scene: Scene, m: Member, end: str) -> int:
+    """How firmly a member end is held: 0 free node, 1 pinned, 2 welded to a clamp, a
+    guided support or another member."""
+    nid, kind = (m.a, m.end_a) if end == "a" else (m.b, m.end_b)
+    sup = scene.support_at(nid)
+    others = [o for o in scene.members if o.id != m.id and nid in (o.a, o.b)]
+    if kind == "weld" and (
+        (sup is not None and sup.type in ("clamp", "guided"))
+        or any((o.end_a if o.a == nid else o.end_b) == "weld" for o in others)
+    ):
+        return 2
+    return 1 if sup is not None or others else 0
+
+
+def _root_at_b(scene: Scene, m: Member, matrix: np.ndarray) -> bool:
+    """PRB matrices are cantilever models: rigid root link at the held end, pivots placed
+    from there (prb-1r: pivot at (1 - gamma) L from the root).  A member drawn from its free
+    or pinned end towards its clamped end is laid out from end b, so the answer does not
+    depend on the drawing direction.  Only a matrix with a rigid first link can be turned."""
+    if math.isfinite(matrix[0, 0]):
+        return False
+    return _fixity(scene, m, "b") > _fixity(scene, m, "a")
+
+
+def _centred(scene: Scene) -> tuple[Scene, tuple[float, float]]:
+    """The scene moved so that its bounding box is centred on the origin, and the shift.
+
+    Node unknowns are absolute positions: far from the origin (a layout drawn at x = 1000 L)
+    the segment chords ``x_b - x_a`` lose digits to cancellation and the axial rows can no
+    longer meet their tolerance.  Solving about the centre makes the result independent of
+    where the scene is drawn; outputs and shapes add the shift back.
+    """
+    xs = [n.x for n in scene.nodes]
+    ys = [n.y for n in scene.nodes]
+    ox, oy = 0.5 * (min(xs) + max(xs)), 0.5 * (min(ys) + max(ys))
+    nodes = tuple(replace(n, x=n.x - ox, y=n.y - oy) for n in scene.nodes)
+    return replace(scene, nodes=nodes), (ox, oy)
 
 
 def _empty_closure() -> Closure:

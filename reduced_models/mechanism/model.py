@@ -266,6 +266,14 @@ def finish(scene: Scene, name: str, r: analyses.Run) -> Solution:
         return Solution(scene.name, name, "failed", r.exc, tuple(r.steps), r.extras)
     its = sum(s.iterations for s in r.steps)
     msg = f"{len(r.steps)} steps, {its} Newton iterations, {r.extras['ndof']} unknowns"
+    lost = [s for s in r.steps if s.stable is False]
+    if scene.analysis.kind == "load" and lost:
+        # load control stays on the branch it started on: say so rather than let a path of
+        # unstable equilibria (a straight column past buckling) pass as the answer
+        msg += (
+            f"; equilibria unstable from load factor {lost[0].factor:g} on (reduced Hessian): "
+            "the load path crossed a bifurcation or limit point, run a `path` analysis"
+        )
     return Solution(scene.name, name, "converged", msg, tuple(r.steps), r.extras)
 
 

@@ -117,7 +117,7 @@ def run_path(run: object) -> None:
         else:
             i = s.lay.node_dof[node] + (1 if q in ("y", "uy") else 0)
             n0 = s.scene.node(node)
-            off = 0.0 if q in ("x", "y") else (n0.y if q == "uy" else n0.x)
+            off = (n0.y if q == "uy" else n0.x) if q in ("ux", "uy") else -s.origin[q == "y"]
         func = (i, off)  # value = q[i] - off
     t = al.tangent(st, None)
     if a.factor_end < 0:

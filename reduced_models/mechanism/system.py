@@ -56,6 +56,7 @@ class MechanismSystem:
         self.driver_row: int | None = None
         self.driver_dof: int | None = None
         self.driver_scale = 1.0
+        self.origin = (0.0, 0.0)  # where the scene's (centred) frame sits in the case's frame
 
     # -- sizes and scaling -------------------------------------------------------------------
     def finish(self) -> None:
@@ -261,8 +262,8 @@ class MechanismSystem:
             n = self.scene.node(o.node)
             i = self.lay.node_dof[o.node]
             r = self.lay.node_rot.get(o.node)
-            out[f"{o.name}.x"] = float(q[i])
-            out[f"{o.name}.y"] = float(q[i + 1])
+            out[f"{o.name}.x"] = float(q[i]) + self.origin[0]
+            out[f"{o.name}.y"] = float(q[i + 1]) + self.origin[1]
             out[f"{o.name}.ux"] = float(q[i] - n.x)
             out[f"{o.name}.uy"] = float(q[i + 1] - n.y)
             out[f"{o.name}.rot"] = float(q[r]) if r is not None else 0.0
@@ -270,4 +271,5 @@ class MechanismSystem:
 
     def shapes(self, q: np.ndarray) -> dict[str, np.ndarray]:
         """Member id -> (k, 2) polyline of the deformed member (rigid: its two nodes)."""
-        return {mid: f(q) for mid, f in self.shape_of.items()}
+        o = np.array(self.origin)
+        return {mid: f(q) + o for mid, f in self.shape_of.items()}
