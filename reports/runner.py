@@ -232,7 +232,8 @@ def plan(
                     "heavy": heavy,
                 }
             )
-    tasks.sort(key=lambda t: not t["heavy"])  # long jobs first: shorter tail
+    # long jobs first (shorter tail): heavy pairs, among them replays, then longer paths
+    tasks.sort(key=lambda t: (not t["heavy"], t["model"] != "replay", -t["scene"].analysis.steps))
     return tasks, fixed, metas
 
 
