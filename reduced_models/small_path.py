@@ -211,6 +211,10 @@ def _min_abs_eig(newton: _Newton, x: Sequence[float], lam: float) -> float:
     if isinstance(H, tuple):
         d, e = H
         A = np.diag(d) + np.diag(e, 1) + np.diag(e, -1)
+    elif callable(H):  # a closed-form solve: |eig(H)| = 1 / |eig(H^-1)|, columns by unit rhs
+        n = newton.n
+        inv = np.array([H([float(i == j) for i in range(n)]) for j in range(n)], dtype=float)
+        return 1.0 / float(np.max(np.abs(np.linalg.eigvals(inv))))
     else:
         A = np.array(H, dtype=float)
     return float(np.min(np.abs(np.linalg.eigvalsh(0.5 * (A + A.T)))))
