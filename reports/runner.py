@@ -199,7 +199,7 @@ def plan(
     timing = timing or (QUICK_TIMING if quick else DEFAULT_TIMING)
     code = code_hash()
     tasks, fixed, metas = [], [], {}
-    for scene0 in sweep.expand_all(scenes):
+    for scene0 in sweep.expand_all(scenes, thin=quick):
         scene = quick_scene(scene0) if quick else scene0
         meta = case_meta(scene) | sweep.point_meta(scene)
         metas[scene.name] = meta

@@ -28,3 +28,12 @@ def test_points_skip_default_models():
     tasks, fixed, _ = runner.plan([scene])
     models = {t["model"] for t in tasks} | {r["model"] for r in fixed}
     assert "thesis-force-method" in models and "prb-3r" not in models
+
+
+def test_quick_thins_each_axis_to_ends_and_middle():
+    scene = cases.load("thesis-sixbar-config4-sweep-rest")
+    _, _, metas = runner.plan([scene], models=["thesis-force-method"], quick=True)
+    pts = [m["sweep"]["point"] for m in metas.values()]
+    assert len(pts) == 27
+    s1 = sorted({p["torsion_springs.S1.rest_angle_deg"] for p in pts})
+    assert s1 == [20.0, 30.0, 40.0]
