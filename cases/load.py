@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from cases import limits
 from cases.schema import (
     ANALYSIS_KINDS,
     END_KINDS,
@@ -84,10 +85,18 @@ def load(name_or_path: str | Path) -> Scene:
 
 def loads(text: str, source: str = "<string>") -> Scene:
     """Parse and validate case TOML text; ``source`` names the file in errors."""
+
+    def fail(key: str, reason: str) -> CaseError:
+        return CaseError(f"{source}: {key}: {reason}")
+
+    limits.check_size(text, fail)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise CaseError(f"{source}: (toml): {exc}") from None
+    except RecursionError:  # tomllib recurses once per nesting level
+        raise fail("(toml)", f"nested deeper than the limit of {limits.MAX_DEPTH} levels") from None
+    limits.check_tree(data, fail)
     return _Builder(data, source).scene()
 
 
@@ -149,9 +158,8 @@ class _Builder:
         v = table[key]
         if isinstance(v, bool) or not isinstance(v, int | float):
             raise self.fail(f"{path}.{key}", f"must be a number, got {type(v).__name__}")
+        limits.check_number(v, f"{path}.{key}", self.fail)
         v = float(v)
-        if not math.isfinite(v):
-            raise self.fail(f"{path}.{key}", "must be finite (NaN/inf not allowed)")
         if positive and v <= 0:
             raise self.fail(f"{path}.{key}", f"must be > 0, got {v:g}")
         if nonneg and v < 0:
@@ -166,6 +174,8 @@ class _Builder:
             raise self.fail(f"{path}.{key}", "must be an integer")
         if v < lo:
             raise self.fail(f"{path}.{key}", f"must be >= {lo}, got {v}")
+        if key.endswith("steps"):
+            limits.check_steps(v, f"{path}.{key}", self.fail)
         return v
 
     def str_(
@@ -338,15 +348,16 @@ class _Builder:
         return tuple(out)
 
     def supports(self, node_ids: set[str]) -> tuple[Support, ...]:
-        out = []
+        out, supported = [], set()
         for i, t in enumerate(self.array("supports", required=False)):
             p = f"supports[{i}]"
             self.keys(t, p, ("node", "type", "angle_deg"), ("node", "type"))
             node = self.str_(t, "node", p)
             if node not in node_ids:
                 raise self.fail(f"{p}.node", f"unknown node {node!r}")
-            if any(s.node == node for s in out):
+            if node in supported:
                 raise self.fail(f"{p}.node", f"node {node!r} already has a support")
+            supported.add(node)
             typ = self.str_(t, "type", p, choices=SUPPORT_TYPES)
             if "angle_deg" in t and typ not in ("slider",):
                 raise self.fail(f"{p}.angle_deg", "only a slider takes angle_deg")
@@ -430,7 +441,7 @@ class _Builder:
         return tuple(out)
 
     def outputs(self, node_ids: set[str]) -> tuple[Output, ...]:
-        out = []
+        out, names = [], set()
         for i, t in enumerate(self.array("outputs")):
             p = f"outputs[{i}]"
             self.keys(t, p, ("name", "node"), ("name", "node"))
@@ -439,8 +450,9 @@ class _Builder:
                 raise self.fail(f"{p}.node", f"unknown node {node!r}")
             if not re.match(r"^[A-Za-z_][A-Za-z0-9_-]*$", name):
                 raise self.fail(f"{p}.name", f"{name!r}: letters, digits, '_' or '-' only")
-            if any(o.name == name for o in out):
+            if name in names:
                 raise self.fail(f"{p}.name", f"duplicate output name {name!r}")
+            names.add(name)
             out.append(Output(name, node))
         return tuple(out)
 
@@ -508,10 +520,17 @@ class _Builder:
             raise self.fail(f"{p}.sweep_values", "must be an array of finite numbers")
         if kind == "sweep" and (not sweep_values or "sweep_key" not in t):
             raise self.fail(f"{p}.sweep_key", "a sweep needs sweep_key and sweep_values")
+        factor_end = self.num(t, "factor_end", p, default=1.0)
+        if kind in ("load", "path") and factor_end <= 0:
+            raise self.fail(
+                f"{p}.factor_end",
+                f"must be > 0 for a {kind!r} analysis (the load factor rises from 0), got "
+                f"{factor_end:g}; reverse the loads to load the other way",
+            )
         return Analysis(
             kind=kind,
             steps=self.int_(t, "steps", p, 20),
-            factor_end=self.num(t, "factor_end", p, default=1.0),
+            factor_end=factor_end,
             stop_output=stop_output,
             stop_value=stop_value,
             max_steps=self.int_(t, "max_steps", p, 400),
@@ -616,12 +635,5 @@ class _Builder:
 
 
 def _check_finite(obj: Any, path: str, fail: Callable[[str, str], CaseError]) -> None:
-    """No NaN/inf hidden in nested model options."""
-    if isinstance(obj, float) and not math.isfinite(obj) and obj != math.inf:
-        raise fail(path, "NaN is not allowed")
-    if isinstance(obj, dict):
-        for k, v in obj.items():
-            _check_finite(v, f"{path}.{k}", fail)
-    elif isinstance(obj, list):
-        for i, v in enumerate(obj):
-            _check_finite(v, f"{path}[{i}]", fail)
+    """Numbers hidden in nested model options: finite and in range (iterative, linear)."""
+    limits.check_tree({path: obj}, fail)
