@@ -159,3 +159,27 @@ def test_solve_time_limit_fails_a_runaway_model(tmp_path, monkeypatch, capsys):
     argv = ["solve", str(path), "--model", "dummy-hog", "--memory-limit", "100", "--json"]
     assert cli.main(argv) == 0
     assert "memory limit of 100 MB exceeded" in capsys.readouterr().out
+
+
+def test_markdown_escapes_user_text_and_file_names_are_sanitised(monkeypatch, tmp_path):
+    from reports import exports, runner
+    from reports.render import build_document, slug
+    from reports.render.md import to_markdown
+    from tests.test_input_faults import register_dummies
+    from tests.test_runner import CASE_TOML
+
+    register_dummies(monkeypatch)
+    evil = '<img src=x onerror="alert(1)"> [click](javascript:alert(2)) `code`'
+    text = CASE_TOML.format(name="evil", P=0.3, scale=1.0)
+    text = text.replace('title = "Dummy cantilever evil"', f"title = '{evil}'")
+    text = text.replace('tags = ["test"]', "tags = ['<b>bold</b>']")
+    scene = cases.loads(text)
+    res = runner.run_matrix([scene], ["dummy-crash"], tmp_path, workers=1, render=False)
+    md = to_markdown(build_document(res.payload, {}))
+    assert "<img" not in md and "<b>" not in md
+    assert not re.search(r"(?<!\\)\]\(javascript:", md)  # no live link
+    assert '&lt;img src=x onerror="alert(1)"&gt; \\[click\\](javascript:alert(2))' in md
+    for bad in ("..", ".", "../../etc/passwd", "a/b\\c", "x\0y"):
+        for name in (slug(bad), exports._slug(bad)):
+            assert name not in (".", "..") and "/" not in name and "\\" not in name
+            assert "\0" not in name

@@ -62,7 +62,7 @@ def fmt_ratio(x: float | None) -> str:
 
 def slug(name: str) -> str:
     """File-name-safe version of a case name."""
-    return re.sub(r"[^A-Za-z0-9_.-]+", "_", name)
+    return re.sub(r"^\.", "_", re.sub(r"[^A-Za-z0-9_.-]+", "_", name))  # never "." or ".."
 
 
 # -- points for the Pareto plots -------------------------------------------------------------------

@@ -1,12 +1,27 @@
-"""Markdown formatting of the report blocks (GitHub-flavoured tables)."""
+"""Markdown formatting of the report blocks (GitHub-flavoured tables).
+
+Every block's text is plain text (case titles, tags, model names and messages come from
+users' files): HTML is escaped as entities and Markdown's link/code syntax with backslashes,
+so a title cannot inject markup into a rendered report.md.  Link targets are percent-encoded.
+"""
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
+from urllib.parse import quote
+
+_MD_SPECIAL = re.compile(r"([\\`\[\]|])")
 
 
 def _esc(text: str) -> str:
-    return str(text).replace("|", "\\|").replace("\n", " ")
+    """Plain text -> Markdown text that renders as exactly that text, on one line."""
+    text = str(text).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+    return _MD_SPECIAL.sub(r"\\\1", " ".join(text.splitlines()))
+
+
+def _href(path: str) -> str:
+    return quote(str(path), safe="/#._-~%")
 
 
 def to_markdown(blocks: Sequence[tuple]) -> str:
@@ -15,9 +30,9 @@ def to_markdown(blocks: Sequence[tuple]) -> str:
     for block in blocks:
         kind = block[0]
         if kind in ("h1", "h2", "h3"):
-            out += ["#" * int(kind[1]) + " " + block[1], ""]
+            out += ["#" * int(kind[1]) + " " + _esc(block[1]), ""]
         elif kind == "p":
-            out += [block[1], ""]
+            out += [_esc(block[1]), ""]
         elif kind == "table":
             headers, rows = block[1], block[2]
             width = max([len(headers)] + [len(r) for r in rows])
@@ -29,9 +44,9 @@ def to_markdown(blocks: Sequence[tuple]) -> str:
                 out.append("| " + " | ".join(_esc(c) for c in cells) + " |")
             out.append("")
         elif kind == "img":
-            out += [f"![{_esc(block[2])}]({block[1]})", ""]
+            out += [f"![{_esc(block[2])}]({_href(block[1])})", ""]
         elif kind == "links":
-            items = " · ".join(f"[{_esc(text)}]({href})" for text, href in block[2])
+            items = " · ".join(f"[{_esc(text)}]({_href(href)})" for text, href in block[2])
             out += [f"{_esc(block[1])}: {items}", ""]
         elif kind == "ul":
             out += [f"- {_esc(i)}" for i in block[1]] + [""]
