@@ -77,6 +77,11 @@ def load(name_or_path: str | Path) -> Scene:
     """Load and validate a case from the catalog (by name) or from a path."""
     path = resolve(name_or_path)
     try:
+        if path.stat().st_size > limits.MAX_FILE_BYTES:  # before reading it all into memory
+            size = path.stat().st_size
+            raise CaseError(
+                f"{path}: (file): {size} bytes exceeds the limit of {limits.MAX_FILE_BYTES}"
+            )
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise CaseError(f"{path}: (file): cannot read: {exc}") from None
