@@ -441,6 +441,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _fail(str(exc))
     except BrokenPipeError:  # `flexbench cases | head`
         return 0
+    except KeyboardInterrupt:  # `run` says more itself; elsewhere nothing is left half-done
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        return 130
     except Exception as exc:  # a bug of ours: one line (the traceback with --debug), exit 3
         return _internal(exc, debug)
 
