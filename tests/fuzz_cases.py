@@ -127,7 +127,8 @@ def _slots(obj: Any, leaves_only: bool) -> list[tuple[Any, Any]]:
 
 
 def _arrays(data: dict) -> list[str]:
-    return [k for k, v in data.items() if isinstance(v, list) and v]
+    """Names of the non-empty arrays of tables."""
+    return [k for k, v in data.items() if _is_table(v) and isinstance(v, list)]
 
 
 def _value_mutation(data: dict, rng: random.Random) -> None:

@@ -9,6 +9,7 @@ counts per outcome.
 from __future__ import annotations
 
 import collections
+import json
 import os
 import random
 
@@ -49,6 +50,8 @@ def test_fuzz_many_files_all_models(tmp_path, capsys, request):
         case, text, applied = mutate(rng)
         path = tmp_path / f"{i:05d}-{case}.toml"
         path.write_text(text, encoding="utf-8", errors="surrogatepass")
+        if i % 100 == 0:
+            (tmp_path / "progress.json").write_text(json.dumps([i, dict(counts)]))
         for model in MODELS:
             result = outcome(path, model)
             counts[result.split(":")[0]] += 1

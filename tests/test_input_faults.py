@@ -158,6 +158,7 @@ def test_disk_full_rolls_the_record_back_and_is_one_line(dummies, tmp_path, monk
     assert cli.main(argv) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "disk full" in err and "Traceback" not in err
+    assert (out / "partial.jsonl").read_bytes().endswith(b"}\n")  # the half record rolled back
     assert len(journal.read(out / "partial.jsonl")) == 2  # whole records only
     monkeypatch.undo()
     register_dummies(monkeypatch)
