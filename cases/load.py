@@ -245,6 +245,9 @@ class _Builder:
         loads = self.loads(node_ids, members)
         outputs = self.outputs(node_ids)
         analysis = self.analysis(node_ids, {m.id for m in members}, outputs)
+        if analysis.kind == "path" and analysis.driver is None:
+            if not any(ld.fx or ld.fy or ld.moment for ld in loads):
+                raise self.fail("loads", "a 'path' analysis needs a nonzero load to trace")
         references = self.references(outputs)
         models = self.models()
         scene = Scene(

@@ -82,6 +82,12 @@ HOSTILE = [
         "case.units",
         "10000",
     ),
+    (
+        "path-without-load",
+        edit('kind = "load"', 'kind = "path"', edit("fy = -10.0", "fy = 0.0")),
+        "loads",
+        "nonzero load",
+    ),
     ("bool-as-number", edit("x = 1.0", "x = true"), "nodes[1].x", "number"),
     ("table-as-array", HEAD.replace("[[supports]]", "[supports]"), "supports", "array of tables"),
 ]
