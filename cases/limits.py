@@ -6,9 +6,10 @@ never in a crash, a hang or an exhausted memory.  The rules are general, not per
 * the file is at most ``MAX_FILE_BYTES`` long and its tables/arrays nest at most
   ``MAX_DEPTH`` deep (``tomllib`` recurses per level: the loader turns its
   ``RecursionError`` on thousands of levels into the same error);
-* every number anywhere in the tree is finite and of magnitude 0 or within
-  [``MIN_MAGNITUDE``, ``MAX_MAGNITUDE``]: products of a few inputs (E*A, E*I/L^3) then stay
-  normal floats, and an integer too large for a float is an error, not an ``OverflowError``;
+* every number anywhere in the tree is finite (model options may say ``inf``: a rigid PRB
+  link) and of magnitude 0 or within [``MIN_MAGNITUDE``, ``MAX_MAGNITUDE``]: products of a
+  few inputs (E*A, E*I/L^3) then stay normal floats, and an integer too large for a float
+  is an error, not an ``OverflowError``;
 * the counts of nodes, members, outputs, ... are bounded (``MAX_COUNT``), and so are the
   analysis step counts (``MAX_STEPS``): the solvers' work grows with them.
 
@@ -70,7 +71,8 @@ def check_tree(data: dict[str, Any], fail: Fail) -> None:
             if len(v) > MAX_STRING:
                 raise fail(path, f"string of {len(v)} characters exceeds {MAX_STRING}")
         elif isinstance(v, int | float) and not isinstance(v, bool):
-            check_number(v, path, fail)
+            if not (v == math.inf and "options" in path):  # +inf in options: rigid, e.g. PRB
+                check_number(v, path, fail)
 
 
 def check_number(v: float, path: str, fail: Fail) -> None:

@@ -77,6 +77,13 @@ HOSTILE = [
     ),
     ("nan-option", HEAD + '[[models]]\nname = "x"\noptions = { k = nan }\n', "options.k", "finite"),
     (
+        "-inf-option",
+        HEAD + '[[models]]\nname = "x"\noptions = { k = -inf }\n',
+        "options.k",
+        "finite",
+    ),
+    ("inf-outside-options", edit("x = 1.0", "x = inf"), "nodes[1].x", "finite"),
+    (
         "long-string",
         edit('units = "nondim"', 'units = "' + "x" * 20_000 + '"'),
         "case.units",
