@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from fem_reference.newton import Options, Scaler, SolveError, State, factor_at, ops
+from fem_reference.newton import Options, Scaler, SolveError, State, factor_at, ops, vdot
 from fem_reference.system import DiscreteSystem
 
 
@@ -46,7 +46,7 @@ class ArcLength:
         self.direction = direction
 
     def _dot(self, a: np.ndarray, b: np.ndarray) -> float:
-        return float(np.dot(a * self.sc.w, b))
+        return vdot(a * self.sc.w, b)
 
     def _try(self, ds: float) -> State:
         sys, opts, o = self.sys, self.opts, self.ops
@@ -75,7 +75,7 @@ class ArcLength:
             if (
                 it > 1
                 and rn <= self.sc.ftol(lam, opts)
-                and (abs(np.dot(dr, r)) <= opts.etol * e0 or self.sc.unorm(dr) < 1e-12)
+                and (abs(vdot(dr, r)) <= opts.etol * e0 or self.sc.unorm(dr) < 1e-12)
             ):
                 return State(u, lam, it, 0, rn, lu)
             dt = lu.solve(sys.external(u))
@@ -94,7 +94,7 @@ class ArcLength:
                 best = -self._dot(Du, dr) / den
             step = dr + best * dt
             if it == 1:
-                e0 = max(abs(float(np.dot(step, r))), 1e-300)
+                e0 = max(abs(vdot(step, r)), 1e-300)
             Du, Dl = Du + step, Dl + best
             if self.sc.unorm(Du) > 10.0 * ds + 1e-300:
                 raise SolveError("arc-length corrector diverged")

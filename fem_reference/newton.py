@@ -22,7 +22,7 @@ from types import SimpleNamespace
 import numpy as np
 import scipy.sparse as sp
 
-from fem_reference.banded import SingularTangent, factor
+from fem_reference.banded import SingularTangent, factor, vdot
 from fem_reference.system import DiscreteSystem
 
 
@@ -148,10 +148,11 @@ class Scaler:
         return sc
 
     def rnorm(self, r: np.ndarray) -> float:
-        return float(np.linalg.norm(r * self.rs))
+        x = r * self.rs
+        return math.sqrt(vdot(x, x))
 
     def unorm(self, du: np.ndarray) -> float:
-        return float(math.sqrt(np.dot(du * du, self.w)))
+        return math.sqrt(vdot(du * du, self.w))
 
     def ftol(self, lam: float, opts: Options) -> float:
         return max(opts.rtol * self.sys.force_scale() * max(abs(lam), 1.0), self.floor)
@@ -242,7 +243,7 @@ def newton(
             dl = -(g + c * du[i]) / (c * dt[i])
             du = du + dl * dt
             lam = lam + dl
-        e = abs(float(np.dot(du, r)))
+        e = abs(vdot(du, r))
         if not math.isfinite(e):
             raise SolveError("non-finite Newton correction", iterations=it)
         du_d, mr = sc.damp_check(du, opts)

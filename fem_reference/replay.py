@@ -163,7 +163,7 @@ class _Run:
         rt = r + Gc.T @ s.mu
         K = ev.combine([(1.0, K)] + [(m_, H) for m_, H in zip(s.mu, Hs)])
         try:
-            solve = ev.factor(K)
+            solve = ev.factor(K, getattr(self.sys, "bandwidth", None))
             d = solve(rt)
             if Gc.shape[0]:
                 X = solve(Gc.T)

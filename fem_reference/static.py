@@ -29,6 +29,7 @@ from fem_reference.banded import (
     BAND_MAX,
     BandedLU,
     SingularTangent,
+    _dpbtrf,
     band_stability,
     csr_to_band,
     hold_dof,
@@ -257,7 +258,8 @@ def stability(
 
     The tangent is scaled by ``D = diag(Lref for translations, 1 for rotations)`` so every
     eigenvalue has units force*length.  ``stable`` = positive definite.  Up to ``dense_max``
-    DOFs: dense ``eigvalsh``.  Narrow bands (``banded.band_stability``): banded Cholesky
+    DOFs: a positive definite band is decided by its Cholesky factor as below, any other
+    tangent by dense ``eigvalsh``.  Narrow bands (``banded.band_stability``): banded Cholesky
     ``dpbtrf`` decides, inverse iteration on the Cholesky factor (warm-started from the
     previous state's mode) gives ``min_eig``, bisection counts the negative eigenvalues of an
     indefinite matrix.  Otherwise the inertia of an LDL^T-type SuperLU factorisation
@@ -272,7 +274,7 @@ def stability(
     scale = np.where(system.is_rotation, 1.0, system.length_scale())
     bw = getattr(system, "bandwidth", None)
     fast = hasattr(system, "tangent_band") and hasattr(system, "evaluate")
-    if n > dense_max and bw is not None and bw <= BAND_MAX:
+    if bw is not None and bw <= BAND_MAX:
         if fast:
             ab = system.tangent_band(system.evaluate(u, lam))
         else:
@@ -280,16 +282,19 @@ def stability(
         up = symmetric_upper_band(ab, bw, scale)
         if exclude is not None:  # decoupled, above every eigenvalue: inertia of the rest
             hold_dof(up, bw, exclude, 2.0 * inf_norm(up, bw) + 1.0)
-        warm = getattr(system, "_flex_eig_warm", None)
-        if warm is None:
-            warm = {}
-            try:
-                system._flex_eig_warm = warm
-            except AttributeError:  # pragma: no cover
-                pass
-        res = band_stability(up, bw, warm)
-        if res is not None:
-            return res
+        # up to dense_max DOFs the band Cholesky decides only a positive definite tangent (a
+        # dense eigvalsh cost half of a 16-element solve); any other keeps the dense test
+        if n > dense_max or _dpbtrf(up, lower=0)[1] == 0:
+            warm = getattr(system, "_flex_eig_warm", None)
+            if warm is None:
+                warm = {}
+                try:
+                    system._flex_eig_warm = warm
+                except AttributeError:  # pragma: no cover
+                    pass
+            res = band_stability(up, bw, warm)
+            if res is not None:
+                return res
     _, K = system.residual_and_tangent(u, lam)
     D = sp.diags(scale)
     Ks = (D @ (0.5 * (K + K.T)) @ D).tocsr()

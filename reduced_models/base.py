@@ -5,7 +5,12 @@ Every model (reduced or reference) answers two questions about a scene:
 * ``applies_to(scene)`` -> ``None`` if it can solve the scene, else a one-line reason;
 * ``solve(scene)`` -> ``Solution`` with one ``Step`` per reported load factor.
 
-Models never read files, print, or time themselves (the runner measures wall time).
+A model may also have ``postprocess(scene, solution) -> Solution``: what is not part of the
+answer's cost -- drawing shapes, recovering stress, exports -- added to a solved
+``Solution`` (``post_process`` below calls it when present).  The runner times the solve and
+the post-processing separately.
+
+Models never read files, print, or time themselves (the runner measures CPU and wall time).
 """
 
 from __future__ import annotations
@@ -132,3 +137,11 @@ def load_factors(scene: Scene) -> np.ndarray:
     """Reported load factors of a ``load`` analysis, shape (steps + 1,), starting at 0."""
     a = scene.analysis
     return np.linspace(0.0, a.factor_end, a.steps + 1)
+
+
+def post_process(model: Model, scene: Scene, sol: Solution) -> Solution:
+    """``model.postprocess(scene, sol)`` when the model has that hook and solved something."""
+    hook = getattr(model, "postprocess", None)
+    if hook is None or not sol.steps:
+        return sol
+    return hook(scene, sol)

@@ -19,7 +19,9 @@ from cases.schema import Scene
 from reduced_models import single_beam
 from reduced_models.base import ModelCard, Solution, Step, load_factors, not_applicable
 from reduced_models.chain import ChainProblem, SegmentLaw, chain_shape, local_coords
+from reduced_models.chain_small import solve_single_segment
 from reduced_models.continuation import minimize_path
+from reduced_models.path_result import PathResult
 
 __all__ = ["ChainModel"]
 
@@ -107,15 +109,9 @@ class ChainModel:
         loads = (beam.fx * L**2 / EI, beam.fy * L**2 / EI, beam.m * L / EI)
         return ChainProblem(self.law, self.N, k, loads, beam.follower, beam.guided)
 
-    def solve(self, scene: Scene) -> Solution:
-        """Equilibrium path by load continuation (see ``continuation.minimize_path``)."""
-        reason = self.applies_to(scene)
-        if reason:
-            return not_applicable(scene, self.name, reason)
-        beam = single_beam.cantilever_of(scene)
-        prob = self.problem(beam)
-        factors = load_factors(scene)
-        res = minimize_path(
+    def _path(self, prob: ChainProblem, factors: np.ndarray) -> PathResult:
+        """The general continuation (banded, retraction, follower loads)."""
+        return minimize_path(
             prob.grad_hess,
             prob.x0,
             factors,
@@ -126,6 +122,43 @@ class ChainModel:
             update=prob.update,
             load_gradient=prob.load_gradient,
         )
+
+    def postprocess(self, scene: Scene, sol: Solution) -> Solution:
+        """Shapes and bending stress of the reported states (``shape`` of every segment from
+        its tip state and axial force in ``extras``), outside the timed solve."""
+        beam = single_beam.cantilever_of(scene)
+        L, N, m = beam.L, self.N, len(sol.steps)
+        prob = self.problem(beam)
+        nodes = np.asarray(sol.extras["nodes"], dtype=float)[:m] / np.array([L, L, 1.0])
+        p = np.asarray(sol.extras["axial"], dtype=float)[:m]
+        xi, eta, a, _, _ = local_coords(nodes, prob.h)
+        flat = (xi.ravel() - 1.0, eta.ravel(), a.ravel(), p.ravel(), prob.k)
+        sigma = np.linspace(0.0, 1.0, self.shape_points)
+        xl, yl, kappa = (v.reshape(m, N, sigma.size) for v in self.shape(*flat, sigma))
+        pts = beam.rotate_to_global(chain_shape(nodes, xl, yl, prob.h) * L)  # (m, P, 2)
+        kmax = np.abs(kappa).max(axis=(1, 2), initial=0.0) * N / L
+        steps = tuple(
+            dataclasses.replace(
+                st,
+                shapes={beam.member: pts[j]},
+                max_stress=single_beam.stress_from_curvature(scene, beam, kmax[j : j + 1]),
+            )
+            for j, st in enumerate(sol.steps)
+        )
+        return dataclasses.replace(sol, steps=steps)
+
+    def solve(self, scene: Scene) -> Solution:
+        """Equilibrium path by load continuation (see ``continuation.minimize_path``)."""
+        reason = self.applies_to(scene)
+        if reason:
+            return not_applicable(scene, self.name, reason)
+        beam = single_beam.cantilever_of(scene)
+        prob = self.problem(beam)
+        factors = load_factors(scene)
+        if self.N == 1 and not beam.follower:  # a handful of unknowns: plain floats
+            res = solve_single_segment(prob, factors)
+        else:
+            res = self._path(prob, factors)
         L, EI, N, k = beam.L, beam.EI, self.N, prob.k
         # every per-step quantity for all reported states at once: (m, N) segment arrays
         m = len(res.factors)
@@ -134,10 +167,6 @@ class ChainModel:
         ux = xi - 1.0
         flat = (ux.ravel(), eta.ravel(), a.ravel(), p.ravel(), k)
         energy = EI / L * N * self.law.energy(*flat).reshape(m, N).sum(axis=1)
-        sigma = np.linspace(0.0, 1.0, self.shape_points)
-        xl, yl, kappa = (v.reshape(m, N, sigma.size) for v in self.shape(*flat, sigma))
-        pts = beam.rotate_to_global(chain_shape(nodes, xl, yl, prob.h) * L)  # (m, P, 2)
-        kmax = np.abs(kappa).max(axis=(1, 2), initial=0.0) * N / L
         loads = prob.tip_loads(res.states) * np.array([EI / L**2, EI / L**2, EI / L])
         ymax = np.abs(eta).max(axis=1, initial=0.0)
         flags = self.warning_flags(ux, eta, a, p, k)
@@ -155,8 +184,6 @@ class ChainModel:
                     energy=float(energy[j]),
                     iterations=int(res.iterations[j]),
                     stable=res.stable[j],
-                    shapes={beam.member: pts[j]},
-                    max_stress=single_beam.stress_from_curvature(scene, beam, kmax[j : j + 1]),
                     info={
                         "tip.fx": float(loads[j, 0]),
                         "tip.fy": float(loads[j, 1]),

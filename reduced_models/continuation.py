@@ -93,6 +93,7 @@ from reduced_models.linalg import (
     positive_definite,
     solve_linear,
 )
+from reduced_models.path_result import PathResult
 
 __all__ = [
     "Banded",
@@ -101,33 +102,6 @@ __all__ = [
     "positive_definite",
     "solve_linear",
 ]
-
-
-@dataclass(frozen=True)
-class PathResult:
-    """What ``minimize_path`` found.
-
-    Attributes
-    ----------
-    factors : (m,) reported load factors reached (a prefix of the requested ones).
-    states : (m, n) converged unknowns at those factors.
-    iterations : (m,) Newton iterations spent reaching each reported factor (all substeps and
-        failed attempts included).
-    cuts : (m,) step halvings needed to reach each reported factor.
-    residuals : (m,) final ``max |g|`` at each reported state (free unknowns only).
-    stable : list of m stability flags (True/False/None).
-    ok : True if every requested factor was reached.
-    reason : '' if ok, else why the path stopped.
-    """
-
-    factors: np.ndarray
-    states: np.ndarray
-    iterations: np.ndarray
-    cuts: np.ndarray
-    residuals: np.ndarray
-    stable: list
-    ok: bool
-    reason: str
 
 
 @dataclass

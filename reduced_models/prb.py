@@ -11,7 +11,9 @@ elastica -- are in ``reduced_models.prb_chain`` (re-exported here).
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -27,7 +29,7 @@ from reduced_models.prb_chain import (
     recover_tip_loads_batch,
     shape_and_stress,
 )
-from reduced_models.single_beam import Cantilever, cantilever_of, tip_outputs
+from reduced_models.single_beam import Cantilever, cantilever_of, output_map
 
 __all__ = [
     "RESIDUAL_TOL",
@@ -54,7 +56,8 @@ _SEED = "seed 000_265bc60728766176.txt: PRB matrix, Jacobian, shape and stress s
 _COMMON = (
     "rigid segments joined by linear torsion springs (PRB matrix)",
     "dead tip loads only (energy formulation; follower loads are declined)",
-    "shape and stress from the elastica under the end loads recovered by pinv(J^T)",
+    "shape: the PRB's own pivots and rigid links; stress from the bending moment of the end "
+    "loads recovered from the PRB's spring forces by pinv(J^T), at the root, pivots and tip",
 )
 
 
@@ -89,8 +92,8 @@ class PRBModel:
             return "flexural rigidity EI of the beam is not given"
         return beam
 
-    def applies_to(self, scene: Scene) -> str | None:
-        """None if this PRB model can solve the scene, else the reason."""
+    def _prepare(self, scene: Scene) -> tuple[Cantilever, tuple] | str:
+        """The cantilever and its ``setup``, or the reason this model declines the scene."""
         beam = self._beam(scene)
         if isinstance(beam, str):
             return beam
@@ -100,15 +103,19 @@ class PRBModel:
         nj = int(np.isfinite(s[0][:, 0]).sum())
         if beam.guided and nj < 2:
             return "a guided tip needs at least two PRB joints (tip angle held at zero)"
-        return None
+        return beam, s
+
+    def applies_to(self, scene: Scene) -> str | None:
+        """None if this PRB model can solve the scene, else the reason."""
+        ready = self._prepare(scene)
+        return ready if isinstance(ready, str) else None
 
     def solve(self, scene: Scene) -> Solution:
         """Equilibrium path of the scene's load ramp."""
-        reason = self.applies_to(scene)
-        if reason is not None:
-            return not_applicable(scene, self.name, reason)
-        beam = self._beam(scene)
-        matrix, rot_factor, note = self.setup(beam)
+        ready = self._prepare(scene)  # checked and set up once
+        if isinstance(ready, str):
+            return not_applicable(scene, self.name, ready)
+        beam, (matrix, rot_factor, note) = ready
         chain = PRBChain(matrix, beam.L, beam.EI, beam.EA)
         f1 = np.array([beam.fx, beam.fy, 0.0 if beam.guided else beam.m])
         path = equilibrium_path(chain, f1, load_factors(scene), guided=beam.guided)
@@ -124,44 +131,35 @@ class PRBModel:
             )
         # per-step quantities for all reported states at once (batched numpy)
         Q = path.states[:m]
-        lam = path.factors[:m]
-        tips = chain.tips(Q)
-        energy = chain.strain_energy(Q)
-        f_known = None if beam.guided else lam[:, None] * f1
-        loads, rank = recover_tip_loads_batch(chain, Q, f_known)
-        for j in range(m):
-            x, y, phi = tips[j]
+        # plain floats from here (one conversion per array, not one per entry)
+        tips, energy = chain.tips(Q).tolist(), chain.strain_energy(Q).tolist()
+        per_step = zip(
+            path.factors[:m].tolist(),
+            tips,
+            energy,
+            path.iterations[:m].tolist(),
+            path.stable,
+            res[:m].tolist(),
+            path.cuts[:m].astype(float).tolist(),
+        )
+        outputs = output_map(scene, beam)
+        for lam, (x, y, phi), e, its, stable, r, cuts in per_step:
             rot = 0.0 if beam.guided else rot_factor * phi
-            f = loads[j]
-            info = {
-                "residual": float(res[j]),
-                "step_cuts": float(path.cuts[j]),
-                "load_fx": float(f[0]),
-                "load_fy": float(f[1]),
-                "load_m": float(f[2]),
-                "jt_rank": float(rank[j]),
-            }
-            shapes, stress = {}, None
-            if self.shapes:
-                shapes, stress, extra = shape_and_stress(scene, beam, chain, Q[j], f)
-                info.update(extra)
             steps.append(
                 Step(
-                    factor=float(lam[j]),
-                    outputs=tip_outputs(scene, beam, float(x), float(y), float(rot)),
-                    energy=float(energy[j]),
-                    iterations=int(path.iterations[j]),
-                    stable=path.stable[j],
-                    shapes=shapes,
-                    max_stress=stress,
-                    info=info,
+                    factor=lam,
+                    outputs=outputs(x, y, rot),
+                    energy=e,
+                    iterations=its,
+                    stable=stable,
+                    info={"residual": r, "step_cuts": cuts},
                 )
             )
         extras = {
             "prb_matrix": matrix.tolist(),
             "tip_angle_factor": rot_factor,
             # chain coordinates [psi (rad), u (length)] per reported step (mechanism assembly)
-            "prb_states": [list(map(float, q)) for q in path.states[: len(steps)]],
+            "prb_states": Q.tolist(),
         }
         if failed:
             return Solution(scene.name, self.name, "failed", failed, tuple(steps), extras)
@@ -169,6 +167,31 @@ class PRBModel:
         if np.any(np.isfinite(matrix[:, 1])) and chain.ne == 0:
             msg += "; axial springs treated as rigid (EA not given)"
         return Solution(scene.name, self.name, "converged", msg, tuple(steps), extras)
+
+    def postprocess(self, scene: Scene, sol: Solution) -> Solution:
+        """Shapes and stress of the reported states from the PRB itself (not timed as solve).
+
+        Shape: the PRB's own pivots and rigid links (its tip is the reported tip).  End loads
+        from the spring forces through pinv(J^T) (``info`` ``load_fx``, ``load_fy``,
+        ``load_m``, ``jt_rank``); stress from the bending moment these loads give at the
+        root, every pivot and the tip, ``m + (tip - p) x f`` (linear along a rigid link).
+        """
+        if not sol.steps or not self.shapes:
+            return sol
+        beam = self._beam(scene)
+        chain = PRBChain(np.asarray(sol.extras["prb_matrix"]), beam.L, beam.EI, beam.EA)
+        Q = np.asarray(sol.extras["prb_states"], dtype=float).reshape(len(sol.steps), chain.n)
+        f1 = np.array([beam.fx, beam.fy, 0.0 if beam.guided else beam.m])
+        lam = np.array([s.factor for s in sol.steps])
+        loads, rank = recover_tip_loads_batch(chain, Q, None if beam.guided else lam[:, None] * f1)
+        steps = []
+        for step, q, f, r in zip(sol.steps, Q, loads, rank):
+            shapes, stress = shape_and_stress(scene, beam, chain, q, f)
+            info = dict(step.info)
+            info.update(load_fx=float(f[0]), load_fy=float(f[1]), load_m=float(f[2]))
+            info["jt_rank"] = float(r)
+            steps.append(replace(step, shapes=shapes, max_stress=stress, info=info))
+        return replace(sol, steps=tuple(steps))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -235,6 +258,26 @@ class PRB1R(PRBModel):
         if params not in ("fit", "average"):
             raise ValueError("prb-1r option params must be 'fit' or 'average'")
         self.params = params
+
+    def solve(self, scene: Scene) -> Solution:
+        """As ``PRBModel.solve``; states past Howell's Theta_max get a validity warning
+        (64.3 deg for forces -- tabulated for n = 0 -- and 124.4 deg / c_theta for a moment)."""
+        sol = super().solve(scene)
+        theta = np.abs([q[0] for q in sol.extras.get("prb_states", ())])
+        moment = sol.extras.get("tip_angle_factor") == T.HOWELL_MOMENT["c_theta"]
+        p = T.HOWELL_MOMENT if moment else T.HOWELL_N0
+        limit = p["Theta_max_deg"] / (p["c_theta"] if moment else 1.0)
+        past = np.flatnonzero(np.degrees(theta) > limit)
+        if past.size == 0:
+            return sol
+        j = int(past[0])
+        warn = (
+            f"PRB angle Theta {np.degrees(theta.max()):.1f} deg > Howell's {limit:.1f} deg "
+            f"(from factor {sol.steps[j].factor:.4g})"
+        )
+        extras = {**sol.extras, "validity_warning": True, "validity_message": warn}
+        msg = f"{sol.message}; outside validity range: {warn}"
+        return dataclasses.replace(sol, message=msg, extras=extras)
 
     def setup(self, beam: Cantilever) -> tuple[np.ndarray, float, str] | str:
         """Howell's parameters for this cantilever's load ratio."""

@@ -14,21 +14,27 @@ along the load ramp with step cutting, through the shared ``reduced_models.conti
 
 Shape and stress (seed 000_265bc60728766176.txt, "Computing Beam Shape and Stress"): the end
 loads are recovered from the spring torques through the Moore-Penrose pseudo-inverse of the
-Jacobian transpose, then the elastica is solved for those loads
-(``reduced_models.elastica.shape_under_tip_load``); without that module the PRB polyline and
-the bending moments at the joints are used instead.
+Jacobian transpose; the shape drawn is the PRB's own chain of rigid links and the stress is
+that of the bending moment these loads give at the root, the pivots and the tip.  (The seed
+also solves the elastica under the recovered loads; that is an exact solve, not the PRB's
+answer, and would make the PRB's cost the elastica's.)
 """
 
 from __future__ import annotations
 
+import functools
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from cases.schema import Scene
-from reduced_models.continuation import PathResult, minimize_path
-from reduced_models.linalg import Banded
+from reduced_models.path_result import PathResult
 from reduced_models.single_beam import Cantilever
+from reduced_models.small_path import MAX_N, minimize_path_small
+
+if TYPE_CHECKING:
+    from reduced_models.linalg import Banded
 
 __all__ = [
     "RESIDUAL_TOL",
@@ -105,12 +111,21 @@ class PRBChain:
         # spring stiffness in psi: sum K_p (psi_p - psi_{p-1})^2 / 2 -> tridiagonal K_psi
         Kn = np.append(self.Kt[1:], 0.0)
         self._kd, self._ko = self.Kt + Kn, -self.Kt[1:]
-        self._Kpsi = np.diag(self._kd) + np.diag(self._ko, 1) + np.diag(self._ko, -1)
-        self._ab = np.zeros((3, self.nj))  # K_psi in band storage
-        self._ab[0, 1:] = self._ko
-        self._ab[1] = self._kd
-        self._ab[2, :-1] = self._ko
         self.banded = self.ne == 0 and self.nj > 12
+
+    @functools.cached_property
+    def _Kpsi(self) -> np.ndarray:
+        """K_psi dense (nj, nj) (built on first use: the float path never needs it)."""
+        return np.diag(self._kd) + np.diag(self._ko, 1) + np.diag(self._ko, -1)
+
+    @functools.cached_property
+    def _ab(self) -> np.ndarray:
+        """K_psi in band storage (3, nj)."""
+        ab = np.zeros((3, self.nj))
+        ab[0, 1:] = self._ko
+        ab[1] = self._kd
+        ab[2, :-1] = self._ko
+        return ab
 
     # -- kinematics (x may be one state (n,) or a stack (m, n)) ------------------------------
     def _links(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -203,6 +218,8 @@ class PRBChain:
         gpsi[:-1] -= Kth[1:]
         gpsi[-1] -= f[2]
         if self.banded and not dense:
+            from reduced_models.linalg import Banded  # long chains only: scipy's LAPACK
+
             ab = self._ab.copy()
             ab[1] += FZ.real
             return gpsi, Banded(ab, 1, 1)
@@ -259,6 +276,7 @@ class PRBChain:
             return w
 
         if self.banded:
+            from reduced_models.linalg import Banded  # long chains only: scipy's LAPACK
 
             def gh(x: np.ndarray, lam: float) -> tuple[np.ndarray, Banded]:
                 w = unit(x)
@@ -288,6 +306,39 @@ class PRBChain:
 
         return gh, lg
 
+    def path_functions_small(self, f1: np.ndarray) -> tuple:
+        """``path_functions`` of an inextensible chain on plain floats (``small_path``).
+
+        ``grad_hess(x, lam) -> (g, d, e)``: g = K_psi psi + lam (Im w - m1 e_tip), Hessian
+        K_psi + lam diag(Re w) as its diagonal d and off-diagonal e, w_p = F1 Lp_p
+        e^{i psi_p}; ``load_gradient`` = Im w - m1 e_tip.
+        """
+        nj = self.nj
+        F1Lp = [complex(f1[0], -f1[1]) * lp for lp in self.Lp.tolist()]
+        a, b = [w.real for w in F1Lp], [w.imag for w in F1Lp]
+        kd, ko, m1 = self._kd.tolist(), self._ko.tolist(), float(f1[2])
+        last = nj - 1
+        cos, sin = math.cos, math.sin
+
+        def gh(x: list, lam: float) -> tuple[list, list, list]:
+            g, d = [0.0] * nj, [0.0] * nj
+            for p in range(nj):
+                c, s = cos(x[p]), sin(x[p])
+                g[p] = kd[p] * x[p] + lam * (a[p] * s + b[p] * c)
+                d[p] = kd[p] + lam * (a[p] * c - b[p] * s)
+            for p in range(last):
+                g[p] += ko[p] * x[p + 1]
+                g[p + 1] += ko[p] * x[p]
+            g[last] -= lam * m1
+            return g, d, ko[:]
+
+        def lg(x: list, lam: float) -> list:
+            gw = [a[p] * sin(x[p]) + b[p] * cos(x[p]) for p in range(nj)]
+            gw[last] -= m1
+            return gw
+
+        return gh, lg
+
     def potential(self, x: np.ndarray, f: np.ndarray) -> float:
         """Total potential V = U - (fx X + fy Y + m Phi) (force * length)."""
         X, Y, phi = self.tip(x)
@@ -314,8 +365,21 @@ def equilibrium_path(
     f1 = np.asarray(f1, dtype=float)
     if guided:
         f1 = np.array([f1[0], f1[1], 0.0])
-    gh, lg = chain.path_functions(f1)
     fixed = [chain.nj - 1] if guided else None
+    if chain.ne == 0 and chain.nj <= MAX_N:  # a few angles: plain floats
+        gh, lg = chain.path_functions_small(f1)
+        return minimize_path_small(
+            gh,
+            [0.0] * chain.n,
+            factors,
+            xtol=xtol,
+            gtol=RESIDUAL_TOL * chain.EI / chain.L,
+            fixed=fixed or (),
+            load_gradient=lg,
+        )
+    from reduced_models.continuation import minimize_path  # sparse/LAPACK layer: import late
+
+    gh, lg = chain.path_functions(f1)
     return minimize_path(
         gh,
         np.zeros(chain.n),
@@ -372,46 +436,22 @@ def recover_tip_loads(
     return f[0], int(rank[0])
 
 
-def _elastica_shape() -> object | None:
-    try:
-        from reduced_models import elastica
-    except ImportError:
-        return None
-    return getattr(elastica, "shape_under_tip_load", None)
-
-
 def shape_and_stress(
     scene: Scene, beam: Cantilever, chain: PRBChain, x: np.ndarray, f: np.ndarray
-) -> tuple[dict, float | None, dict]:
-    """Deformed shape (global points) and largest bending stress for recovered end loads f.
+) -> tuple[dict, float | None]:
+    """The PRB's own deformed shape (global points) and largest bending stress.
 
-    Primary route: the elastica under f (seed).  Fallback (module missing or the elastica
-    fails for these loads): the PRB polyline and the bending moment m + (tip - p) x f at the
-    root and at every joint.  Returns ``(shapes, max_stress, info)``.
+    Shape: the root, every pivot and the tip of the rigid links, shape (S + 1, 2).  Stress:
+    the bending moment ``m + (tip - p) x f`` of the end loads ``f`` (recovered from the
+    PRB's spring forces) is linear along each rigid link, so its largest magnitude is at the
+    root, a pivot or the tip; ``|M| t / (2 I)``.  Returns ``(shapes, max_stress)``.
     """
     mem = scene.member(beam.member)
-    info: dict[str, float] = {}
-    shape_fn = _elastica_shape()
-    kappa = None
-    if shape_fn is not None:
-        try:
-            xy, kappa = shape_fn(chain.L, chain.EI, float(f[0]), float(f[1]), float(f[2]), n=41)
-            xy, kappa = np.asarray(xy, dtype=float), np.asarray(kappa, dtype=float)
-            if not (np.all(np.isfinite(xy)) and np.all(np.isfinite(kappa))):
-                raise ValueError("non-finite elastica shape")
-            tx, ty, _ = chain.tip(x)
-            info["shape_tip_gap"] = float(np.hypot(xy[-1, 0] - tx, xy[-1, 1] - ty) / chain.L)
-            info["shape_from_elastica"] = 1.0
-        except Exception:  # noqa: BLE001 - any elastica failure degrades to the polyline
-            kappa = None
-    if kappa is None:
-        xy = chain.points(x)
-        tip = xy[-1]
-        p = np.vstack([[0.0, 0.0], xy[chain.jidx]])
-        M = f[2] + (tip[0] - p[:, 0]) * f[1] - (tip[1] - p[:, 1]) * f[0]
-        kappa = M / chain.EI
-        info["shape_from_elastica"] = 0.0
+    xy = chain.points(x)
     stress = None
     if mem.thickness is not None and mem.E is not None:
-        stress = float(mem.E * mem.thickness * np.max(np.abs(kappa)) / 2.0)
-    return {beam.member: beam.rotate_to_global(xy)}, stress, info
+        tip = xy[-1]
+        p = np.vstack([[0.0, 0.0], xy[chain.jidx], tip])
+        M = f[2] + (tip[0] - p[:, 0]) * f[1] - (tip[1] - p[:, 1]) * f[0]
+        stress = float(mem.E * mem.thickness * np.max(np.abs(M)) / (2.0 * chain.EI))
+    return {beam.member: beam.rotate_to_global(xy)}, stress

@@ -33,6 +33,9 @@ _ENTRIES: dict[str, str] = {
     "prb-2rpr": "reduced_models.prb:PRB2RPR",
     "prb-fsm-N": "reduced_models.prb:PRBFSM",
     "prb-custom": "reduced_models.prb:PRBCustom",
+    "linear-auto": "reduced_models.auto:LinearAuto",
+    "cbcm-auto": "reduced_models.auto:CBCMAuto",
+    "prb-fsm-auto": "reduced_models.auto:PRBFSMAuto",
 }
 
 # concrete names a default benchmark run tries on every case
@@ -51,6 +54,9 @@ DEFAULT_NAMES: tuple[str, ...] = (
     "prb-2rpr",
     "prb-fsm-4",
     "prb-fsm-16",
+    "linear-auto",
+    "cbcm-auto",
+    "prb-fsm-auto",
 )
 
 

@@ -9,6 +9,7 @@ reason it cannot; ``tip_outputs`` maps a beam-frame solution back to the scene's
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -107,21 +108,31 @@ def cantilever_of(scene: Scene) -> Cantilever | str:
 
 def tip_outputs(scene: Scene, beam: Cantilever, x: float, y: float, rot: float) -> dict:
     """Scene outputs for a beam-frame tip state (x, y position; rot = tip rotation, rad)."""
-    gx, gy = beam.rotate_to_global(np.array([[x, y]]))[0]
-    states = {
-        beam.root: (beam.origin[0], beam.origin[1], 0.0),
-        beam.tip: (gx, gy, rot),
-    }
-    out: dict[str, float] = {}
+    return output_map(scene, beam)(x, y, rot)
+
+
+def output_map(scene: Scene, beam: Cantilever) -> Callable[[float, float, float], dict]:
+    """``tip_outputs`` for one scene as a function of (x, y, rot): the output keys, node
+    positions and the rotation are looked up once per solve, not once per step."""
+    c, s = math.cos(beam.angle), math.sin(beam.angle)
+    ox, oy = beam.origin
+    rows = []
     for o in scene.outputs:
+        if o.node not in (beam.root, beam.tip):
+            raise KeyError(f"output {o.name!r}: node {o.node!r} is not an end of the beam")
         n = scene.node(o.node)
-        px, py, pr = states[o.node]
-        out[f"{o.name}.x"] = float(px)
-        out[f"{o.name}.y"] = float(py)
-        out[f"{o.name}.ux"] = float(px - n.x)
-        out[f"{o.name}.uy"] = float(py - n.y)
-        out[f"{o.name}.rot"] = float(pr)
-    return out
+        keys = tuple(f"{o.name}.{q}" for q in ("x", "y", "ux", "uy", "rot"))
+        rows.append((keys, o.node == beam.tip, float(n.x), float(n.y)))
+
+    def outputs(x: float, y: float, rot: float) -> dict:
+        gx, gy = ox + c * x - s * y, oy + s * x + c * y
+        out: dict[str, float] = {}
+        for (kx, ky, kux, kuy, krot), at_tip, nx, ny in rows:
+            px, py, pr = (gx, gy, rot) if at_tip else (ox, oy, 0.0)
+            out[kx], out[ky], out[kux], out[kuy], out[krot] = px, py, px - nx, py - ny, pr
+        return out
+
+    return outputs
 
 
 def stress_from_curvature(scene: Scene, beam: Cantilever, kappa: np.ndarray) -> float | None:

@@ -15,6 +15,7 @@ from reports.api import (
     registry_table,
     solve,
 )
+from reports.recommend import recommend
 
 __all__ = [
     "UnknownModelError",
@@ -23,5 +24,6 @@ __all__ = [
     "make_model",
     "model_names",
     "registry_table",
+    "recommend",
     "solve",
 ]

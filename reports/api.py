@@ -10,13 +10,14 @@ bad options -- still raises, so the CLI can say so).
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import time
 import traceback
 
 from cases.schema import Scene
 from reduced_models import registry as _registry
-from reduced_models.base import Model, ModelCard, Solution, not_applicable
+from reduced_models.base import Model, ModelCard, Solution, not_applicable, post_process
 from reports.errors import SPEED_BASELINES  # noqa: F401  (re-exported)
 
 UnknownModelError = _registry.UnknownModelError
@@ -73,7 +74,12 @@ def resolve(name: str, table: dict[str, str] | None = None) -> tuple[str, int | 
     UnknownModelError
         For a name no registry knows, or ``family-0``.
     """
-    table = registry_table() if table is None else table
+    if table is None:
+        try:  # a reduced model needs no FE import (the merged table prefers these entries)
+            key, n = _registry.parse(name, _registry.MODELS)
+            return key, n, _registry.MODELS[key]
+        except UnknownModelError:
+            table = registry_table()
     key, n = _registry.parse(name, table)
     return key, n, table[key]
 
@@ -113,8 +119,9 @@ def card_of(name: str) -> ModelCard | None:
     return card if isinstance(card, ModelCard) else None
 
 
-def run_model(model: Model, scene: Scene, *, catch: bool = True) -> Solution:
-    """Ask ``applies_to`` then ``solve``; an exception becomes a ``failed`` Solution.
+def run_model(model: Model, scene: Scene, *, catch: bool = True, post: bool = True) -> Solution:
+    """Ask ``applies_to`` then ``solve`` (then ``postprocess`` when ``post``); an exception
+    becomes a ``failed`` Solution.
 
     The traceback is kept in ``extras["traceback"]`` (``catch=False`` re-raises instead).
     """
@@ -126,7 +133,7 @@ def run_model(model: Model, scene: Scene, *, catch: bool = True) -> Solution:
         sol = model.solve(scene)
         if not isinstance(sol, Solution):
             raise TypeError(f"solve() returned {type(sol).__name__}, not Solution")
-        return sol
+        return post_process(model, scene, sol) if post else sol
     except Exception as exc:
         if not catch:
             raise
@@ -137,6 +144,16 @@ def run_model(model: Model, scene: Scene, *, catch: bool = True) -> Solution:
             message=f"{type(exc).__name__}: {exc}".splitlines()[0][:500],
             extras={"traceback": traceback.format_exc(limit=8)},
         )
+
+
+def finish(model: Model, scene: Scene, sol: Solution) -> Solution:
+    """``sol`` with the model's post-processing (shapes, stress) added; an exception there
+    leaves the answer as it was and is named in ``extras["postprocess_error"]``."""
+    try:
+        return post_process(model, scene, sol)
+    except Exception as exc:
+        extras = dict(sol.extras, postprocess_error=f"{type(exc).__name__}: {exc}")
+        return dataclasses.replace(sol, extras=extras)
 
 
 def solve(

@@ -5,10 +5,13 @@
     flexbench cases                          list the catalog (name, title, tags)
     flexbench models                         list the registry with each model's card summary
     flexbench solve CASE --model M [--json]  solve one case (catalog name or .toml path)
+    flexbench recommend CASE [--tol 1%] [--json]   cheapest model within the tolerance
+    flexbench teach [--out DIR] [--quick]    teaching page: atlases, cards, worked advice
     flexbench run [--cases GLOB] [--models LIST] [--out DIR] [--quick] [--workers N]
                   [--dask ADDRESS] [--history PATH] [--fresh] [--no-report] [--time-limit S]
     flexbench compare BASE CURRENT [--abs-tol X] [--rel-factor F]   exit 1 on regression
     flexbench report DIR                     re-render report.html/.md from DIR/results.json
+    flexbench history [DIR|PATH] [--case C]  runs in history.sqlite (or one case's trend)
     flexbench fit-prb ...                    fit a PRB matrix (reduced_models.prb_fit)
 
 Exit codes: 0 success, 1 regression (compare) or a report that could not be rendered (run),
@@ -208,6 +211,32 @@ def cmd_solve(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_recommend(args: argparse.Namespace) -> int:
+    from reports.recommend import format_text, recommend
+    from reports.tolerance import ToleranceError, parse_tolerance
+
+    try:
+        tol = parse_tolerance(args.tol)
+        result = recommend(_load(args.case), tol)
+    except ToleranceError as exc:
+        raise UsageError(str(exc)) from None
+    print(json.dumps(result.as_json(), allow_nan=False) if args.json else format_text(result))
+    return 0
+
+
+def cmd_teach(args: argparse.Namespace) -> int:
+    import cases
+    from reports.render import teaching
+
+    names = [s.name for s in select_cases(args.cases)] if args.cases else cases.catalog_names()
+    small = {"n_mag": 20, "n_ang": 21} if args.quick else {}
+    tols = ("1%",) if args.quick else ("1%", "0.1%")
+    data = teaching.build_data(names, tols, workers=args.workers, progress=print, **small)
+    path = teaching.write_page(data, Path(args.out) / "teaching.html")
+    print(f"teaching.html: {path} ({data['seconds']:.1f} s; atlases {data['atlas_seconds']} s)")
+    return 0
+
+
 def select_cases(patterns: str | None) -> list[Any]:
     """Scenes for ``--cases``: comma-separated catalog globs or .toml paths/globs."""
     import cases
@@ -254,12 +283,23 @@ def cmd_run(args: argparse.Namespace) -> int:
                 "--dask needs dask[distributed] (pip install flexbench[dask])"
             ) from None
     scenes = select_cases(args.cases)
+    tol = None
+    if args.tol is not None:
+        from reports.tolerance import ToleranceError, parse_tolerance
+
+        try:
+            tol = parse_tolerance(args.tol)
+        except ToleranceError as exc:
+            raise UsageError(str(exc)) from None
+        if tol.per_output or tol.default is None:
+            raise UsageError("--tol for run takes one value (e.g. 1%), not per-output values")
+        tol = tol.default
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise UsageError(f"--out {out}: exists and is not a directory")
     try:
         with journal.RunLock(out, wait=args.wait):
-            res = _run(args, runner, scenes, models, out)
+            res = _run(args, runner, scenes, models, out, tol)
     except KeyboardInterrupt:
         print(
             f"{PROG}: interrupted; finished pairs are kept in {out / 'partial.jsonl'} "
@@ -277,7 +317,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     return _summary(res)
 
 
-def _run(args: argparse.Namespace, runner: Any, scenes: list, models: Any, out: Path) -> Any:
+def _run(
+    args: argparse.Namespace, runner: Any, scenes: list, models: Any, out: Path, tol: Any
+) -> Any:
     return runner.run_matrix(
         scenes,
         models,
@@ -290,6 +332,7 @@ def _run(args: argparse.Namespace, runner: Any, scenes: list, models: Any, out: 
         render=not args.no_report,
         time_limit="auto" if args.time_limit is None else (args.time_limit or None),
         memory_limit=args.memory_limit or None,
+        tolerance=tol,
     )
 
 
@@ -344,6 +387,15 @@ def cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_history(args: argparse.Namespace) -> int:
+    from reports import history
+
+    try:
+        return history.cmd_history(args)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+
+
 def cmd_fit_prb(argv: Sequence[str]) -> int:
     try:
         from reduced_models.prb_fit import fit_prb_cli
@@ -383,6 +435,19 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _memory_flag(s)
     s.set_defaults(func=cmd_solve)
+    rc = sub.add_parser("recommend", help="the cheapest model within a tolerance for one case")
+    rc.add_argument("case", help="catalog name or path to a .toml case file")
+    rc.add_argument(
+        "--tol", default="1%", help="path error allowed: 1%%, 1e-3 or tip.uy=0.5%%,tip.rot=1e-3"
+    )
+    rc.add_argument("--json", action="store_true", help="print the contract JSON object")
+    rc.set_defaults(func=cmd_recommend)
+    te = sub.add_parser("teach", help="write the teaching page (atlases, which model to use)")
+    te.add_argument("--out", default="out", help="output directory (default: out)")
+    te.add_argument("--cases", help="catalog globs for the worked recommendations (default: all)")
+    te.add_argument("--quick", action="store_true", help="20 x 21 atlases, 1 %% only")
+    te.add_argument("--workers", type=int, default=2, help="processes for the atlases")
+    te.set_defaults(func=cmd_teach)
     r = sub.add_parser("run", help="run the case x model matrix and render the report")
     r.add_argument("--cases", help="comma-separated catalog globs or .toml paths (default: all)")
     r.add_argument("--models", help="comma-separated model names (default: case list + defaults)")
@@ -402,6 +467,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--no-report", action="store_true", help="results only, no HTML/MD/PNG")
     _memory_flag(r)
     r.add_argument("--wait", action="store_true", help="wait for another run using --out")
+    r.add_argument("--tol", help="grade every model against this tolerance (default: per family)")
     r.set_defaults(func=cmd_run)
     c = sub.add_parser("compare", help="regression check of CURRENT against BASE")
     c.add_argument("base", help="BASE results.json (or its directory)")
@@ -419,6 +485,10 @@ def build_parser() -> argparse.ArgumentParser:
         help="require pyvista renders (default: pyvista when it works, else matplotlib)",
     )
     rp.set_defaults(func=cmd_report)
+    from reports.history import add_parser as add_history
+
+    add_history(sub)
+    sub.choices["history"].set_defaults(func=cmd_history)
     sub.add_parser(
         "fit-prb", help="fit a PRB matrix (see flexbench fit-prb --help)", add_help=False
     )

@@ -97,10 +97,12 @@ def path_errors(
     -------
     dict with ``per_output`` (key -> error, None if not comparable), ``summary`` (float or
     None), ``n_points``, ``abscissa`` (``factor`` or the stop output), ``interpolated``,
-    ``coverage`` (fraction of the reference's final abscissa the model reached) and ``note``.
+    ``coverage`` (fraction of the reference's final abscissa the model reached), ``note`` and
+    ``per_output_at`` (key -> model load factor where that output's error is largest).
     """
     out: dict[str, Any] = {
         "per_output": {},
+        "per_output_at": {},
         "summary": None,
         "n_points": 0,
         "abscissa": None,
@@ -147,6 +149,7 @@ def path_errors(
             continue
         err = float(np.nanmax(diff)) / _scale(key, ref, length)
         out["per_output"][key] = err
+        out["per_output_at"][key] = _num(model_steps[idx_m[int(np.nanargmax(diff))]]["factor"])
         if key.rsplit(".", 1)[-1] in SUMMARY_QUANTITIES:
             summary.append(err)
     if summary:
@@ -260,7 +263,7 @@ def attach_errors(meta: Mapping, records: Sequence[dict]) -> dict[str, Any]:
         if isinstance(extras.get(est_key), Mapping):
             uncertainty = estimate_scale(extras[est_key], length)
             break
-    t_ref = ref["timing"]["median_s"] if ref is not None and ref.get("timing") else None
+    t_ref = cost_s(ref)
     for rec in records:
         rec["is_reference"] = rec["model"] == ref_name
         rec["refchecks"] = reference_checks(
@@ -278,9 +281,15 @@ def attach_errors(meta: Mapping, records: Sequence[dict]) -> dict[str, Any]:
             errs = [c["error"] for c in rec["refchecks"] if c["error"] is not None]
             if errs:
                 rec["summary_error"], rec["summary_basis"] = max(errs), "references"
-        t = rec["timing"]["median_s"] if rec.get("timing") else None
+        t = cost_s(rec)
         rec["speedup_vs_reference"] = t_ref / t if t_ref and t else None
     return {"reference": ref_name, "note": note, "uncertainty": uncertainty}
+
+
+def cost_s(rec: Mapping | None) -> float | None:
+    """A pair's cost for ratios: median CPU time of its solve (wall time in older records)."""
+    t = (rec or {}).get("timing") or {}
+    return t.get("cpu_median_s", t.get("median_s"))
 
 
 def speed_ratios(records: Sequence[dict]) -> list[dict]:
@@ -293,7 +302,7 @@ def speed_ratios(records: Sequence[dict]) -> list[dict]:
             continue
         if rec["status"] != "converged" or base["status"] != "converged":
             continue
-        t, tb = rec["timing"]["median_s"], base["timing"]["median_s"]
+        t, tb = cost_s(rec), cost_s(base)
         rows.append(
             {
                 "case": case,
@@ -301,7 +310,7 @@ def speed_ratios(records: Sequence[dict]) -> list[dict]:
                 "baseline": base["model"],
                 "model_s": t,
                 "baseline_s": tb,
-                "ratio": tb / t if t > 0 else None,
+                "ratio": tb / t if t and tb else None,
             }
         )
     return rows

@@ -9,18 +9,18 @@ A pair record (JSON-level dict built by ``solve_task`` with ``store.record``)::
     {"key", "case", "model", "role": "model" | "reference" | "baseline",
      "status", "message", "steps": [{"factor", "outputs", "energy", "iterations", "stable",
      "max_stress"}], "shapes": {member: [[x, y], ...]} (last step), "extras", "card",
-     "timing": {"median_s", "min_s", "max_s", "spread_s", "n_repeats", "first_s", "total_s"},
+     "timing": {"median_s", "min_s", "max_s", "spread_s", "cpu_median_s", "cpu_min_s",
+                "cpu_max_s", "cpu_spread_s", "n_repeats", "first_s", "first_cpu_s", "total_s",
+                "post_s", "post_cpu_s"},
      "warnings", "traceback", "exports"}
 
 plus, after ``attach_errors``: ``errors``, ``refchecks``, ``summary_error``,
 ``summary_basis``, ``is_reference``, ``speedup_vs_reference``.
 
-Timing: the first call is the answer (and its time ``first_s`` is kept); then repeats (GC
-off, as in timeit) until their total reaches ``min_total_s`` (and at least ``min_runs``
-repeats unless they took twice that, so one stall on a shared machine cannot be the median
-of a fast solve) or ``max_runs`` repeats, whichever comes first; the median, min, max and
-spread (max - min) of the repeats are reported.  A first call slower than ``cold_cap_s`` is
-not repeated (n_repeats = 1, its own time) to keep the run short.
+Timing (``reports.timing``): CPU time (``process_time``, the ratios' basis) and wall time of
+the solve alone, median/min/max/spread over repeats; the model's ``postprocess`` (shapes,
+stress) runs once afterwards and is timed apart (``post_s``, ``post_cpu_s``); BLAS is pinned
+to one thread in the workers.
 
 Limits: ``time_limit`` seconds and ``memory_limit`` MB per pair (``reports.limits``: SIGALRM
 and an rlimit in pool workers, a watchdog thread on Dask; a pool worker still running
@@ -36,21 +36,18 @@ from __future__ import annotations
 import collections
 import concurrent.futures as cf
 import dataclasses
-import gc
 import hashlib
 import json
 import math
 import multiprocessing
 import os
-import statistics
-import sys
 import time
-from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
-from typing import Any, TextIO
+from typing import Any
 
 from cases.schema import Scene
-from reports import api, errors, journal, limits, store
+from reports import api, errors, journal, limits, store, timing
 from reports.exports import (
     DEFAULT_EXPORT,
     NO_EXPORT,  # noqa: F401  (re-exported)
@@ -59,6 +56,8 @@ from reports.exports import (
     export_outputs,
     start_render_probe,
 )
+from reports.progress import Progress, stage
+from reports.tables import previous_records, scene_drawing, step_shapes, write_errors_csv
 
 
 @dataclasses.dataclass(frozen=True)
@@ -153,6 +152,7 @@ def case_meta(scene: Scene) -> dict[str, Any]:
         "primary_output": scene.outputs[0].name if scene.outputs else None,
         "references": [dataclasses.asdict(r) for r in scene.references],
         "undeformed": undeformed,
+        **scene_drawing(scene),
         "scene_hash": scene_hash(scene),
     }
 
@@ -232,38 +232,6 @@ def plan(
 
 
 # -- solving one pair (runs in workers) ------------------------------------------------------
-def _timing(
-    call: Callable[[], object], first_s: float, policy: TimingPolicy, deadline: float = math.inf
-) -> dict:
-    times = [first_s]
-    if first_s <= policy.cold_cap_s and time.perf_counter() + first_s < deadline:
-        times, total = [], 0.0
-        gc_was_on = gc.isenabled()
-        gc.disable()  # as timeit does: a collection is not the model's cost
-        try:
-            while True:
-                t0 = time.perf_counter()
-                call()
-                dt = time.perf_counter() - t0
-                times.append(dt)
-                total += dt
-                many = len(times) >= policy.min_runs or total >= 2 * policy.min_total_s
-                enough = total >= policy.min_total_s and many
-                late = time.perf_counter() + dt > deadline  # the next repeat would overrun
-                if enough or late or len(times) >= policy.max_runs:
-                    break
-        finally:
-            if gc_was_on:
-                gc.enable()
-    return {
-        "median_s": statistics.median(times),
-        "min_s": min(times),
-        "max_s": max(times),
-        "spread_s": max(times) - min(times),
-        "n_repeats": len(times),
-        "first_s": first_s,
-        "total_s": first_s + (sum(times) if first_s <= policy.cold_cap_s else 0.0),
-    }
 
 
 def solve_task(task: dict) -> dict:
@@ -281,22 +249,29 @@ def solve_task(task: dict) -> dict:
         return store.record(base, "failed", f"cannot build model: {type(exc).__name__}: {exc}")
     card = getattr(model, "card", None)
     card = store.jsonable(dataclasses.asdict(card)) if dataclasses.is_dataclass(card) else None
-    t_start = time.perf_counter()
+    timing.pin_blas()
+    t_start, c_start = timing.clocks()
     sol = None
     try:
         with limits.guard(limit, task.get("memory_limit")):
-            sol = limits.explain(api.run_model(model, scene), task.get("memory_limit"))
-            first = time.perf_counter() - t_start
+            sol = api.run_model(model, scene, post=False)  # the solve alone is timed
+            sol = limits.explain(sol, task.get("memory_limit"))
+            first = (time.perf_counter() - t_start, time.process_time() - c_start)
             if sol.status == "not-applicable":
                 return store.record(base, sol.status, sol.message, card=card)
             deadline = t_start + 0.8 * limit if limit else math.inf
-            timing = _timing(lambda: api.run_model(model, scene), first, task["timing"], deadline)
+            solve_again = lambda: api.run_model(model, scene, post=False)  # noqa: E731
+            times = timing.repeat(solve_again, first, task["timing"], deadline)
+            sol, post_s, post_cpu_s = timing.timed(lambda: api.finish(model, scene, sol))
+            times.update(post_s=post_s, post_cpu_s=post_cpu_s)
     except limits.LimitExceeded as exc:
         if sol is None:
             return store.record(base, "failed", str(exc), card=card, retry=True)
-        timing = _timing(lambda: None, first, dataclasses.replace(task["timing"], cold_cap_s=0))
+        policy = dataclasses.replace(task["timing"], cold_cap_s=0)
+        times = timing.repeat(lambda: None, first, policy)
     trace = sol.extras.get("traceback") if isinstance(sol.extras, Mapping) else None
     steps, shapes, warnings = store.steps_json(sol)
+    more = {"shape_steps": store.jsonable(step_shapes(sol))}  # report: shapes along the path
     exports, export_warnings = export_outputs(task, sol)
     return store.record(
         base,
@@ -306,10 +281,11 @@ def solve_task(task: dict) -> dict:
         shapes=store.jsonable(shapes),
         extras=store.extras_json(dict(sol.extras)),
         card=card,
-        timing=timing,
+        timing=times,
         warnings=warnings + export_warnings,
         traceback=trace,
         exports=store.jsonable(exports),
+        **more,
     )
 
 
@@ -460,38 +436,6 @@ def execute(
     return run_pool(tasks, min(workers, len(tasks)), time_limit)
 
 
-class Progress:
-    """``[#####.....] 12/40  0:05 elapsed  ETA 0:07  case / model`` on a TTY, silent otherwise."""
-
-    def __init__(self, total: int, stream: TextIO | None = None, enabled: bool | None = None):
-        self.total, self.done, self.t0 = total, 0, time.monotonic()
-        self.stream = stream or sys.stderr
-        self.enabled = self.stream.isatty() if enabled is None else enabled
-
-    @staticmethod
-    def _clock(s: float) -> str:
-        s = int(round(s))
-        return f"{s // 60}:{s % 60:02d}"
-
-    def update(self, label: str = "") -> None:
-        self.done += 1
-        if not self.enabled or self.total == 0:
-            return
-        el = time.monotonic() - self.t0
-        eta = el / self.done * (self.total - self.done)
-        fill = int(30 * self.done / self.total)
-        bar = "#" * fill + "." * (30 - fill)
-        text = f"[{bar}] {self.done}/{self.total}  {self._clock(el)} elapsed  "
-        text += f"ETA {self._clock(eta)}  {label}"
-        self.stream.write("\r" + text[:110].ljust(110))
-        self.stream.flush()
-
-    def close(self) -> None:
-        if self.enabled and self.total:
-            self.stream.write("\n")
-            self.stream.flush()
-
-
 # -- the whole run ---------------------------------------------------------------------------
 def run_matrix(
     scenes: Sequence[Scene],
@@ -510,6 +454,7 @@ def run_matrix(
     memory_limit: float | None = limits.DEFAULT_MEMORY_LIMIT_MB,
     export: ExportPolicy | None | str = "auto",
     render_shapes: bool | None = None,
+    tolerance: float | None = None,
 ) -> RunResult:
     """Solve the matrix, store everything under ``out_dir`` and render the report.
 
@@ -544,23 +489,25 @@ def run_matrix(
     probe = start_render_probe() if render and render_shapes else None
     wanted = {t["key"] for t in tasks}
     previous = journal.read(partial)  # a torn last line is cut off
-    token = journal.run_token(out, new=not previous)
+    earlier = [] if fresh else previous_records(out / "results.json")
+    token = journal.run_token(out, new=not (previous or earlier))  # this run's history rows
     done = {
         r["key"]: r
-        for r in previous
+        for r in [*earlier, *previous]
         if r.get("key") in wanted and not r.get("retry")  # killed/timed out: try again
     }
     todo = [t for t in tasks if t["key"] not in done]
     records = list(done.values()) + fixed
-    bar = Progress(len(todo), enabled=progress)
+    bar = Progress(len(todo), enabled=progress, tasks=todo, workers=workers or os.cpu_count() or 1)
     try:
         for rec in execute(todo, workers, dask, time_limit):
             journal.append(partial, rec)
             records.append(rec)
-            bar.update(f"{rec['case']} / {rec['model']}")
+            bar.update(f"{rec['case']} / {rec['model']}", rec)
     finally:
         bar.close()
     config = {
+        "tolerance": tolerance,  # grading.py: user tolerance (None: per-family defaults)
         "quick": quick,
         "models": list(models) if models else None,
         "cases": list(metas),
@@ -570,6 +517,7 @@ def run_matrix(
         "timing": dataclasses.asdict(timing or (QUICK_TIMING if quick else DEFAULT_TIMING)),
         "export": dataclasses.asdict(export) if export else None,
         "render_shapes": render_shapes,
+        "history": str(Path(history) if history else out / "history.sqlite"),
     }
     payload = store.assemble(records, metas, config)
     elapsed = time.perf_counter() - t_start
@@ -582,6 +530,8 @@ def run_matrix(
     hist = Path(history) if history else out / "history.sqlite"
     journal.record_history(hist, payload, str(out), elapsed, token)
     paths["history"] = hist
+    paths["errors.csv"] = write_errors_csv(out / "errors.csv", payload)
+    partial.unlink(missing_ok=True)  # every pair is in results.json now (resume reads it)
     result = RunResult(payload, out, paths, len(todo), len(done), elapsed)
     if render:
         if probe is not None:
@@ -589,7 +539,8 @@ def run_matrix(
         try:
             from reports.render import render_report
 
-            paths.update(render_report(payload, out, render=render_shapes))
+            with stage("rendering report", enabled=bar.mode != ""):
+                paths.update(render_report(payload, out, render=render_shapes))
         except Exception as exc:  # results are safe on disk; say what broke
             result.report_error = f"{type(exc).__name__}: {exc}"
     result.elapsed_s = time.perf_counter() - t_start

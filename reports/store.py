@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from reduced_models.base import Solution
-from reports import errors
+from reports import errors, grading
 
 FORMAT = "flexbench-results/1"
 PACKAGES = (
@@ -62,6 +62,8 @@ CSV_COLUMNS = (
     "refs_total",
     "message",
 )
+# grading.py: the pair's grade against its tolerance and the model's own validity warning
+GRADE_COLUMNS = ("grade", "tolerance", "validity_warning")
 
 
 def jsonable(obj: Any) -> Any:
@@ -264,13 +266,16 @@ def csv_row(rec: Mapping) -> dict[str, Any]:
         "refs_passed": sum(1 for c in checks if c.get("passed")),
         "refs_total": len(checks),
         "message": (rec.get("message") or "").replace("\n", " ")[:300],
+        "grade": (rec.get("grade") or {}).get("verdict"),
+        "tolerance": (rec.get("grade") or {}).get("tolerance"),
+        "validity_warning": (rec.get("grade") or {}).get("validity_warning"),
     }
 
 
 def write_csv(path: Path, records: Iterable[Mapping]) -> Path:
-    """One row per pair (columns ``CSV_COLUMNS``)."""
+    """One row per pair (columns ``CSV_COLUMNS`` + ``GRADE_COLUMNS``)."""
     with path.open("w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=CSV_COLUMNS)
+        w = csv.DictWriter(fh, fieldnames=CSV_COLUMNS + GRADE_COLUMNS)
         w.writeheader()
         for rec in records:
             w.writerow({k: ("" if v is None else v) for k, v in csv_row(rec).items()})
@@ -370,6 +375,8 @@ def assemble(
     for name, meta in metas.items():
         mine = [r for r in records if r["case"] == name]
         cases[name] = {**meta, **errors.attach_errors(meta, mine)}
+    for r in records:  # each result judged against a tolerance meant for it (grading.py)
+        r["grade"] = grading.grade(r, config.get("tolerance"))
     cards = {}
     for r in records:
         if r.get("card") and r["model"] not in cards:

@@ -222,8 +222,9 @@ def test_run_quick_on_a_case_file(dummies, case_file, tmp_path, capsys):
     assert cli.main(argv) == 0
     text = capsys.readouterr().out
     assert "3 pairs (3 solved, 0 resumed, 1 failed)" in text
-    for f in ("results.json", "results.csv", "report.html", "report.md", "partial.jsonl"):
+    for f in ("results.json", "results.csv", "errors.csv", "report.html", "report.md"):
         assert (out / f).exists(), f
+    assert not (out / "partial.jsonl").exists()  # temporary: removed once results.json is written
     assert (tmp_path / "h.db").exists() and not (out / "history.sqlite").exists()
     data = json.loads((out / "results.json").read_text())
     assert data["config"]["quick"] is True

@@ -157,7 +157,7 @@ def test_disk_full_rolls_the_record_back_and_is_one_line(dummies, tmp_path, monk
             "--out", str(out), "--workers", "1", "--no-report"]  # fmt: skip
     assert cli.main(argv) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "disk full" in err and "Traceback" not in err
+    assert "disk full" in _error_line(err)
     assert (out / "partial.jsonl").read_bytes().endswith(b"}\n")  # the half record rolled back
     assert len(journal.read(out / "partial.jsonl")) == 2  # whole records only
     monkeypatch.undo()
@@ -167,17 +167,30 @@ def test_disk_full_rolls_the_record_back_and_is_one_line(dummies, tmp_path, monk
     _assert_no_duplicates(out, pairs=4)
 
 
-def test_file_size_limit_is_a_real_write_failure(tmp_path):
+def test_file_size_limit_is_a_real_write_failure(dummies, tmp_path, monkeypatch):
     """RLIMIT_FSIZE in a child: the kernel refuses the write half-way (EFBIG), as a full disk."""
-    out = tmp_path / "out"
+    sizes, append = [], journal.append
+
+    def spy(path, record):  # the same run in-process: how long are its journal lines?
+        append(path, record)
+        sizes.append(len(path.read_bytes().splitlines()[-1]) + 1)
+
+    monkeypatch.setattr(journal, "append", spy)
+    models = "dummy-scaled,dummy-half"  # + the reference dummy-exact: three records
+    runner.run_matrix([dummy_scene("fsize")], models.split(","), tmp_path / "free", workers=1,
+                      render=False)  # fmt: skip
+    sizes.sort()
+    assert len(sizes) == 3
+    fsize = sizes[1] + sizes[2] + sizes[0] // 2  # any two records fit, three do not
     case = tmp_path / "c.toml"
     case.write_text(_case_text("fsize"))
-    child = _flexbench_child(case, out, "dummy-scaled,dummy-half", fsize=7000)
+    out = tmp_path / "out"
+    child = _flexbench_child(case, out, models, fsize=fsize)
     assert child.returncode == 2, child.stderr
-    assert child.stderr.count("\n") == 1 and "cannot write" in child.stderr
-    kept = journal.read(out / "partial.jsonl")  # records are 2.2-3.3 kB: two fit in 7 kB
+    assert "cannot write" in _error_line(child.stderr)
+    kept = journal.read(out / "partial.jsonl")
     assert len(kept) == 2
-    again = _flexbench_child(case, out, "dummy-scaled,dummy-half")
+    again = _flexbench_child(case, out, models)
     assert again.returncode == 0, again.stderr
     assert f"{len(kept)} resumed" in again.stdout
 
@@ -214,7 +227,7 @@ def test_second_run_refuses_or_waits_and_stale_locks_are_taken_over(dummies, tmp
     with journal.RunLock(out):
         assert cli.main(argv) == 2
         err = capsys.readouterr().err
-        assert err.count("\n") == 1 and f"pid {os.getpid()}" in err and "--wait" in err
+        assert f"pid {os.getpid()}" in _error_line(err) and "--wait" in err
         holder = journal.RunLock(out)
     timer = threading.Timer(0.5, holder.__exit__, (None, None, None))
     holder.__enter__()
@@ -233,10 +246,17 @@ def test_unwritable_out_is_one_line_exit_2(tmp_path, capsys):
         assert cli.main(["run", "--cases", "cantilever-tip-load", "--models", "linear-2",
                          "--out", str(out), "--no-report"]) == 2  # fmt: skip
         err = capsys.readouterr().err
-        assert err.count("\n") == 1 and str(out) in err and "Traceback" not in err
+        assert str(out) in _error_line(err)
 
 
 # -- helpers -------------------------------------------------------------------------------------
+def _error_line(err: str) -> str:
+    """The one error line of a run's stderr (progress lines may come before it)."""
+    errors = [line for line in err.splitlines() if line.startswith("flexbench: error:")]
+    assert len(errors) == 1 and err.endswith(errors[0] + "\n") and "Traceback" not in err, err
+    return errors[0]
+
+
 def _case_text(name: str) -> str:
     from tests.test_runner import CASE_TOML, EPS, P
 

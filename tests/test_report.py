@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from reports import cli, compare, runner, store
-from reports.render import build_document, figures
+from reports.render import build_document, figures, paths
 from tests.test_runner import DUMMIES, EPS, P, dummy_scene
 
 MODELS = ["dummy-scaled", "dummy-half", "dummy-crash", "dummy-na"]
@@ -54,7 +54,7 @@ def test_report_files_and_content(run):
     for src in re.findall(r'<img src="([^"]+)"', html) + re.findall(r"\]\(([^)]+\.png)\)", md):
         assert (out / src).exists(), src
     for text in (html, md):
-        assert "Environment" in text and "git commit" in text and "CPU" in text
+        assert "Run environment" in text and "git commit" in text and "CPU" in text
         assert "Dummy cantilever dummy-a" in text
         assert "P L^3 / (3 EI) with P = 0.3" in text  # provenance of the reference
         assert "the dummy reference is exactly linear theory" in text  # tolerance rationale
@@ -62,14 +62,14 @@ def test_report_files_and_content(run):
         assert "RuntimeError: boom in the dummy" in text  # failures are listed
         assert "dummy declines every scene" in text  # not-applicable reason
         assert "reached 50% of the reference path" in text
-        assert f"{EPS * P / 2:.2e}" in text  # the scaled model's summary error
-    assert "FAIL 1.00e-02" in html and "pass " in html
+        assert f"{EPS * P / 2:.1e}" in text  # the scaled model's summary error
+    assert "FAIL 1.0e-02" in html and "pass " in html
 
 
 def test_store_csv_and_sqlite_history(run, dummies):
     out = run.out_dir
     rows = (out / "results.csv").read_text().splitlines()
-    assert rows[0].split(",") == list(store.CSV_COLUMNS)
+    assert rows[0].split(",") == list(store.CSV_COLUMNS + store.GRADE_COLUMNS)
     assert len(rows) == 1 + 10
     again = runner.run_matrix(
         [dummy_scene("dummy-a"), dummy_scene("dummy-b")], MODELS, out, workers=1, render=False
@@ -160,9 +160,9 @@ def test_hooks_error_bars_history_and_pareto_front(tmp_path):
     other = {**ref, "model": "m", "extras": {}}
     meta = {"primary_output": "tip", "units": "nondim"}
     cmap = figures.colours(["fem-auto", "m"])
-    assert figures.path_figure(meta, [ref, other], "fem-auto", cmap, tmp_path / "p.png")
-    assert figures.history_figure(meta, [ref], tmp_path / "h.png")
-    assert figures.history_figure(meta, [other], tmp_path / "none.png") is None
+    assert paths.path_figure(meta, [ref, other], "fem-auto", cmap, tmp_path / "p.png")
+    assert paths.history_figure(meta, [ref], tmp_path / "h.png")
+    assert paths.history_figure(meta, [other], tmp_path / "none.png") is None
     pts = [(1.0, 0.5), (2.0, 0.1), (3.0, 0.2), (0.5, 0.9), (2.0, 0.05)]
     assert figures.pareto_front(pts) == [3, 0, 4]
 

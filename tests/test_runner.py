@@ -283,8 +283,11 @@ def test_resume_skips_finished_pairs(dummies, tmp_path):
     assert (again.solved, again.resumed) == (0, 6)
     assert by_model(again)["dummy-scaled"]["summary_error"] == pytest.approx(EPS * P / 2)
 
-    # an interrupted run: two finished pairs and a half-written line
-    lines = (tmp_path / "partial.jsonl").read_text().splitlines()
+    # a finished run keeps no temporary file: it resumes from results.json
+    assert not (tmp_path / "partial.jsonl").exists()
+    # an interrupted run: two finished pairs and a half-written line, no results.json yet
+    lines = [json.dumps(r) for r in first.payload["results"][:3]]
+    (tmp_path / "results.json").unlink()
     (tmp_path / "partial.jsonl").write_text("\n".join(lines[:2]) + "\n" + lines[2][:40])
     third = runner.run_matrix(scenes, models, tmp_path, workers=1, render=False)
     assert (third.solved, third.resumed) == (4, 2)
@@ -328,7 +331,8 @@ def test_dask_localcluster_runs_the_same_tasks(dummies, tmp_path):
     assert all(r["status"] == "converged" for r in recs.values())
     assert recs["dummy-scaled"]["summary_error"] == pytest.approx(EPS * P / 2, rel=1e-9)
     assert res.payload["config"]["dask"] == cluster.scheduler_address
-    assert len(store.read_partial(tmp_path / "partial.jsonl")) == 2
+    assert not (tmp_path / "partial.jsonl").exists()  # removed once results.json is written
+    assert len(store.read_results(tmp_path)["results"]) == 2
 
 
 def test_quick_scene_keeps_reference_factors_on_the_grid():
@@ -412,7 +416,7 @@ def test_merged_registry_parses_parametrised_and_plain_names():
     assert set(registry.MODELS) <= set(runner.api.registry_table())
 
 
-def test_progress_bar_on_a_terminal_only():
+def test_progress_bar_on_a_terminal_and_silent_when_disabled():
     import io
 
     tty = io.StringIO()
@@ -422,8 +426,8 @@ def test_progress_bar_on_a_terminal_only():
     bar.close()
     text = tty.getvalue()
     assert "2/4" in text and "ETA" in text and text.endswith("\n")
-    quiet = io.StringIO()  # StringIO is not a TTY: silent by default
-    bar = runner.Progress(4, stream=quiet)
+    quiet = io.StringIO()
+    bar = runner.Progress(4, stream=quiet, enabled=False)
     bar.update("x")
     bar.close()
     assert quiet.getvalue() == ""

@@ -448,7 +448,8 @@ def test_small_loads_match_linear_theory_to_second_order(make, coef_tol):
 def test_linear_1_is_linear_beam_theory():
     L, E, I = 2.0, 3.0, 0.5
     P = 0.02
-    sol = LinearChain(1).solve(beam_scene(2 * P, P, L=L, E=E, I=I, steps=1, thickness=0.1))
+    model, scene = LinearChain(1), beam_scene(2 * P, P, L=L, E=E, I=I, steps=1, thickness=0.1)
+    sol = model.postprocess(scene, model.solve(scene))  # stress: post-processing
     _, y, th = tip(sol)
     assert y == pytest.approx(P * L**3 / (3 * E * I), rel=1e-12)
     assert th == pytest.approx(P * L**2 / (2 * E * I), rel=1e-12)
@@ -461,7 +462,10 @@ def test_shapes_and_stress(make):
     L, E, I, t = 2.0, 3.0, 0.5, 0.1
     P = 1.5 * E * I / L**2
     model = make()
-    sol = model.solve(beam_scene(-0.5 * P, P, L=L, E=E, I=I, A=1e4, thickness=t))
+    scene = beam_scene(-0.5 * P, P, L=L, E=E, I=I, A=1e4, thickness=t)
+    solved = model.solve(scene)
+    assert not any(s.shapes for s in solved.steps), "the timed solve draws nothing"
+    sol = model.postprocess(scene, solved)
     st = sol.steps[-1]
     pts = st.shapes["beam"]
     assert pts.ndim == 2 and pts.shape[1] == 2

@@ -30,7 +30,7 @@ from scipy.special import ellipe, ellipeinc, ellipk, ellipkinc
 
 import cases
 from cases.schema import Analysis, Load, Member, Node, Output, Scene, Support
-from reduced_models import prb, prb_chain, prb_fit, registry
+from reduced_models import prb, prb_fit, registry
 from reduced_models import prb_tables as T
 from reduced_models.continuation import Banded
 
@@ -281,7 +281,7 @@ def test_fsm_converges_to_elastica_with_observed_order(placement, order):
 
 
 def _chain_state(model: prb.PRBModel, scene: Scene) -> tuple:
-    sol = model.solve(scene)
+    sol = model.postprocess(scene, model.solve(scene))
     assert sol.status == "converged", sol.message
     beam = model._beam(scene)
     matrix = np.asarray(sol.extras["prb_matrix"])
@@ -364,7 +364,8 @@ def test_fixed_guided_small_load_matches_linear_theory():
         loads=tuple(dataclasses.replace(ld, fy=-1e-4) for ld in scene.loads),
         analysis=Analysis(kind="load", steps=1),
     )
-    sol = make("prb-fsm-20").solve(scene)
+    model = make("prb-fsm-20")
+    sol = model.postprocess(scene, model.solve(scene))
     assert sol.status == "converged"
     o = sol.steps[-1].outputs
     assert o["tip.rot"] == 0.0
@@ -384,21 +385,44 @@ def test_2rpr_axial_stretch_is_exact_for_a_bar_in_tension():
     assert "rigid" in sol.message and sol.steps[-1].outputs["tip.x"] <= 1.0
 
 
-def test_shape_and_stress_from_recovered_loads(monkeypatch):
+def test_shape_is_the_prbs_own_chain_and_stress_its_own_moment():
+    """The drawn shape is the PRB's pivots and links; stress from the PRB's own end loads."""
     scene = scene_for(0.0, -3.0, thickness=0.1)
-    s = make("prb-3r").solve(scene).steps[-1]
+    model = make("prb-3r")
+    solved = model.solve(scene)
+    assert not any(s.shapes for s in solved.steps), "the timed solve draws nothing"
+    s = model.postprocess(scene, solved).steps[-1]
     xy = s.shapes["beam"]
-    assert xy.shape == (41, 2) and np.allclose(xy[0], 0.0)
-    exact = exact_transverse(3.0)
-    assert xy[-1] == pytest.approx([exact[0], -exact[1]], abs=1e-8)  # elastica for the loads
-    assert s.max_stress == pytest.approx(0.1 * 3.0 * exact[0] / 2.0, rel=1e-6)  # root: M = P x
-    assert s.info["shape_from_elastica"] == 1.0 and s.info["shape_tip_gap"] < 0.02
-    # without the elastica: PRB polyline and the bending moment at the root and the joints
-    monkeypatch.setattr(prb_chain, "_elastica_shape", lambda: None)
-    s = make("prb-3r").solve(scene).steps[-1]
-    xy = s.shapes["beam"]
-    assert xy.shape == (5, 2) and s.info["shape_from_elastica"] == 0.0
+    # root, the rigid root link's end (first pivot), two more pivots, tip
+    assert xy.shape == (5, 2) and np.allclose(xy[0], 0.0)
+    seg = np.hypot(*np.diff(xy, axis=0).T)
+    assert seg == pytest.approx(np.array(T.SU_GAMMA), rel=1e-12)  # rigid links keep lengths
+    assert xy[-1] == pytest.approx([s.outputs["tip.x"], s.outputs["tip.y"]], abs=1e-14)
+    # dead transverse load: the moment is largest at the clamp, P times the tip's lever arm
     assert s.max_stress == pytest.approx(0.1 * 3.0 * xy[-1, 0] / 2.0, rel=1e-9)
+
+
+PRB_NAMES = ("prb-short", "prb-1r", "prb-2r", "prb-3r", "prb-2rpr", "prb-fsm-4", "prb-fsm-16")
+
+
+@pytest.mark.parametrize("case", cases.catalog_names())
+def test_shape_tips_are_the_reported_tips_on_every_catalog_case(case):
+    import reports
+
+    scene = cases.load(case)
+    solved = 0
+    for name in PRB_NAMES:
+        sol = reports.solve(scene, name)
+        if sol.status == "not-applicable":
+            continue
+        solved += 1
+        tip = scene.outputs[0].name
+        for st in sol.steps:
+            (xy,) = st.shapes.values()
+            reported = [st.outputs[f"{tip}.x"], st.outputs[f"{tip}.y"]]
+            assert xy[-1] == pytest.approx(reported, abs=1e-12), (name, st.factor)
+    if "single-beam" in scene.tags and "follower" not in scene.tags:
+        assert solved, "a single-beam case with dead loads that no PRB model solves"
 
 
 # ---------------------------------------------------------------------------------------------

@@ -13,7 +13,7 @@ can render here, else matplotlib).
 
 from __future__ import annotations
 
-import itertools
+import json
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -26,7 +26,6 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 DPI = 90
-ERROR_FLOOR = 1e-16  # log axes cannot show an exact 0
 QUANTITIES = ("ux", "uy", "rot")
 
 
@@ -68,98 +67,6 @@ def reference_error_bars(ax: Any, rec: Mapping, key: str, x: np.ndarray, y: np.n
         ax.errorbar(x[-1:], y[-1:], xerr=e[-1:], fmt="none", ecolor="k", capsize=3)
 
 
-def path_figure(
-    meta: Mapping, records: Sequence[Mapping], ref: str | None, cmap: Mapping, path: Path
-) -> Path | None:
-    """Load factor against ux, uy, rot of the case's primary output, every model + reference."""
-    out = meta.get("primary_output")
-    recs = [r for r in records if r["steps"]]
-    if not out or not recs:
-        return None
-    fig, axes = plt.subplots(1, 3, figsize=(10.0, 2.8))
-    for ax, q in zip(axes, QUANTITIES):
-        key = f"{out}.{q}"
-        for r in sorted(recs, key=lambda r: r["model"] == ref):
-            x, y = _series(r, key), _series(r, "factor")
-            if not np.any(np.isfinite(x)):
-                continue
-            if r["model"] == ref:
-                ax.plot(x, y, "k-", lw=2.2, alpha=0.55, label=f"{r['model']} (reference)")
-                reference_error_bars(ax, r, key, x, y)
-            else:
-                style = "-" if r["status"] == "converged" else ":"
-                ax.plot(
-                    x,
-                    y,
-                    style,
-                    marker=".",
-                    ms=3,
-                    lw=1,
-                    color=cmap[r["model"]],
-                    label=r["model"] + ("" if r["status"] == "converged" else " (failed)"),
-                )
-        unit = "rad" if q == "rot" else meta.get("units", "").split("-")[0]
-        ax.set_xlabel(f"{key} [{unit}]", fontsize=8)
-        ax.tick_params(labelsize=7)
-        ax.grid(alpha=0.3)
-    axes[0].set_ylabel("load factor", fontsize=8)
-    handles, labels = axes[0].get_legend_handles_labels()
-    if not handles:
-        handles, labels = axes[1].get_legend_handles_labels()
-    fig.legend(
-        handles, labels, loc="center left", bbox_to_anchor=(0.835, 0.5), fontsize=7, frameon=False
-    )
-    fig.subplots_adjust(left=0.06, right=0.83, bottom=0.17, top=0.95, wspace=0.28)
-    return _save(fig, path)
-
-
-def shapes_figure(
-    meta: Mapping, records: Sequence[Mapping], ref: str | None, cmap: Mapping, path: Path
-) -> Path | None:
-    """Deformed shapes at the last step over the undeformed drawing (grey, dashed)."""
-    recs = [r for r in records if r.get("shapes")]
-    if not recs:
-        return None
-    fig, ax = plt.subplots(figsize=(5.0, 3.8))
-    for pts in (meta.get("undeformed") or {}).values():
-        p = np.asarray(pts, dtype=float)
-        ax.plot(p[:, 0], p[:, 1], "--", color="0.6", lw=1)
-    for r in sorted(recs, key=lambda r: r["model"] == ref):
-        first = True
-        for pts in r["shapes"].values():
-            p = np.asarray([[np.nan if v is None else v for v in q] for q in pts], dtype=float)
-            if p.size == 0:
-                continue
-            lab = r["model"] if first else None
-            if r["model"] == ref:
-                lab = f"{lab} (reference)" if lab else None
-                ax.plot(p[:, 0], p[:, 1], "k-", lw=3, alpha=0.45, label=lab)
-            else:
-                ax.plot(p[:, 0], p[:, 1], "-", lw=1.2, color=cmap[r["model"]], label=lab)
-            first = False
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.tick_params(labelsize=7)
-    ax.grid(alpha=0.3)
-    ax.set_title("deformed shapes, last step", fontsize=9)
-    ax.legend(fontsize=6, frameon=False, loc="best")
-    fig.subplots_adjust(left=0.12, right=0.97, bottom=0.1, top=0.92)
-    return _save(fig, path)
-
-
-def _log_axes(ax: Any) -> None:
-    """Log-log axes with plain ``1e-03`` labels (mathtext tick labels cost ~10 ms each)."""
-    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
-
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    for axis in (ax.xaxis, ax.yaxis):
-        lo, hi = axis.get_data_interval()
-        if hi < 30 * lo:  # less than ~1.5 decades: label 1-2-5 steps, not just powers of 10
-            axis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
-        axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:.0e}"))
-        axis.set_minor_formatter(NullFormatter())
-
-
 def pareto_front(points: Sequence[tuple[float, float]]) -> list[int]:
     """Indices of the non-dominated points (less time and less error is better), by time."""
     order = sorted(range(len(points)), key=lambda i: (points[i][0], points[i][1]))
@@ -171,6 +78,50 @@ def pareto_front(points: Sequence[tuple[float, float]]) -> list[int]:
     return front
 
 
+MARKERS = "osD^v<>pPhX8d"
+ROUNDOFF = 1e-12  # errors below this are round-off: drawn on a "0 (< 1e-12)" row
+
+
+def marker_of(model: str, cmap: Mapping) -> str:
+    """A marker per model (with the colour it tells 12+ models apart)."""
+    names = list(cmap)
+    return MARKERS[names.index(model) % len(MARKERS)] if model in cmap else "o"
+
+
+def log_limits(values: Sequence[float], pad: float = 1.6) -> tuple[float, float]:
+    """Log-axis limits around positive ``values`` (at least one decade wide)."""
+    v = [x for x in values if x and x > 0 and math.isfinite(x)]
+    lo, hi = (min(v), max(v)) if v else (1e-3, 1.0)
+    lo, hi = lo / pad, hi * pad
+    if hi < 10 * lo:
+        mid = math.sqrt(lo * hi)
+        lo, hi = mid / math.sqrt(10), mid * math.sqrt(10)
+    return lo, hi
+
+
+def _decade_ticks(ax: Any, axis: str, lo: float, hi: float, zero: float | None) -> None:
+    """Major ticks at powers of ten (1-2-5 inside one decade) labelled ``1e-03``; ``zero``
+    (the round-off row) labelled ``0 (< 1e-12)``."""
+    from matplotlib.ticker import FixedLocator, FuncFormatter, NullFormatter, NullLocator
+
+    e0, e1 = math.floor(math.log10(lo)), math.ceil(math.log10(hi))
+    subs = (1.0, 2.0, 5.0) if e1 - e0 <= 2 else (1.0,)
+    step = max(1, (e1 - e0) // 8)
+    ticks = [m * 10.0**e for e in range(e0, e1 + 1, step) for m in subs]
+    ticks = [t for t in ticks if lo <= t <= hi and (zero is None or t > 3 * zero)]
+    if zero is not None:
+        ticks = [zero, *ticks]
+    ax_ = ax.yaxis if axis == "y" else ax.xaxis
+
+    def label(v: float, _: object) -> str:
+        return "0 (< 1e-12)" if zero is not None and abs(v - zero) < 1e-3 * zero else f"{v:.0e}"
+
+    ax_.set_major_locator(FixedLocator(ticks))
+    ax_.set_major_formatter(FuncFormatter(label))
+    ax_.set_minor_locator(NullLocator())
+    ax_.set_minor_formatter(NullFormatter())
+
+
 def pareto_figure(
     points: Sequence[Mapping],
     path: Path,
@@ -180,76 +131,107 @@ def pareto_figure(
     floor: float | None = None,
     xlabel: str = "wall time per solve [s]",
 ) -> Path | None:
-    """Scatter of ``{"model", "time", "error", "tmin", "tmax", "ok"}`` with the front marked.
+    """Speed against error: one marker per model (legend, no free-floating labels), the
+    reference (``kind = "reference"``: black star at its own error estimate, or on the
+    round-off row) and the exact model (``kind = "exact"``: diamond) included.
 
-    ``ref_time``: the reference's wall time (vertical line); ``floor``: the reference's own
-    error estimate (horizontal band: errors below it are not resolved).
+    ``points``: ``{"model", "time", "error", "tmin", "tmax", "ok", "kind"}``.  Errors below
+    ``ROUNDOFF`` sit on a ``0 (< 1e-12)`` row under the data.  ``floor``: the reference's
+    error estimate (grey band: differences below it are not resolved).  Axes are log, their
+    limits from the data.  The plotted points are written beside the PNG as JSON (same name,
+    ``.json``), read back from the drawn artists, so a test can hold them against
+    ``results.json``.
     """
-    pts = [p for p in points if p["time"] and p["error"] is not None and p["time"] > 0]
-    if not pts:
-        return None
-    fig, ax = plt.subplots(figsize=(5.0, 3.8))
-    xy = [(p["time"], max(p["error"], ERROR_FLOOR)) for p in pts]
-    front = [i for i in pareto_front(xy) if pts[i]["ok"]]
-    offsets = itertools.cycle([(3, 3), (3, -8), (-12, 5), (3, 9)])  # crowded labels fan out
-    for p, (x, y) in zip(pts, xy):
+    pts = [p for p in points if p.get("time") and p["time"] > 0 and p.get("error") is not None]
+    if not any(p.get("kind") != "reference" for p in pts):
+        return None  # nothing to compare with the reference
+    resolved = [p["error"] for p in pts if p["error"] >= ROUNDOFF]
+    if floor and floor >= ROUNDOFF:
+        resolved.append(floor)
+    ylo, yhi = log_limits(resolved, pad=2.0)
+    zero = None
+    if any(p["error"] < ROUNDOFF for p in pts):
+        zero = ylo / 3
+        ylo = zero / 2
+    fig, ax = plt.subplots(figsize=(7.6, 4.0))
+    drawn = []
+    xy = []
+    for p in sorted(pts, key=lambda p: (p.get("kind") == "reference", p["model"])):
+        kind = p.get("kind", "model")
+        x, e = p["time"], p["error"]
+        y = zero if e < ROUNDOFF else e
         lo, hi = p.get("tmin") or x, p.get("tmax") or x
-        ax.errorbar(
+        if kind == "reference":
+            style = {"fmt": "*", "color": "k", "ms": 12}
+            how = "exact" if p.get("exact") else "at its own error estimate"
+            label = f"{p['model']} (reference, {how})"
+        else:
+            mk = "D" if kind == "exact" else (marker_of(p["model"], cmap) if p["ok"] else "x")
+            style = {"fmt": mk, "color": cmap.get(p["model"], "C0"), "ms": 6}
+            label = p["model"] + (" (exact)" if kind == "exact" else "")
+            label += "" if p["ok"] else " (failed)"
+        cont = ax.errorbar(
             x,
             y,
             xerr=[[x - lo], [hi - x]],
-            fmt="o" if p["ok"] else "x",
-            color=cmap.get(p["model"], "C0"),
-            ms=5,
             capsize=2,
             lw=0.8,
+            label=label,
+            mec="k" if kind == "exact" else None,
+            **style,
         )
-        ax.annotate(
-            p["model"], (x, y), fontsize=6, xytext=next(offsets), textcoords="offset points"
+        line = cont.lines[0]
+        dx, dy = float(line.get_xdata()[0]), float(line.get_ydata()[0])
+        drawn.append(
+            {
+                "model": p["model"],
+                "kind": kind,
+                "time": x,
+                "error": e,
+                "x": dx,
+                "y": dy,
+                "roundoff": e < ROUNDOFF,
+            }
         )
-    if front:
+        if p["ok"] and kind != "reference":
+            xy.append((dx, dy))
+    front = pareto_front(xy)
+    if len(front) > 1:
         fx, fy = zip(*(xy[i] for i in front))
-        ax.step(fx, fy, where="post", color="k", lw=1, alpha=0.7, label="Pareto front")
+        ax.step(fx, fy, where="post", color="k", lw=1, alpha=0.5, label="Pareto front")
     if ref_time:
         ax.axvline(ref_time, color="k", ls=":", lw=1, label="reference time")
     if floor:
-        lo = min(min(y for _, y in xy), floor) / 3  # the band must not stretch the axis
-        ax.axhspan(lo, floor, color="0.85", alpha=0.6, label="ref. error estimate")
-    _log_axes(ax)
-    ax.margins(x=0.18, y=0.12)  # room for the labels of the extreme points
+        ax.axhspan(ylo, floor, color="0.85", alpha=0.6, label="below ref. error estimate")
+    if zero is not None:
+        ax.axhline(zero * 1.7, color="0.5", lw=0.6, ls="--")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    xlo, xhi = log_limits(
+        [v for p in pts for v in (p["time"], p.get("tmin"), p.get("tmax"))]
+        + ([ref_time] if ref_time else [])
+    )
+    ax.set_xlim(xlo, xhi)
+    ax.set_ylim(ylo, yhi)
+    _decade_ticks(ax, "x", xlo, xhi, None)
+    _decade_ticks(ax, "y", ylo, yhi, zero)
     ax.set_xlabel(xlabel, fontsize=8)
-    ax.set_ylabel("summary error (max over path, /L or rad)", fontsize=8)
+    ax.set_ylabel("summary error (max over path; /L or rad)", fontsize=8)
     ax.set_title(title, fontsize=9)
     ax.tick_params(labelsize=7)
     ax.grid(alpha=0.3)
-    if front or ref_time or floor:
-        ax.legend(fontsize=6, frameon=False, loc="best")
-    fig.subplots_adjust(left=0.14, right=0.96, bottom=0.12, top=0.92)
-    return _save(fig, path)
-
-
-def history_figure(meta: Mapping, records: Sequence[Mapping], path: Path) -> Path | None:
-    """Hook for the dynamics replay: time histories in ``extras["history"]``.
-
-    ``history`` maps ``"t"`` and output keys to equally long lists; plotted when present.
-    """
-    recs = [r for r in records if isinstance((r.get("extras") or {}).get("history"), Mapping)]
-    if not recs:
-        return None
-    fig, ax = plt.subplots(figsize=(6.0, 3.0))
-    for r in recs:
-        hist = r["extras"]["history"]
-        t = np.asarray(hist.get("t", []), dtype=float)
-        for key, vals in hist.items():
-            if key == "t" or len(vals) != t.size:
-                continue
-            v = np.asarray([np.nan if x is None else x for x in vals], dtype=float)
-            ax.plot(t, v, lw=1, label=f"{r['model']}: {key}")
-    ax.set_xlabel("time", fontsize=8)
-    ax.tick_params(labelsize=7)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=6, frameon=False)
-    fig.subplots_adjust(left=0.1, right=0.97, bottom=0.15, top=0.95)
+    ncol = 2 if len(pts) > 14 else 1
+    ax.legend(
+        fontsize=6.5,
+        frameon=False,
+        loc="center left",
+        bbox_to_anchor=(1.01, 0.5),
+        ncol=ncol,
+        handletextpad=0.3,
+        columnspacing=0.8,
+    )
+    fig.subplots_adjust(left=0.1, right=0.62 if ncol == 2 else 0.74, bottom=0.12, top=0.92)
+    path.with_suffix(".json").write_text(json.dumps({"title": title, "points": drawn}, indent=1))
     return _save(fig, path)
 
 
@@ -280,8 +262,3 @@ def render_figure(
     undeformed = {k: np.asarray(v, dtype=float) for k, v in (meta.get("undeformed") or {}).items()}
     title = f"{meta.get('name', '')}: {ref_record['model']} (reference), last step"
     return Path(render_png(path, shapes, undeformed or None, title, backend=backend))
-
-
-def pyvista_figure(meta: Mapping, ref_record: Mapping | None, path: Path) -> Path | None:
-    """Former hook name: ``render_figure`` with the automatic backend."""
-    return render_figure(meta, ref_record, path)

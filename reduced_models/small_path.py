@@ -1,0 +1,352 @@
+"""Load continuation for a few unknowns on plain Python floats.
+
+The same algorithm as ``continuation.minimize_path`` (Newton at each load factor, step
+halving on failure and growth after easy steps, cubic Hermite predictor from the path
+tangents, branch keeping by stability and turning-back tests, the factorisation deciding
+positive definiteness) for up to ``MAX_N`` unknowns, written on lists of floats: for a
+handful of unknowns a numpy call costs more than the arithmetic it does, and a 20-step path
+of a 1-DOF PRB model then costs what its equations cost.  The Hessian of a PRB chain in
+absolute link angles is tridiagonal: ``L D L^T`` (its pivots give positive definiteness)
+costs O(n); an indefinite one is solved by pivoted LU.  ``continuation`` stays the general
+solver (banded, sparse, unsymmetric, retractions, step caps).
+
+Convergence is judged as there: the scaled Newton update ``max |dx_i / scale_i| <= xtol``
+and ``max |g(x_k)| <= gtol``; in addition the residual at the accepted state ``x_k + dx_k``
+is evaluated (cheap here) and must also be below ``gtol``, so the reported residual is that
+of the reported state.
+
+Functions handed in: ``grad_hess(x, lam) -> (g, d, e)`` with ``x``, ``g`` and the Hessian's
+diagonal ``d`` lists of n floats and its off-diagonal ``e`` a list of n - 1, or
+``-> (g, H)`` with a dense symmetric (possibly indefinite) H as a list of rows, solved by
+pivoted LU, whose stability is then judged by ``stability(x, lam) -> bool | None`` (a mixed
+Lagrangian's inertia test); ``load_gradient(x, lam) -> dg/dlam`` (list).  ``max_step``
+caps ``|dx_i / scale_i|`` per update (the update is shortened as a whole), as there.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from reduced_models.path_result import PathResult
+
+MAX_N = 24  # above, numpy's banded solves beat Python loops
+
+
+def _ldl(d: list, e: list, n: int) -> list | None:
+    """Pivots D of H = L D L^T for the symmetric tridiagonal H = tridiag(e, d, e), with the
+    multipliers: ``[(D_0, l_0), ...]``; None if a pivot is not positive (H not positive
+    definite: the caller switches to pivoted LU)."""
+    piv = []
+    prev_D, prev_e = 1.0, 0.0
+    for i in range(n):
+        li = prev_e / prev_D
+        Di = d[i] - li * prev_e
+        if not Di > 0.0:
+            return None
+        piv.append((Di, li))
+        prev_D, prev_e = Di, (e[i] if i < n - 1 else 0.0)
+    return piv
+
+
+def _ldl_solve(piv: list, b: Sequence[float], n: int) -> list:
+    y = [0.0] * n
+    acc = 0.0
+    for i in range(n):
+        acc = b[i] - piv[i][1] * acc
+        y[i] = acc
+    x = [0.0] * n
+    acc = 0.0
+    for i in range(n - 1, -1, -1):
+        acc = y[i] / piv[i][0] - (piv[i + 1][1] * acc if i < n - 1 else 0.0)
+        x[i] = acc
+    return x
+
+
+def _lu(H: list, n: int) -> tuple[list, list] | None:
+    """LU with partial pivoting (rows permuted in place of a copy); None if singular."""
+    A = [row[:] for row in H]
+    piv = list(range(n))
+    for k in range(n):
+        p = max(range(k, n), key=lambda i: abs(A[i][k]))
+        if A[p][k] == 0.0:
+            return None
+        if p != k:
+            A[k], A[p] = A[p], A[k]
+            piv[k], piv[p] = piv[p], piv[k]
+        for i in range(k + 1, n):
+            f = A[i][k] / A[k][k]
+            A[i][k] = f
+            for j in range(k + 1, n):
+                A[i][j] -= f * A[k][j]
+    return A, piv
+
+
+def _lu_solve(fac: tuple, b: Sequence[float], n: int) -> list:
+    A, piv = fac
+    y = [b[p] for p in piv]
+    for i in range(n):
+        y[i] -= sum(A[i][k] * y[k] for k in range(i))
+    for i in range(n - 1, -1, -1):
+        y[i] = (y[i] - sum(A[i][k] * y[k] for k in range(i + 1, n))) / A[i][i]
+    return y
+
+
+def _factor(d: list, e: list, n: int) -> tuple[tuple, bool]:
+    """(factor, positive definite?) of tridiag(e, d, e); raises ZeroDivisionError if singular."""
+    piv = _ldl(d, e, n)
+    if piv is not None:
+        return ("ldl", piv), True
+    H = [[0.0] * n for _ in range(n)]
+    for i in range(n):
+        H[i][i] = d[i]
+        if i < n - 1:
+            H[i][i + 1] = H[i + 1][i] = e[i]
+    fac = _lu(H, n)
+    if fac is None:
+        raise ZeroDivisionError("singular matrix")
+    return ("lu", fac), False
+
+
+def _solve(factor: tuple, b: Sequence[float], n: int) -> list:
+    return _ldl_solve(factor[1], b, n) if factor[0] == "ldl" else _lu_solve(factor[1], b, n)
+
+
+class _Newton:
+    """Newton at a fixed load factor (fixed unknowns replaced by identity equations)."""
+
+    def __init__(self, grad_hess: Callable, n: int, fixed: tuple, inv_scale: list, xtol: float,
+                 gtol: float | None, max_iter: int, cap: list | None = None,
+                 stability: Callable | None = None) -> None:  # fmt: skip
+        self.gh, self.n, self.fixed = grad_hess, n, fixed
+        self.inv_scale, self.xtol, self.gtol, self.max_iter = inv_scale, xtol, gtol, max_iter
+        self.cap, self.stability = cap, stability
+        self.unit = all(w == 1.0 for w in inv_scale)  # unit scales: no products per update
+
+    def evaluate(self, x: list, lam: float) -> tuple[list, tuple]:
+        """Residual and Hessian: ``(d, e)`` tridiagonal or a dense list of rows."""
+        g, *H = self.gh(x, lam)
+        n = self.n
+        if len(H) == 2:  # tridiagonal (d, e)
+            d, e = H
+            for i in self.fixed:
+                g[i], d[i] = 0.0, 1.0
+                if i:
+                    e[i - 1] = 0.0
+                if i < n - 1:
+                    e[i] = 0.0
+            return g, (d, e)
+        (A,) = H
+        for i in self.fixed:
+            g[i] = 0.0
+            for j in range(n):
+                A[i][j] = A[j][i] = 0.0
+            A[i][i] = 1.0
+        return g, A
+
+    def residual(self, x: list, lam: float) -> float:
+        g = self.evaluate(x, lam)[0]
+        return max(map(abs, g)) if math.isfinite(sum(g)) else math.nan
+
+    def factor(self, H: tuple | list) -> tuple[tuple, bool | None]:
+        """Factor and positive definiteness (None for a dense, possibly indefinite H)."""
+        if isinstance(H, tuple):
+            return _factor(*H, self.n)
+        fac = _lu(H, self.n)
+        if fac is None:
+            raise ZeroDivisionError("singular matrix")
+        return ("lu", fac), None
+
+    def solve(self, x: list, lam: float) -> tuple[tuple | None, int, str]:
+        """((x_new, res, stable, x_eval, factor) or None, iterations, reason)."""
+        n, inv, xtol, gtol, cap = self.n, self.inv_scale, self.xtol, self.gtol, self.cap
+        prev_res = math.inf
+        for it in range(1, self.max_iter + 1):
+            g, H = self.evaluate(x, lam)
+            res = max(map(abs, g))
+            if not math.isfinite(res + sum(g)):
+                return None, it, "non-finite residual"
+            try:
+                factor, pd = self.factor(H)
+                sol = _solve(factor, g, n)
+            except ZeroDivisionError as exc:
+                return None, it, f"singular tangent ({exc})"
+            size = max(map(abs, sol)) if self.unit else max(abs(s * w) for s, w in zip(sol, inv))
+            if not math.isfinite(size):
+                return None, it, "singular tangent"
+            if size <= xtol:
+                x_new = [a - b for a, b in zip(x, sol)]
+                if gtol is None or res <= gtol:
+                    res_new = self.residual(x_new, lam)  # the accepted state's own residual
+                    if gtol is None or res_new <= gtol:
+                        st = pd if self.stability is None else self.stability(x, lam)
+                        return (x_new, res_new, st, x, factor), it, ""
+                elif res > 0.5 * prev_res:
+                    return None, it, f"residual {res:.3g} stalls above gtol {gtol:.3g}"
+            elif size > 1e6:
+                return None, it, "Newton diverged"
+            elif cap is not None:  # damping: the update shortened as a whole
+                over = max(abs(s) * c for s, c in zip(sol, cap))
+                if over > 1.0:
+                    sol = [s / over for s in sol]
+            prev_res = res
+            x = [a - b for a, b in zip(x, sol)]
+        return None, self.max_iter, f"no convergence in {self.max_iter} its"
+
+
+def minimize_path_small(
+    grad_hess: Callable,
+    x0: Sequence[float],
+    factors: Sequence[float],
+    *,
+    scale: Sequence[float] | None = None,
+    xtol: float = 1e-10,
+    gtol: float | None = None,
+    max_iter: int = 25,
+    max_cuts: int = 10,
+    fixed: Sequence[int] = (),
+    load_gradient: Callable | None = None,
+    max_step: Sequence[float] | None = None,
+    stability: Callable | None = None,
+) -> PathResult:
+    """``continuation.minimize_path`` (symmetric H, positive-definiteness stability, branch
+    keeping) on plain floats for ``len(x0) <= MAX_N`` unknowns; see the module docstring."""
+    x = [float(v) for v in x0]
+    n = len(x)
+    inv = [1.0 / float(s) for s in scale] if scale is not None else [1.0] * n
+    fixed = tuple(int(i) for i in fixed)
+    cap = None
+    if max_step is not None:  # 1 / (scale * max_step): |dx_i| * cap_i <= 1 per update
+        cap = [w / float(m) for w, m in zip(inv, max_step)]
+    newton = _Newton(grad_hess, n, fixed, inv, xtol, gtol, max_iter, cap, stability)
+    out_f, out_x, out_it, out_cut, out_res, out_stab = [], [], [], [], [], []
+
+    def result(ok: bool, reason: str) -> PathResult:
+        return PathResult(
+            factors=np.array(out_f),
+            states=np.array(out_x, dtype=float).reshape(len(out_x), n),
+            iterations=np.array(out_it, dtype=int),
+            cuts=np.array(out_cut, dtype=int),
+            residuals=np.array(out_res),
+            stable=out_stab,
+            ok=ok,
+            reason=reason,
+        )
+
+    def record(c: tuple, lam: float, its: int, cuts: int) -> None:
+        out_f.append(float(lam))
+        out_x.append(c[0])
+        out_it.append(its)
+        out_cut.append(cuts)
+        out_res.append(c[1])
+        out_stab.append(c[2])
+
+    def tangent(c: tuple, lam: float) -> list | None:
+        if load_gradient is None or n == 0:
+            return None
+        dg = load_gradient(c[3], lam)
+        for i in fixed:
+            dg[i] = 0.0
+        t = [-v for v in _solve(c[4], dg, n)]
+        return t if math.isfinite(sum(v * v for v in t)) else None
+
+    factors = [float(f) for f in factors]
+    if not factors:
+        return result(True, "")
+    conv, its, why = newton.solve(x, factors[0])
+    if conv is None:
+        return result(False, f"no equilibrium at factor {factors[0]:.6g}: {why}")
+    record(conv, factors[0], its, 0)
+    x_prev, lam_prev = None, None
+    cur, lam_cur = conv, factors[0]
+    t_cur, t_prev = tangent(cur, lam_cur), None
+    dlam = None
+    for target in factors[1:]:
+        its_total, cuts_total, consecutive = 0, 0, 0
+        span = target - lam_cur
+        direction = 1.0 if span >= 0 else -1.0
+        step = abs(span) if dlam is None else min(dlam, abs(span))
+        while abs(target - lam_cur) > 1e-14 * max(1.0, abs(target)):
+            lam_try = lam_cur + direction * step
+            if direction * (target - lam_try) < 1e-9 * step:
+                lam_try = target
+            x_cur = cur[0]
+            s = lam_try - lam_cur
+            pred = _predict(x_cur, x_prev, t_cur, t_prev, s, lam_cur, lam_prev, inv)
+            conv, its, why = newton.solve(pred if pred is not None else x_cur, lam_try)
+            its_total += its
+            if conv is None and pred is not None:
+                conv, its, why = newton.solve(x_cur, lam_try)
+                its_total += its
+            can_cut = 0.5 * abs(s) >= abs(span) * 0.5**max_cuts
+            if conv is not None and can_cut:
+                # branch keeping, as in continuation.minimize_path
+                if cur[2] is True and conv[2] is False:
+                    conv, why = None, "the step left the stable branch"
+                elif x_prev is not None and lam_cur != lam_prev:
+                    back = sum(
+                        (a - b) * (b - c) * w * w for a, b, c, w in zip(conv[0], x_cur, x_prev, inv)
+                    )
+                    if back < 0:
+                        conv, why = None, "the path turned back (branch jump)"
+            if conv is None:
+                cuts_total += 1
+                consecutive += 1
+                step = 0.5 * abs(s)
+                if consecutive > max_cuts or step < abs(span) * 0.5**max_cuts:
+                    return result(
+                        False,
+                        f"Newton failed between factors {lam_cur:.6g} and {lam_try:.6g} "
+                        f"after {cuts_total} step cuts ({why}); limit point or loss of "
+                        "equilibrium?",
+                    )
+                continue
+            consecutive = 0
+            x_prev, lam_prev = x_cur, lam_cur
+            step = abs(s)
+            cur, lam_cur = conv, lam_try
+            t_prev, t_cur = t_cur, tangent(cur, lam_cur)
+            if its <= 4:
+                step *= 2.0
+            dlam = step
+        record(cur, lam_cur, its_total, cuts_total)
+    return result(True, "")
+
+
+def _predict(
+    x_cur: list,
+    x_prev: list | None,
+    t_cur: list | None,
+    t_prev: list | None,
+    s: float,
+    lam_cur: float,
+    lam_prev: float | None,
+    inv: list,
+) -> list | None:
+    """Start of the next Newton solve: cubic Hermite, tangent line or secant (as
+    ``continuation.minimize_path``); None: from the current state."""
+    dpred = None
+    if x_prev is not None and lam_cur != lam_prev:
+        h = lam_cur - lam_prev
+        back_step = [p - c for p, c in zip(x_prev, x_cur)]
+        dpred = [b * (-s / h) for b in back_step]
+    if t_cur is not None:
+        if dpred is None:
+            dpred = [t * s for t in t_cur]
+        else:
+            u = s / h
+            c2 = u * u
+            c3 = c2 + c2 * u if t_prev is not None else 0.0
+            a1, a2 = s + h * (c2 + c3), c2 + 2.0 * c3
+            poly = [t * a1 + b * a2 for t, b in zip(t_cur, back_step)]
+            if t_prev is not None:
+                poly = [p + t * (h * c3) for p, t in zip(poly, t_prev)]
+            a = sum((p * w) ** 2 for p, w in zip(poly, inv))
+            b = sum((d * w) ** 2 for d, w in zip(dpred, inv))
+            if a <= 9.0 * b:
+                dpred = poly
+    if dpred is None:
+        return None
+    return [c + d for c, d in zip(x_cur, dpred)]

@@ -1,0 +1,323 @@
+"""Validity atlases: each reduced model's error against the exact elastica over load space.
+
+Families (a clamped beam, L = 1, EI = 1, EA = 1e12 EI/L^2 so that the inextensible elastica
+is the exact answer and the atlas shows model error, not axial stretch):
+
+* ``force``: dead tip force of magnitude PL^2/EI in (0, 10] (``n_mag`` values) at angle alpha
+  from the beam axis in [0, 180] deg (``n_ang`` values, default 41 so that 90 is on the grid):
+  0 pure tension, 90 transverse, 180 pure compression (Howell's load ratio n = -cot alpha);
+* ``follower``: follower tip force of the same magnitudes at angle alpha to the tip tangent;
+* ``moment``: end moment ML/EI in (0, 2 pi] (one row: the roll-up to a full circle).
+
+Batching: one load ramp per direction, whose ``n_mag`` steps are the atlas's magnitudes, so a
+40 x 40 atlas is 40 continuation runs per model (the path to each magnitude is reused), not
+1600 separate solves.  The error at a state is the report's summary error: the largest of
+|d ux| / L, |d uy| / L and |d rot| (rad).  ``locus`` is the distance from the model's tip to
+the elastica's tip path of the same direction, divided by the tip deflection: what Howell's
+0.5 % claim is about (the tip locus, not the force-deflection relation).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+import cases
+from cases.schema import Scene
+from reduced_models import prb_tables as T
+from reduced_models.base import Solution
+from reports import api
+
+MODELS = (
+    "linear-1",
+    "linear-8",
+    "bcm",
+    "cbcm-2",
+    "cbcm-8",
+    "prb-short",
+    "prb-1r",
+    "prb-2r",
+    "prb-3r",
+    "prb-2rpr",
+    "prb-fsm-4",
+    "prb-fsm-16",
+)
+FAMILIES = ("force", "follower", "moment")
+CONTOURS = (1e-3, 1e-2, 5e-2)
+MAG_MAX = {"force": 10.0, "follower": 10.0, "moment": 2.0 * math.pi}
+EA_OVER_EI = 1e12
+FINE = 8
+
+
+@dataclass
+class Atlas:
+    """Errors of one family on a (direction, magnitude) grid.
+
+    Attributes
+    ----------
+    family : ``force`` | ``follower`` | ``moment``.
+    mags : (m,) load magnitudes (PL^2/EI, or ML/EI).
+    angles : (a,) directions in deg (one 0 for ``moment``).
+    ref : (a, m, 3) elastica tip ux, uy, rot (NaN where it failed).
+    error, pos, locus : model -> (a, m) summary error, tip position error / L, locus error /
+        deflection (NaN where the model declined or failed).
+    status : model -> (a,) statuses of the direction's run; message : model -> first reason.
+    seconds : model -> CPU seconds of its whole atlas; single_s : model -> CPU seconds of one
+        ordinary 20-step solve of a single state (per-state cost ratio = single_s /
+        (seconds / states)).
+    """
+
+    family: str
+    mags: np.ndarray
+    angles: np.ndarray
+    ref: np.ndarray
+    error: dict[str, np.ndarray] = field(default_factory=dict)
+    pos: dict[str, np.ndarray] = field(default_factory=dict)
+    locus: dict[str, np.ndarray] = field(default_factory=dict)
+    status: dict[str, list[str]] = field(default_factory=dict)
+    message: dict[str, str] = field(default_factory=dict)
+    seconds: dict[str, float] = field(default_factory=dict)
+    single_s: dict[str, float] = field(default_factory=dict)
+
+
+def scene_for(family: str, magnitude: float, angle_deg: float, steps: int) -> Scene:
+    """The atlas's cantilever with its load at factor 1 and ``steps`` equal load steps."""
+    base = cases.load("cantilever-tip-load")
+    mem = dataclasses.replace(base.members[0], A=EA_OVER_EI * base.members[0].I)
+    a = math.radians(angle_deg)
+    (load,) = base.loads
+    if family == "moment":
+        load = dataclasses.replace(load, fx=0.0, fy=0.0, moment=magnitude)
+    else:
+        fx, fy = magnitude * math.cos(a), -magnitude * math.sin(a)
+        load = dataclasses.replace(load, fx=fx + 0.0, fy=fy + 0.0, follower=family == "follower")
+    name = f"atlas-{family}-{angle_deg:g}deg"
+    return dataclasses.replace(
+        base,
+        name=name,
+        members=(mem,),
+        loads=(load,),
+        references=(),
+        analysis=dataclasses.replace(base.analysis, steps=steps),
+    )
+
+
+def grid(family: str, n_mag: int = 40, n_ang: int = 41) -> tuple[np.ndarray, np.ndarray]:
+    """(magnitudes (n_mag,), angles in deg (n_ang,)) of a family's atlas."""
+    mags = MAG_MAX[family] * np.arange(1, n_mag + 1) / n_mag
+    angles = np.zeros(1) if family == "moment" else np.linspace(0.0, 180.0, n_ang)
+    return mags, angles
+
+
+def _tips(sol: Solution, n_mag: int) -> np.ndarray:
+    """(n_mag, 3) tip ux, uy, rot at steps 1..n_mag (NaN beyond a failure)."""
+    out = np.full((n_mag, 3), np.nan)
+    for s in sol.steps[1 : n_mag + 1]:
+        j = int(round(s.factor * n_mag)) - 1
+        if 0 <= j < n_mag:
+            out[j] = [s.outputs["tip.ux"], s.outputs["tip.uy"], s.outputs["tip.rot"]]
+    return out
+
+
+def _locus_distance(pts: np.ndarray, path: np.ndarray) -> np.ndarray:
+    """Distance of points (m, 2) to the polyline ``path`` (k, 2), shape (m,)."""
+    a, b = path[:-1][None], path[1:][None]  # (1, k-1, 2)
+    p = pts[:, None]  # (m, 1, 2)
+    ab = b - a
+    t = np.clip(np.sum((p - a) * ab, -1) / np.maximum(np.sum(ab * ab, -1), 1e-300), 0, 1)
+    d = np.linalg.norm(p - (a + t[..., None] * ab), axis=-1)
+    return np.min(np.where(np.isfinite(d), d, np.inf), axis=1)
+
+
+def _model_block(
+    family: str, name: str, n_mag: int, n_ang: int, dense: np.ndarray
+) -> dict[str, object]:
+    """One model's atlas arrays against the dense reference (a worker's unit of work)."""
+    mags, angles = grid(family, n_mag, n_ang)
+    ref = dense[:, FINE - 1 :: FINE]
+    scenes = [scene_for(family, mags[-1], a, n_mag) for a in angles]
+
+    def solve(scene: object) -> object:  # the solve alone (no shapes): what is timed
+        return api.run_model(api.make_model(name, scene), scene, post=False)
+
+    t0 = time.process_time()
+    sols = [solve(s) for s in scenes]
+    seconds = time.process_time() - t0
+    # one ordinary 20-step solve of a single state, for the per-state cost ratio
+    t0 = time.process_time()
+    solve(scene_for(family, mags[-1], angles[len(angles) // 2], 20))
+    single = time.process_time() - t0
+    tips = np.stack([_tips(sol, n_mag) for sol in sols])
+    d = tips - ref
+    paths = np.concatenate([np.zeros((len(angles), 1, 2)), dense[:, :, :2]], axis=1)
+    defl = np.linalg.norm(ref[:, :, :2], axis=-1)
+    locus = np.stack([_locus_distance(tips[i, :, :2], paths[i]) for i in range(len(angles))])
+    return {
+        "pos": np.hypot(d[..., 0], d[..., 1]),
+        "error": np.max(np.abs(d), axis=-1),
+        "locus": locus / np.where(defl > 0, defl, np.nan),
+        "status": [s.status for s in sols],
+        "message": next((s.message for s in sols if s.status != "converged"), ""),
+        "seconds": seconds,
+        "single_s": single,
+    }
+
+
+def compute(
+    family: str = "force",
+    models: Sequence[str] = MODELS,
+    n_mag: int = 40,
+    n_ang: int = 41,
+    workers: int = 1,
+    progress: Callable[[str], None] | None = None,
+) -> Atlas:
+    """The atlas of ``models`` for one family (see module docstring); ``workers`` > 1 spreads
+    the models over that many processes."""
+    mags, angles = grid(family, n_mag, n_ang)
+    # the elastica on a grid FINE times denser: its tip path is the locus the models are
+    # measured against (chord error of the polyline ~ 1/FINE^2)
+    fine = [scene_for(family, mags[-1], a, FINE * n_mag) for a in angles]
+    dense = np.stack([_tips(api.solve(s, "elastica"), FINE * n_mag) for s in fine])
+    atlas = Atlas(family, mags, angles, dense[:, FINE - 1 :: FINE])
+    args = [(family, name, n_mag, n_ang, dense) for name in models]
+    if workers > 1 and len(models) > 1:
+        import concurrent.futures as cf
+
+        with cf.ProcessPoolExecutor(min(workers, len(models))) as pool:
+            blocks = list(pool.map(_model_block, *zip(*args)))
+    else:
+        blocks = [_model_block(*a) for a in args]
+    for name, b in zip(models, blocks):
+        for key in ("error", "pos", "locus", "status", "message", "seconds", "single_s"):
+            getattr(atlas, key)[name] = b[key]
+        if progress:
+            progress(f"{family} atlas: {name} {b['seconds']:.2f} s CPU")
+    return atlas
+
+
+# -- published validity claims --------------------------------------------------------------
+@dataclass(frozen=True)
+class Claim:
+    """A model card's validity claim: where (``region`` of the reference state) and how good
+    (``accuracy`` on ``metric``: ``locus``, ``pos`` or ``error``)."""
+
+    model: str
+    family: str
+    label: str
+    source: str
+    accuracy: float
+    metric: str
+    region: Callable[[Atlas], np.ndarray]
+    reading: str = ""
+
+
+def _howell_n0(at: Atlas) -> np.ndarray:
+    """Howell's tabulated case n = 0 (transverse load) only."""
+    return _howell_region(at) & (np.abs(at.angles - 90.0) < 1e-9)[:, None]
+
+
+def _howell_region(at: Atlas) -> np.ndarray:
+    """Howell's range: -5 < n <= 10 and the PRB angle Theta of the elastica's tip (seen from
+    the characteristic pivot at (1 - gamma(n)) L) at most 64.3 deg."""
+    alpha = np.radians(at.angles)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        n = -np.cos(alpha) / np.sin(alpha)
+    lo, hi = T.HOWELL_N_RANGE
+    inside_n = (n > lo) & (n <= hi) & np.isfinite(n)
+    gamma = np.array([T.howell_gamma(float(x)) if ok else np.nan for x, ok in zip(n, inside_n)])
+    x_rel = 1.0 + at.ref[..., 0] - (1.0 - gamma[:, None])
+    theta = np.degrees(np.arctan2(np.abs(at.ref[..., 1]), x_rel))
+    return inside_n[:, None] & (theta <= T.HOWELL_N0["Theta_max_deg"])
+
+
+def _bcm_region(at: Atlas) -> np.ndarray:
+    p = at.mags[None] * np.cos(np.radians(at.angles))[:, None]  # axial PL^2/EI, tension +
+    return (np.abs(at.ref[..., 1]) <= 0.1) & (p > -(math.pi**2) / 4)
+
+
+CLAIMS = (
+    Claim(
+        "prb-1r",
+        "force",
+        "Howell PRB-1R, n = 0: Theta <= 64.3 deg",
+        "Howell, Compliant Mechanisms (2001) Table 5.1; Howell & Midha 1995",
+        5e-3,
+        "locus",
+        _howell_n0,
+        "tip locus within 0.5 % of the deflection; Theta = angle of the elastica's tip seen "
+        "from the characteristic pivot (the tabulated case)",
+    ),
+    Claim(
+        "prb-1r",
+        "force",
+        "Howell PRB-1R, -5 < n <= 10: Theta <= 64.3 deg",
+        "Howell, Compliant Mechanisms (2001) Table 5.1; Howell & Midha 1995",
+        5e-3,
+        "locus",
+        _howell_region,
+        "tip locus within 0.5 % of the deflection; Theta = angle of the elastica's tip seen "
+        "from the characteristic pivot; the Theta_max of n = 0 is used for every n",
+    ),
+    Claim(
+        "prb-3r",
+        "force",
+        "Su PRB-3R: tip slope <= 90 deg",
+        "Su 2009, doi 10.1115/1.3046148",
+        1.2e-2,
+        "pos",
+        lambda at: np.abs(at.ref[..., 2]) <= math.pi / 2,
+        "the card gives a 1.2 % tip-deflection error and no range; FlexBench reads it as tip "
+        "position error <= 1.2 % of L for tip slopes up to 90 deg",
+    ),
+    Claim(
+        "bcm",
+        "force",
+        "Awtar BCM: |y| <= 0.1 L, p above -pi^2/4",
+        "Awtar, Slocum & Sevincer 2007, doi 10.1115/1.2717231",
+        1e-2,
+        "pos",
+        _bcm_region,
+        "intermediate-deflection range; 'accurate' read as tip position error <= 1 % of L",
+    ),
+    Claim(
+        "bcm",
+        "force",
+        "seed: single BCM within 10 % slope change",
+        "DAS-2D seed 000_265bc60728766176.txt ('BCM' slide)",
+        1e-2,
+        "pos",
+        lambda at: np.abs(np.tan(at.ref[..., 2])) <= 0.1,
+        "tip slope change |tan(rot)| <= 0.1; 'accurately' read as tip position error <= 1 % of L",
+    ),
+)
+
+
+def check_claim(claim: Claim, at: Atlas) -> dict[str, object]:
+    """Whether ``claim`` holds on ``at``: the worst metric inside its region and where."""
+    region = claim.region(at) & np.all(np.isfinite(at.ref), axis=-1)
+    metric = getattr(at, claim.metric)[claim.model]
+    inside = np.where(region, metric, np.nan)
+    fails = region & ~(metric <= claim.accuracy)  # NaN (model failed) counts as a failure
+    out: dict[str, object] = {
+        "model": claim.model,
+        "label": claim.label,
+        "source": claim.source,
+        "reading": claim.reading,
+        "accuracy": claim.accuracy,
+        "metric": claim.metric,
+        "points": int(region.sum()),
+        "failing": int(fails.sum()),
+        "holds": bool(region.any() and not fails.any()),
+        "verdict": "no points" if not region.any() else "holds" if not fails.any() else "fails",
+        "worst": float(np.nanmax(inside)) if np.any(np.isfinite(inside)) else None,
+    }
+    if fails.any():
+        worst = np.where(fails, np.nan_to_num(metric, nan=np.inf), -np.inf)
+        i, j = np.unravel_index(np.argmax(worst), metric.shape)
+        out["worst_at"] = {"angle_deg": float(at.angles[i]), "magnitude": float(at.mags[j])}
+    return out

@@ -1,0 +1,339 @@
+"""Speed benchmark record: what each model costs, as ratios measured in one run (issue 12).
+
+``python -m reports.bench [--rounds 7] [--quick] [--suite] [--out FILE.md]`` prints (and
+writes) a Markdown table.  Every figure is the median CPU time (``time.process_time``, BLAS
+pinned to one thread) of the *solve* of one (case, model) pair over ``--rounds`` rounds after
+one warm-up, the post-processing (shapes, stress) excluded, and is shown beside a ratio
+against its peer measured in the same run: single-beam models against the exact
+``elastica``; ``fem-N`` against ``fem-64``; the replay against the static ``fem-N`` of the
+same mesh.  Scaling exponents are least-squares slopes of log(time) against log(N) over the
+larger N of each family.  Targets (issue 12) are printed beside each figure with met/missed.
+
+``--suite`` also runs the default matrix (no report) and gives each model family's share of
+its CPU time.  OpenSeesPy (``reports.bench_fem``) is not a dependency; when it imports, the
+``fem-16`` / ``fem-64`` comparison against its corotational ``elasticBeamColumn`` is added.
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import math
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+import cases
+from cases.schema import Scene
+from reports import api, timing
+
+SINGLE_BEAM = (
+    "cantilever-tip-load",
+    "cantilever-inclined-compression",
+    "cantilever-inclined-tension",
+    "fixed-guided-beam",
+    "pure-moment-rollup",
+)
+SMALL_MODELS = ("elastica", "prb-1r", "prb-3r", "prb-2rpr", "bcm", "cbcm-16")
+# (model, target CPU ms on a 20-step path); None: no absolute target
+TARGETS_MS = {"prb-1r": 0.3, "prb-3r": 0.5, "bcm": 0.5, "cbcm-16": 2.0}
+SCALING = {
+    "fem-N": (64, 256, 1024, 4096),
+    "cbcm-N": (4, 16, 64, 256),
+    "prb-fsm-N": (4, 16, 64, 256),
+    "linear-N": (4, 16, 64, 256),
+}
+
+
+def cpu_median(call: Callable[[], object], rounds: int) -> tuple[float, float, float]:
+    """(min, median, max) CPU seconds of ``call`` over ``rounds`` calls after one warm-up."""
+    call()
+    ts = []
+    gc.disable()
+    try:
+        for _ in range(rounds):
+            c0 = time.process_time()
+            call()
+            ts.append(time.process_time() - c0)
+    finally:
+        gc.enable()
+    return min(ts), statistics.median(ts), max(ts)
+
+
+def solve_cost(scene: Scene, name: str, rounds: int) -> tuple[float, float, float] | None:
+    """CPU (min, median, max) seconds of one model's solve on a scene; None if it declines
+    or fails."""
+    model = api.make_model(name, scene)
+    sol = api.run_model(model, scene, post=False)
+    if sol.status != "converged":
+        return None
+    # long solves: fewer rounds (the spread says how noisy)
+    n = rounds if sol_cost_guess(model, scene) < 0.2 else max(3, rounds // 3)
+    return cpu_median(lambda: api.run_model(model, scene, post=False), n)
+
+
+def sol_cost_guess(model: object, scene: Scene) -> float:
+    """CPU seconds of one solve (one call)."""
+    c0 = time.process_time()
+    api.run_model(model, scene, post=False)
+    return time.process_time() - c0
+
+
+def post_cost(scene: Scene, name: str, rounds: int) -> float | None:
+    """Median CPU seconds of a model's post-processing of its own solution."""
+    model = api.make_model(name, scene)
+    sol = api.run_model(model, scene, post=False)
+    if not sol.steps:
+        return None
+    return cpu_median(lambda: api.finish(model, scene, sol), rounds)[1]
+
+
+def fit_exponent(ns: Sequence[int], ts: Sequence[float]) -> float:
+    """Least-squares slope of log t against log N."""
+    return float(np.polyfit(np.log(ns), np.log(ts), 1)[0])
+
+
+def _ms(t: float | None) -> str:
+    return "n/a" if t is None else f"{t * 1e3:.3g}"
+
+
+def _verdict(value: float, limit: float) -> str:
+    return "met" if value <= limit else f"missed by {value / limit:.2g}x"
+
+
+def single_beam_table(rounds: int, cases_: Sequence[str]) -> tuple[list[str], list[str]]:
+    """Rows: one per case, CPU ms and ratio to the elastica per model; and target verdicts."""
+    lines = [
+        "| case | " + " | ".join(f"{m} ms (x elastica)" for m in SMALL_MODELS) + " |",
+        "|---" * (len(SMALL_MODELS) + 1) + "|",
+    ]
+    worst: dict[str, float] = {}
+    slower_than_elastica: list[str] = []
+    for case in cases_:
+        scene = cases.load(case)
+        res = {m: solve_cost(scene, m, rounds) for m in SMALL_MODELS}
+        t_el = res["elastica"][1] if res["elastica"] else None
+        cells = []
+        for m in SMALL_MODELS:
+            r = res[m]
+            if r is None:
+                cells.append("n/a")
+                continue
+            ratio = f" ({r[1] / t_el:.2f})" if t_el else ""
+            cells.append(f"{_ms(r[1])}{ratio}")
+            worst[m] = max(worst.get(m, 0.0), r[1])
+            if m == "prb-1r" and t_el and r[1] >= t_el:
+                slower_than_elastica.append(case)
+        lines.append(f"| {case} | " + " | ".join(cells) + " |")
+    verdicts = []
+    for m, limit in TARGETS_MS.items():
+        if m in worst:
+            w = worst[m] * 1e3
+            verdicts.append(f"- {m} <= {limit} ms: worst {w:.3g} ms, {_verdict(w, limit)}")
+    verdicts.append(
+        "- prb-1r faster than elastica on every single-beam case: "
+        + ("met" if not slower_than_elastica else f"missed on {', '.join(slower_than_elastica)}")
+    )
+    return lines, verdicts
+
+
+def post_table(rounds: int) -> list[str]:
+    """Post-processing (shapes, stress) CPU next to the solve, cantilever-tip-load."""
+    scene = cases.load("cantilever-tip-load")
+    lines = ["| model | solve ms | post-processing ms |", "|---|---|---|"]
+    for m in ("elastica", "prb-1r", "prb-3r", "bcm", "fem-16"):
+        r = solve_cost(scene, m, rounds)
+        lines.append(f"| {m} | {_ms(r[1] if r else None)} | {_ms(post_cost(scene, m, rounds))} |")
+    return lines
+
+
+def scaling_table(rounds: int, quick: bool) -> tuple[list[str], list[str]]:
+    """CPU ms per N for each family on cantilever-tip-load and the fitted exponents."""
+    scene = cases.load("cantilever-tip-load")
+    lines = ["| family | N: CPU ms | exponent (larger N) |", "|---|---|---|"]
+    verdicts = []
+    for fam, ns in SCALING.items():
+        ns = ns[:3] if quick else ns
+        ts = []
+        for n in ns:
+            r = solve_cost(scene, fam.replace("-N", f"-{n}"), max(3, rounds // 2))
+            ts.append(r[1] if r else math.nan)
+        ok = [i for i, t in enumerate(ts) if math.isfinite(t)]
+        k = fit_exponent([ns[i] for i in ok[-3:]], [ts[i] for i in ok[-3:]]) if len(ok) > 1 else 0
+        cells = ", ".join(f"{n}: {_ms(t)}" for n, t in zip(ns, ts))
+        lines.append(f"| {fam} | {cells} | {k:.2f} |")
+        if fam == "fem-N":
+            per = [t / n for n, t in zip(ns, ts)]
+            verdicts.append(
+                f"- fem-N linear in N (exponent <= 1.15): {k:.2f}, {_verdict(k, 1.15)}; "
+                f"time per element {ns[-1]} vs {ns[0]}: {per[-1] / per[0]:.2f}x"
+            )
+    return lines, verdicts
+
+
+def small_fem_table(rounds: int) -> tuple[list[str], list[str]]:
+    """fem-16 against fem-64 (a smaller mesh must not cost more)."""
+    scene = cases.load("cantilever-tip-load")
+    t = {n: solve_cost(scene, f"fem-{n}", rounds)[1] for n in (16, 32, 64)}
+    lines = [
+        "| fem-16 ms | fem-32 ms | fem-64 ms | fem-16 / fem-64 |",
+        "|---|---|---|---|",
+        f"| {_ms(t[16])} | {_ms(t[32])} | {_ms(t[64])} | {t[16] / t[64]:.2f} |",
+    ]
+    return lines, [f"- fem-16 no slower than fem-64: {t[16] / t[64]:.2f}x"]
+
+
+def replay_table(rounds: int) -> list[str]:
+    """The replay against the static FE of the same mesh on the catalog cantilever."""
+    scene = cases.load("cantilever-tip-load")
+    r = solve_cost(scene, "replay", max(3, rounds // 3))
+    n = api.make_model("replay", scene).n_elements
+    f = solve_cost(scene, f"fem-{n}", rounds) if n else None
+    ratio = f"{r[1] / f[1]:.1f}" if r and f else "n/a"
+    return [
+        "| replay ms | static fem-N ms (same mesh) | replay / static |",
+        "|---|---|---|",
+        f"| {_ms(r[1] if r else None)} | {_ms(f[1] if f else None)} (N = {n}) | {ratio} |",
+    ]
+
+
+def _wall(cmd: list[str], rounds: int) -> float:
+    ts = []
+    for _ in range(rounds):
+        t0 = time.perf_counter()
+        subprocess.run(cmd, check=True, capture_output=True)
+        ts.append(time.perf_counter() - t0)
+    return statistics.median(ts)
+
+
+def cli_wall(rounds: int = 5) -> tuple[float, float]:
+    """Median wall seconds of ``python -m reports.cli solve cantilever-tip-load --model
+    prb-3r --json`` and, as its floor in the same run, of ``python -c "import numpy"``."""
+    solve = [sys.executable, "-m", "reports.cli", "solve", "cantilever-tip-load"]
+    solve += ["--model", "prb-3r", "--json"]
+    return _wall(solve, rounds), _wall([sys.executable, "-c", "import numpy"], rounds)
+
+
+def suite_shares() -> list[str]:
+    """CPU share of each model family in the default matrix (no report, one worker): of the
+    first solves (the answers) and of all timed solves (first + repeats)."""
+    from reports.runner import run_matrix
+
+    scenes = [cases.load(c) for c in cases.catalog_names()]
+    with tempfile.TemporaryDirectory() as d:
+        res = run_matrix(scenes, out_dir=d, workers=1, render=False, export=None, progress=False)
+    first: dict[str, float] = {}
+    total: dict[str, float] = {}
+    for r in res.payload["results"]:
+        t = r.get("timing") or {}
+        fam = r["model"].rstrip("0123456789").rstrip("-") or r["model"]
+        c1 = t.get("first_cpu_s", 0.0)
+        repeated = t.get("total_s", 0.0) > t.get("first_s", 0.0)  # else n_repeats = 1 = first
+        reps = t.get("cpu_median_s", 0.0) * t.get("n_repeats", 0) if repeated else 0.0
+        first[fam] = first.get(fam, 0.0) + c1
+        total[fam] = total.get(fam, 0.0) + c1 + reps
+    f_all, t_all = sum(first.values()), sum(total.values())
+    lines = [
+        "| family | first solves CPU s | share | with timing repeats CPU s | share |",
+        "|---|---|---|---|---|",
+    ]
+    for fam in sorted(total, key=lambda k: -total[k]):
+        f, t = first[fam], total[fam]
+        lines.append(
+            f"| {fam} | {f:.2f} | {100 * f / f_all:.1f} % | {t:.2f} | {100 * t / t_all:.1f} % |"
+        )
+    return lines + [f"| total | {f_all:.2f} | | {t_all:.2f} | |"]
+
+
+def opensees_lines(rounds: int) -> list[str]:
+    """fem-16 and fem-64 against OpenSeesPy when it is installed (else a note)."""
+    from reports import bench_fem
+
+    ops = bench_fem._import_opensees()
+    if isinstance(ops, Exception):  # optional: not a FlexBench dependency
+        return [f"OpenSeesPy not available ({type(ops).__name__}); see reports/bench_fem.py."]
+    lines = []
+    scene = bench_fem.bench_scene("cantilever-tip-load", 20)
+    cfg = bench_fem.OSConfig()
+    # "solve": model building excluded, no stability checks; "e2e": reports.solve with
+    # stability at every step against OpenSees' wipe + build + analyze (bench_fem)
+    for mode in ("solve", "e2e"):
+        for n in (16, 64):
+            fb = bench_fem.flexbench_runner(scene, n, mode)
+            os_ = bench_fem.opensees_runner(ops, scene, n, cfg, mode)
+            t_fb = statistics.median(fb().cpu_s for _ in range(rounds))
+            r = t_fb / statistics.median(os_().cpu_s for _ in range(rounds))
+            lines.append(
+                f"- fem-{n} / OpenSeesPy ({mode}): {r:.2f}x, fem-{n} {t_fb * 1e3:.3g} ms "
+                f"({_verdict(r, 2.0)} for <= 2x)"
+            )
+    return lines
+
+
+def machine() -> str:
+    """One line naming the machine and library versions."""
+    import scipy
+
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else math.nan
+    return (
+        f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, load "
+        f"{load:.1f}; Python {platform.python_version()}, numpy {np.__version__}, "
+        f"scipy {scipy.__version__}"
+    )
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the benchmark and print the Markdown record."""
+    p = argparse.ArgumentParser(prog="python -m reports.bench", description=__doc__.split("\n")[0])
+    p.add_argument("--rounds", type=int, default=7, help="timed rounds per pair (median)")
+    p.add_argument("--quick", action="store_true", help="fewer cases, no N = 4096 / 256")
+    p.add_argument("--suite", action="store_true", help="also time the default matrix")
+    p.add_argument("--out", help="also write the Markdown record to this file")
+    args = p.parse_args(argv)
+    timing.pin_blas()
+    api.make_model("fem-16")  # imports first: no import inside a timed call
+    timing.pin_blas()
+    rounds = max(3, args.rounds)
+    out = [f"# FlexBench speed record ({time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())})", ""]
+    out += [f"Machine: {machine()}. CPU time, median of {rounds} rounds, BLAS on one thread.", ""]
+    verdicts: list[str] = []
+    out += ["## Single-beam models, 20-step load path (CPU ms; ratio to the elastica)", ""]
+    rows, v = single_beam_table(rounds, SINGLE_BEAM[:2] if args.quick else SINGLE_BEAM)
+    out += rows + [""]
+    verdicts += v
+    out += ["## Solve and post-processing (cantilever-tip-load)", ""] + post_table(rounds) + [""]
+    out += ["## FE at small N (cantilever-tip-load)", ""]
+    rows, v = small_fem_table(rounds)
+    out += rows + [""]
+    verdicts += v
+    out += ["## Scaling with N (cantilever-tip-load)", ""]
+    rows, v = scaling_table(rounds, args.quick)
+    out += rows + [""]
+    verdicts += v
+    out += ["## Replay (cantilever-tip-load)", ""] + replay_table(rounds) + [""]
+    wall, floor = cli_wall()
+    verdicts.append(
+        f"- `solve --model prb-3r` <= 0.3 s wall: {wall:.2f} s, {_verdict(wall, 0.3)} "
+        f"(`python -c 'import numpy'` alone: {floor:.2f} s in the same run)"
+    )
+    if args.suite:
+        out += ["## Default matrix: CPU share per family", ""] + suite_shares() + [""]
+    out += ["## OpenSeesPy (optional)", ""] + opensees_lines(rounds) + [""]
+    out += ["## Targets", ""] + verdicts + [""]
+    text = "\n".join(out)
+    print(text)
+    if args.out:
+        with open(args.out, "w") as fh:
+            fh.write(text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

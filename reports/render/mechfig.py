@@ -1,0 +1,284 @@
+"""Figures of whole scenes and driven mechanisms.
+
+``shapes_figure``: one small panel per model with its deformed scene at several steps along
+the path (light to dark) over the reference's (grey) and the undeformed drawing (dashed);
+rigid links drawn as straight links with joint circles, PRB models as their rigid segments
+with a dot at every pivot (whatever ``Step.shapes`` holds is drawn, nothing is re-derived);
+axes zoomed to the reference, points outside marked hollow on the edge.
+
+``driver_figure``: energy, force along the driver and mechanical advantage against the
+driver coordinate (or load factor), every model over the reference, equilibria marked
+stable (filled) / unstable (red cross) from ``Step.stable``.
+
+Both write the drawn end points / points beside the PNG as JSON (read from the artists) so
+tests can hold them against the records.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import textwrap
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from matplotlib.ticker import MaxNLocator
+
+from reports.render.figures import _save, _series, plt
+from reports.render.paths import clip_mark, zoom_range
+from reports.tables import unit_names
+
+SAME_AS_REF = 1e-3  # a model this close to the reference looks identical: named, not drawn
+PIVOT_MAX_POINTS = 16  # a member drawn with this few points is a chain of rigid segments
+
+
+def _values(rec: Mapping, key: str) -> np.ndarray:
+    """``factor``, ``energy`` or an output along a record's steps (NaN where missing)."""
+    if key == "energy":
+        return np.array([np.nan if s.get("energy") is None else s["energy"] for s in rec["steps"]])
+    return _series(rec, key)
+
+
+def _pts(raw: Sequence) -> np.ndarray:
+    p = np.asarray([[np.nan if c is None else c for c in q] for q in raw], dtype=float)
+    return p.reshape(-1, 2)
+
+
+def _steps_of(rec: Mapping) -> dict[int, dict[str, np.ndarray]]:
+    """Step index -> member -> points (``shape_steps``, else the last step's ``shapes``)."""
+    st = rec.get("shape_steps") or {}
+    if st:
+        return {int(i): {m: _pts(p) for m, p in sh.items()} for i, sh in st.items()}
+    if rec.get("shapes") and rec.get("steps"):
+        return {len(rec["steps"]) - 1: {m: _pts(p) for m, p in rec["shapes"].items()}}
+    return {}
+
+
+def _draw_scene(
+    ax: Any,
+    shapes: Mapping,
+    kinds: Mapping,
+    colour: Any,
+    alpha: float,
+    pivots: bool,
+    lw: float = 1.3,
+) -> dict[str, list]:
+    """One deformed scene; returns member -> drawn last point."""
+    ends = {}
+    for member, p in shapes.items():
+        if len(p) == 0:
+            continue
+        if kinds.get(member) == "rigid":
+            seg = p[[0, -1]]
+            line = ax.plot(
+                seg[:, 0],
+                seg[:, 1],
+                "-",
+                color=colour,
+                lw=lw + 1.6,
+                alpha=alpha,
+                solid_capstyle="round",
+            )[0]
+            ax.plot(seg[:, 0], seg[:, 1], "o", mfc="w", mec=colour, ms=3.5, alpha=alpha)
+        else:
+            line = ax.plot(p[:, 0], p[:, 1], "-", color=colour, lw=lw, alpha=alpha)[0]
+            if pivots and len(p) <= PIVOT_MAX_POINTS:
+                ax.plot(p[1:-1, 0], p[1:-1, 1], "o", color=colour, ms=3.2, alpha=alpha)
+                ends["_pivots"] = ends.get("_pivots", 0) + max(len(p) - 2, 0)
+        ends[member] = [float(v) for v in line.get_xydata()[-1]]
+    return ends
+
+
+def _frame(meta: Mapping, ref_steps: Mapping) -> tuple[tuple, tuple]:
+    pts = [np.asarray(v, dtype=float) for v in (meta.get("undeformed") or {}).values()]
+    pts += [p for sh in ref_steps.values() for p in sh.values() if len(p)]
+    allp = np.vstack(pts) if pts else np.zeros((1, 2))
+    scale = float(meta.get("length_scale") or 1.0)
+    return zoom_range(allp[:, 0], scale), zoom_range(allp[:, 1], scale)
+
+
+def shapes_figure(
+    meta: Mapping, records: Sequence[Mapping], ref: str | None, cmap: Mapping, path: Path
+) -> Path | None:
+    """Per-model panels of the deformed scene along the path (see module docstring)."""
+    recs = [r for r in records if _steps_of(r)]
+    close = sorted(
+        r["model"]
+        for r in recs
+        if r["model"] != ref
+        and r["status"] == "converged"
+        and (r.get("summary_error") is not None and r["summary_error"] < SAME_AS_REF)
+    )
+    recs = [r for r in recs if r["model"] not in close]
+    if not recs:
+        return None
+    recs.sort(key=lambda r: (r["model"] != ref, r["model"]))
+    ref_rec = next((r for r in recs if r["model"] == ref), None)
+    ref_steps = _steps_of(ref_rec) if ref_rec else {}
+    kinds = meta.get("member_kinds") or {}
+    xr, yr = _frame(meta, ref_steps or _steps_of(recs[0]))
+    ncol = min(5, len(recs))
+    nrow = math.ceil(len(recs) / ncol)
+    aspect = (yr[1] - yr[0]) / max(xr[1] - xr[0], 1e-300)
+    h = min(max(2.6 * aspect, 1.4), 3.2)
+    width = {1: 6.0, 2: 3.6, 3: 2.9}.get(ncol, 2.4)  # inches per panel: few panels, larger
+    h *= width / 2.7
+    fig, axes = plt.subplots(nrow, ncol, figsize=(width * ncol, h * nrow + 0.6), squeeze=False)
+    drawn: dict[str, dict] = {}
+    for ax, r in zip(axes.flat, recs):
+        for p in (meta.get("undeformed") or {}).values():
+            p = np.asarray(p, dtype=float)
+            ax.plot(p[:, 0], p[:, 1], "--", color="0.65", lw=0.8)
+        if ref_steps and r is not ref_rec:
+            _draw_scene(ax, ref_steps[max(ref_steps)], kinds, "0.55", 0.5, False, lw=2.4)
+        steps = _steps_of(r)
+        colour = "k" if r is ref_rec else cmap.get(r["model"], "C0")
+        pivots = r["model"].startswith("prb")
+        drawn[r["model"]] = {"pivots": 0}
+        for j, i in enumerate(sorted(steps)):
+            alpha = 0.25 + 0.75 * (j + 1) / len(steps)
+            shapes = {m: p for m, p in steps[i].items()}
+            clipped = {
+                m: np.column_stack([np.clip(p[:, 0], *xr), np.clip(p[:, 1], *yr)])
+                for m, p in shapes.items()
+                if len(p)
+            }
+            ends = _draw_scene(ax, clipped, kinds, colour, alpha, pivots)
+            drawn[r["model"]]["pivots"] += ends.pop("_pivots", 0)
+            for p in shapes.values():
+                if len(p):
+                    clip_mark(ax, p[:, 0], p[:, 1], xr, yr, colour)
+            drawn[r["model"]][str(i)] = ends
+        for s in meta.get("supports") or []:
+            ax.plot(*s["xy"], "^" if s["type"] != "clamp" else "s", color="0.3", ms=5)
+        label = f"{r['model']} (reference)" if r is ref_rec else r["model"]
+        ax.set_title(
+            label + ("" if r["status"] == "converged" else f" [{r['status']}]"), fontsize=7
+        )
+        ax.set_xlim(*xr)
+        ax.set_ylim(*yr)
+        ax.set_aspect("equal", adjustable="box")
+        ax.tick_params(labelsize=6)
+    for k, ax in enumerate(axes.flat[: len(recs)]):  # tick labels on the outer panels only
+        row, col = divmod(k, ncol)
+        if row < nrow - 1 and k + ncol < len(recs):
+            ax.set_xticks([])
+        else:
+            ax.xaxis.set_major_locator(MaxNLocator(4))
+        if col:
+            ax.set_yticks([])
+        else:
+            ax.yaxis.set_major_locator(MaxNLocator(4))
+    for ax in axes.flat[len(recs) :]:
+        ax.set_visible(False)
+    unit = unit_names(meta.get("units", ""))["length"] or "–"
+    skipped = f"not drawn (within {SAME_AS_REF:g} of the reference): {', '.join(close)}"
+    skipped = "\n" + textwrap.fill(skipped, int(16 * width * ncol))
+    title = (
+        f"deformed scene along the path [{unit}]: light = early steps, dark = last; "
+        "grey = reference at its last step; dots = PRB pivots; hollow = off-scale"
+    )
+    chars = int(16 * width * ncol)  # ~16 characters per inch at 7 pt
+    fig.suptitle(textwrap.fill(title, chars) + (skipped if close else ""), fontsize=7)
+    fig.subplots_adjust(
+        left=0.05,
+        right=0.98,
+        bottom=0.06,
+        top=1 - 0.75 / (h * nrow + 0.6),
+        wspace=0.25,
+        hspace=0.35,
+    )
+    path.with_suffix(".json").write_text(json.dumps({"ends": drawn}, indent=1))
+    return _save(fig, path)
+
+
+def _driver_panels(meta: Mapping, recs: Sequence[Mapping]) -> list[tuple[str, str]]:
+    """(value key, y label) of the panels worth drawing for these records."""
+    u = unit_names(meta.get("units", ""))
+    keys = {k for r in recs for s in r["steps"][:1] for k in s["outputs"]}
+    panels = []
+    if any(np.any(np.isfinite(_values(r, "energy"))) for r in recs if r.get("steps")):
+        vals = [e for r in recs for e in _values(r, "energy") if np.isfinite(e)]
+        if vals and max(abs(v) for v in vals) > 0:
+            panels.append(("energy", f"strain energy [{u['energy'] or '–'}]"))
+    for k in sorted(keys):
+        if k.startswith("driver.") and k != "driver.coordinate":
+            what = k.split(".", 1)[1]
+            unit = u["force"] if what == "force" else ""
+            panels.append((k, f"{k} [{unit or '–'}]"))
+    panels += [(k, f"{k} [–]") for k in sorted(keys) if k == "ma" or k.endswith(".ma")]
+    return panels
+
+
+def driver_figure(
+    meta: Mapping, records: Sequence[Mapping], ref: str | None, cmap: Mapping, path: Path
+) -> Path | None:
+    """Energy / driver force / MA against the driver coordinate with stability marked.
+
+    Drawn for energy and distance analyses, and for any case where some model reports an
+    unstable equilibrium (snap-through, bistable)."""
+    recs = [r for r in records if r.get("steps")]
+    kind = (meta.get("analysis") or {}).get("kind")
+    unstable = any(s.get("stable") is False for r in recs for s in r["steps"])
+    if not recs or (kind not in ("energy", "distance") and not unstable):
+        return None
+    panels = _driver_panels(meta, recs)
+    if not panels:
+        return None
+    recs.sort(key=lambda r: r["model"] == ref)
+    ref_rec = next((r for r in recs if r["model"] == ref), None)
+    fig, axes = plt.subplots(1, len(panels), figsize=(10.0, 3.2), squeeze=False)
+    drawn: dict[str, dict] = {}
+    driver = (meta.get("analysis") or {}).get("driver") or {}
+    u = unit_names(meta.get("units", ""))
+    if kind == "energy" and driver:
+        dunit = "rad" if driver.get("kind") == "rotation" else (u["length"] or "–")
+        xlabel = f"driver: {driver.get('kind', '')} {driver.get('node') or driver.get('member') or ''} {driver.get('direction') or ''} [{dunit}]"  # noqa: E501
+    else:
+        xlabel = "load factor [–]"
+    for ax, (key, ylabel) in zip(axes[0], panels):
+        basis = ref_rec or recs[0]
+        yr = zoom_range(_values(basis, key), 1.0)
+        for r in recs:
+            x, y = _values(r, "factor"), _values(r, key)
+            if not np.any(np.isfinite(y)):
+                continue
+            is_ref = r is ref_rec
+            colour = "k" if is_ref else cmap.get(r["model"], "C0")
+            lab = f"{r['model']} (reference)" if is_ref else r["model"]
+            cy = np.clip(y, *yr)
+            ax.plot(
+                x,
+                cy,
+                "-",
+                color=colour,
+                lw=2.4 if is_ref else 1.0,
+                alpha=0.5 if is_ref else 0.9,
+                label=lab,
+            )
+            clip_mark(ax, x, y, (-np.inf, np.inf), yr, colour)
+            st = [s.get("stable") for s in r["steps"]]
+            good = np.array([v is True for v in st])
+            bad = np.array([v is False for v in st])
+            ax.plot(x[good], cy[good], "o", color=colour, ms=3)
+            ax.plot(x[bad], cy[bad], "x", color="r", ms=6, mew=1.5)
+            drawn.setdefault(r["model"], {})[key] = {"x": x.tolist(), "y": y.tolist(), "stable": st}
+        ax.set_ylim(*yr)
+        ax.set_xlabel(xlabel, fontsize=7)
+        ax.set_ylabel(ylabel, fontsize=7)
+        ax.tick_params(labelsize=6)
+        ax.grid(alpha=0.3)
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    handles += [
+        plt.Line2D([], [], ls="", marker="o", color="0.3", ms=3),
+        plt.Line2D([], [], ls="", marker="x", color="r", ms=6),
+    ]
+    labels += ["stable equilibrium", "unstable equilibrium"]
+    fig.legend(
+        handles, labels, loc="center left", bbox_to_anchor=(0.80, 0.5), fontsize=6.5, frameon=False
+    )
+    fig.subplots_adjust(left=0.08, right=0.78, bottom=0.17, top=0.95, wspace=0.4)
+    path.with_suffix(".json").write_text(json.dumps({"curves": drawn}))
+    return _save(fig, path)
