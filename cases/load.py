@@ -20,13 +20,16 @@ from cases.schema import (
     ANALYSIS_KINDS,
     END_KINDS,
     MEMBER_KINDS,
+    MEMBER_MODEL,
     NODE_QUANTITIES,
     REFERENCE_KINDS,
     SUPPORT_TYPES,
+    SYNTHESIS_GOALS,
     UNITS,
     Analysis,
     Driver,
     Load,
+    MechanicalAdvantage,
     Member,
     ModelSpec,
     Node,
@@ -34,6 +37,7 @@ from cases.schema import (
     Reference,
     Scene,
     Support,
+    Synthesis,
     TorsionSpring,
 )
 
@@ -48,6 +52,7 @@ EXTRA_OUTPUTS = (
     "driver.force",
     "driver.torque",
     "max_stress",
+    "ma",  # mechanical advantage ([analysis.ma])
 )
 
 
@@ -243,6 +248,7 @@ class _Builder:
         supports = self.supports(node_ids)
         springs = self.torsion_springs(node_ids, members)
         loads = self.loads(node_ids, members)
+        self._members, self._loads = members, loads
         outputs = self.outputs(node_ids)
         analysis = self.analysis(node_ids, {m.id for m in members}, outputs)
         if analysis.kind == "path" and analysis.driver is None:
@@ -299,6 +305,8 @@ class _Builder:
             "k",
             "free_length",
             "density",
+            "model",
+            "model_options",
         )
         for i, t in enumerate(self.array("members")):
             p = f"members[{i}]"
@@ -334,6 +342,7 @@ class _Builder:
                 raise self.fail(f"{p}.k", "missing: a spring member needs stiffness k > 0")
             if kind != "spring" and k is not None:
                 raise self.fail(f"{p}.k", f"only spring members take k (kind is {kind!r})")
+            model, model_options = self.member_model(t, p, kind)
             out.append(
                 Member(
                     id=self.str_(t, "id", p),
@@ -350,10 +359,31 @@ class _Builder:
                     k=k,
                     free_length=self.num(t, "free_length", p, nonneg=True),
                     density=self.num(t, "density", p, positive=True),
+                    model=model,
+                    model_options=model_options,
                 )
             )
         self.unique([m.id for m in out], "members")
         return tuple(out)
+
+    def member_model(self, t: dict, p: str, kind: str) -> tuple[str | None, dict]:
+        """Per-member model assignment (``model``, ``model_options``) of a flexible member."""
+        model = self.str_(t, "model", p)
+        opts = t.get("model_options", {})
+        if model is not None and kind != "flexible":
+            raise self.fail(f"{p}.model", f"only flexible members take a model (kind is {kind!r})")
+        if model is not None and not re.match(MEMBER_MODEL, model):
+            raise self.fail(
+                f"{p}.model",
+                f"{model!r} is not a reduced beam model (elastica, bcm, cbcm-N, linear-N, "
+                "prb-short, prb-1r, prb-2r, prb-3r, prb-2rpr, prb-fsm-N, prb-custom)",
+            )
+        if not isinstance(opts, dict):
+            raise self.fail(f"{p}.model_options", "must be a table")
+        if opts and model is None:
+            raise self.fail(f"{p}.model_options", "model_options need model")
+        _check_finite(opts, f"{p}.model_options", self.fail)
+        return model, dict(opts)
 
     def supports(self, node_ids: set[str]) -> tuple[Support, ...]:
         out, supported = [], set()
@@ -479,6 +509,9 @@ class _Builder:
                 "driver",
                 "sweep_key",
                 "sweep_values",
+                "mobility",
+                "synthesis",
+                "ma",
             ),
             ("kind",),
         )
@@ -518,7 +551,7 @@ class _Builder:
                 direction,
                 member,
             )
-        if kind in ("distance", "energy") and driver is None:
+        if kind in ("distance", "energy", "kinematics") and driver is None:
             raise self.fail(f"{p}.driver", f"missing: a {kind!r} analysis needs a driver")
         sweep_values = t.get("sweep_values", [])
         if not isinstance(sweep_values, list) or not all(
@@ -545,7 +578,66 @@ class _Builder:
             driver=driver,
             sweep_key=self.str_(t, "sweep_key", p),
             sweep_values=tuple(float(v) for v in sweep_values),
+            mobility=self.int_(t, "mobility", p, None, lo=0),
+            synthesis=self.synthesis(t, kind, driver, keys),
+            ma=self.ma(t, driver, outputs),
         )
+
+    def synthesis(self, t: dict, kind: str, driver: Driver | None, keys: set[str]):
+        """``[analysis.synthesis]`` (required by, and only allowed with, kind "synthesis")."""
+        p = "analysis.synthesis"
+        if "synthesis" not in t:
+            if kind == "synthesis":
+                raise self.fail(p, "missing: a 'synthesis' analysis needs [analysis.synthesis]")
+            return None
+        if kind != "synthesis":
+            raise self.fail(p, f"only a 'synthesis' analysis takes it (kind is {kind!r})")
+        s = self.keys(
+            t["synthesis"],
+            p,
+            ("goal", "members", "target", "output"),
+            ("goal", "members", "target"),
+        )
+        goal = self.str_(s, "goal", p, choices=SYNTHESIS_GOALS)
+        mem = s["members"]
+        if not isinstance(mem, list) or not mem or not all(isinstance(m, str) for m in mem):
+            raise self.fail(f"{p}.members", "must be a non-empty array of member ids")
+        kinds = {m.id: m.kind for m in self._members}
+        for m in mem:
+            if kinds.get(m) != "flexible":
+                raise self.fail(f"{p}.members", f"{m!r} is not a flexible member (EI to size)")
+        target = self.num(s, "target", p)
+        output = self.str_(s, "output", p)
+        if goal == "stiffness":
+            if output is None or output not in keys:
+                raise self.fail(f"{p}.output", "a stiffness synthesis needs an output key to hit")
+            if target == 0.0:
+                raise self.fail(f"{p}.target", "must be non-zero (the unloaded state is 0)")
+        else:
+            if driver is None:
+                raise self.fail("analysis.driver", "missing: a critical-load synthesis needs one")
+            if output is not None:
+                raise self.fail(f"{p}.output", "only a stiffness synthesis takes output")
+            if target <= 0.0:
+                raise self.fail(f"{p}.target", f"critical load must be > 0, got {target:g}")
+        return Synthesis(goal, tuple(mem), target, output)
+
+    def ma(self, t: dict, driver: Driver | None, outputs: tuple[Output, ...]):
+        """``[analysis.ma]``: mechanical advantage output (optional)."""
+        p = "analysis.ma"
+        if "ma" not in t:
+            return None
+        m = self.keys(t["ma"], p, ("output", "direction", "input"), ("output", "direction"))
+        out = self.str_(m, "output", p)
+        if out not in {o.name for o in outputs}:
+            raise self.fail(f"{p}.output", f"{out!r} is not an [[outputs]] name")
+        direction = self.str_(m, "direction", p, choices=("x", "y", "rot"))
+        inp = self.str_(m, "input", p, default="driver")
+        if inp == "driver" and driver is None:
+            raise self.fail(f"{p}.input", "input 'driver' needs analysis.driver")
+        if inp != "driver" and inp not in {ld.id for ld in self._loads}:
+            raise self.fail(f"{p}.input", f"{inp!r} is neither 'driver' nor a load id")
+        return MechanicalAdvantage(out, direction, inp)
 
     def references(self, outputs: tuple[Output, ...]) -> tuple[Reference, ...]:
         keys = {f"{o.name}.{q}" for o in outputs for q in NODE_QUANTITIES} | set(EXTRA_OUTPUTS)

@@ -29,7 +29,13 @@ UNITS: dict[str, str] = {
 MEMBER_KINDS = ("flexible", "rigid", "spring")
 END_KINDS = ("weld", "pin")
 SUPPORT_TYPES = ("clamp", "pin", "slider", "guided")
-ANALYSIS_KINDS = ("load", "path", "distance", "energy", "sweep")
+ANALYSIS_KINDS = ("load", "path", "distance", "energy", "sweep", "kinematics", "synthesis")
+SYNTHESIS_GOALS = ("stiffness", "critical-load")
+#: per-member model names a case may assign (``[[members]] model = ...``; issue 9)
+MEMBER_MODEL = (
+    r"^(elastica|bcm|prb-short|prb-1r|prb-2r|prb-3r|prb-2rpr|prb-custom"
+    r"|prb-fsm-[1-9][0-9]*|cbcm-[1-9][0-9]*|linear-[1-9][0-9]*)$"
+)
 REFERENCE_KINDS = ("closed-form", "published", "fe", "model")
 NODE_QUANTITIES = ("x", "y", "ux", "uy", "rot")
 
@@ -51,6 +57,9 @@ class Member:
     only used by models that replace it by a stiff beam) or ``spring`` (a linear axial spring
     with stiffness ``k`` [force/length] and free length ``free_length`` [length]).
     ``thickness`` is the in-plane thickness (used for bending stress sigma = M t / (2 I)).
+    ``model`` (flexible members only) is the reduced model this member gets under the
+    per-member model ``mixed`` (DAS-2D Ex. 3: PRB-3R short links, CBCM-2 long links), with
+    ``model_options`` (e.g. a ``prb-custom`` matrix); every other model name ignores it.
     """
 
     id: str
@@ -67,6 +76,8 @@ class Member:
     k: float | None = None
     free_length: float | None = None
     density: float | None = None
+    model: str | None = None
+    model_options: dict[str, Any] = field(default_factory=dict, hash=False, compare=False)
 
     @property
     def EI(self) -> float:
@@ -146,6 +157,45 @@ class Driver:
 
 
 @dataclass(frozen=True)
+class Synthesis:
+    """A synthesis goal (``[analysis.synthesis]``; DAS-2D "Flexural Stiffness Synthesis" and
+    "Bistable Mechanism Synthesis").
+
+    The flexural rigidities EI of ``members`` are scaled by one common factor s (found by
+    the solver) so that:
+
+    * ``goal = "stiffness"``: output ``output`` (an output key) equals ``target`` (length or
+      rad) at load factor ``factor_end`` of the load ramp;
+    * ``goal = "critical-load"``: the largest driving force (torque) between the first stable
+      position and the energy barrier of the ``energy`` sweep of ``analysis.driver`` equals
+      ``target`` in magnitude (the switching load of a bistable mechanism).
+    """
+
+    goal: str
+    members: tuple[str, ...]
+    target: float
+    output: str | None = None
+
+
+@dataclass(frozen=True)
+class MechanicalAdvantage:
+    """Mechanical advantage requested for ``energy``/``load``/``kinematics`` analyses
+    (``[analysis.ma]``), reported per step as output ``ma``.
+
+    Output coordinate s_out: ``direction`` (``x``, ``y`` or ``rot``) of the node of output
+    ``output``.  Input: ``input = "driver"`` (the driver coordinate and its force/torque) or a
+    load id (s_in = displacement of its point along the load, F_in = its magnitude times the
+    factor).  From the power balance F_in ds_in = dU + F_out ds_out along the motion (U the
+    elastic energy), ``ma = F_out / F_in = (1 - (dU/ds_in) / F_in) / (ds_out/ds_in)``; for a
+    mechanism without stored energy this is the kinematic advantage ds_in/ds_out.
+    """
+
+    output: str
+    direction: str
+    input: str = "driver"
+
+
+@dataclass(frozen=True)
 class Analysis:
     """What to compute.
 
@@ -154,7 +204,10 @@ class Analysis:
     ``stop_output`` reaches ``stop_value`` or the factor reaches ``factor_end``, at most
     ``max_steps`` steps.  ``distance``/``energy``: the ``driver`` goes from start to stop in
     ``steps``.  ``sweep``: ``load`` repeated for each value of ``sweep_values`` of the scene
-    parameter ``sweep_key``.
+    parameter ``sweep_key``.  ``kinematics``: rigid-body motion of a mechanism without
+    flexible members, driven by ``driver`` (``Step.factor`` = driver coordinate); ``mobility``
+    is the expected mobility (Gruebler count, checked by the solver).  ``synthesis``: see
+    ``Synthesis``.  ``ma``: mechanical advantage output (``MechanicalAdvantage``).
     """
 
     kind: str = "load"
@@ -166,6 +219,9 @@ class Analysis:
     driver: Driver | None = None
     sweep_key: str | None = None
     sweep_values: tuple[float, ...] = ()
+    mobility: int | None = None
+    synthesis: Synthesis | None = None
+    ma: MechanicalAdvantage | None = None
 
 
 @dataclass(frozen=True)

@@ -27,6 +27,7 @@ import numpy as np
 from cases.schema import Scene
 from fem_reference import static as S
 from fem_reference.assembly import FEMSystem, ModelError, build
+from fem_reference.driver_post import post_process
 from reduced_models.base import ModelCard, Solution, Step, load_factors, not_applicable
 
 MODELS: dict[str, str] = {
@@ -336,7 +337,7 @@ class FEM:
         if reason:
             return not_applicable(scene, self.name, reason)
         r, status, message = self.runner(scene)
-        return _solution(scene, self.name, r, status, message)
+        return post_process(scene, _solution(scene, self.name, r, status, message))
 
 
 class FEMAuto:
@@ -377,7 +378,7 @@ class FEMAuto:
         coarse = {**self.options, "stability": False}
         runs = [FEM(n, **coarse).runner(scene) for n in self.sequence[:-1]]
         runs.append(FEM(self.sequence[-1], **self.options).runner(scene))
-        return combine(scene, self.name, self.sequence, runs)
+        return post_process(scene, combine(scene, self.name, self.sequence, runs))
 
 
 __all__ = ["DEFAULT_NAMES", "FEM", "FEMAuto", "MODELS", "Runner"]

@@ -437,6 +437,10 @@ class Replay:
 
     def applies_to(self, scene: Scene) -> str | None:
         """None, or why the replay cannot run ``scene``."""
+        if scene.analysis.kind == "energy" and self.factors is None:
+            from fem_reference.replay_driver import applies  # driver moved as a motion
+
+            return applies(scene)
         if scene.analysis.kind != "load" and self.factors is None:
             return f"{scene.analysis.kind} analyses: the replay only ramps a load factor"
         try:
@@ -450,6 +454,10 @@ class Replay:
         reason = self.applies_to(scene)
         if reason:
             return not_applicable(scene, self.name, reason)
+        if scene.analysis.kind == "energy" and self.factors is None:
+            from fem_reference.replay_driver import solve_energy
+
+            return solve_energy(scene, self.n_elements, self.options)
         system = build(scene, self.n_elements)
         lams = load_factors(scene) if self.factors is None else self.factors
         return replay_system(system, lams, scene=scene, case=scene.name, options=self.options)

@@ -33,10 +33,16 @@ _ENTRIES: dict[str, str] = {
     "prb-2rpr": "reduced_models.prb:PRB2RPR",
     "prb-fsm-N": "reduced_models.prb:PRBFSM",
     "prb-custom": "reduced_models.prb:PRBCustom",
+    "kinetostatic": "reduced_models.mechanism.model:Kinetostatic",
+    "mixed": "reduced_models.mechanism.model:Mixed",
     "linear-auto": "reduced_models.auto:LinearAuto",
     "cbcm-auto": "reduced_models.auto:CBCMAuto",
     "prb-fsm-auto": "reduced_models.auto:PRBFSMAuto",
 }
+# single-beam families: scenes that are not a plain cantilever go to the mechanism assembler
+_SINGLE_BEAM = tuple(
+    f"reduced_models.{m}:" for m in ("elastica", "elastica_bvp", "linear", "bcm", "prb")
+)
 
 # concrete names a default benchmark run tries on every case
 DEFAULT_NAMES: tuple[str, ...] = (
@@ -54,6 +60,8 @@ DEFAULT_NAMES: tuple[str, ...] = (
     "prb-2rpr",
     "prb-fsm-4",
     "prb-fsm-16",
+    "kinetostatic",
+    "mixed",
     "linear-auto",
     "cbcm-auto",
     "prb-fsm-auto",
@@ -108,6 +116,10 @@ def build(name: str, target: str, n: int | None, options: dict | None = None) ->
     kwargs = dict(options or {})
     model = make_(n, **kwargs) if n is not None else make_(**kwargs)
     model.name = name
+    if target.startswith(_SINGLE_BEAM):
+        from reduced_models.mechanism.model import routed
+
+        model = routed(model, name, options)
     return model
 
 

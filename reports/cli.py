@@ -129,6 +129,13 @@ _JSON_EXTRAS = (
     "jumps",
     "validity_warning",
     "validity_message",
+    # mechanism analyses (issue 9)
+    "equilibria",
+    "barrier",
+    "synthesis",
+    "mobility",
+    "mobility_rank",
+    "range",
 )
 
 

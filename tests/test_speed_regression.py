@@ -110,12 +110,24 @@ def tolerance(model: str) -> float:
 _FIXTURE = json.loads(FIXTURE.read_text()) if FIXTURE.exists() else {}
 
 
+def _assembler_scene(case: str, model: str) -> bool:
+    """A reduced beam model on a scene that is not a plain cantilever: before issue 9 it
+    declined, now the mechanism assembler answers (an intended change of answers)."""
+    from reduced_models.single_beam import cantilever_of
+
+    beam = not model.startswith(("fem", "replay"))
+    return beam and isinstance(cantilever_of(cases.load(case)), str)
+
+
 @pytest.mark.parametrize("case,model", pairs())
 def test_same_answers_as_before(case: str, model: str) -> None:
     before = _FIXTURE.get(f"{case}|{model}")
     if before is None:
         pytest.fail(f"{case}|{model} missing from the regression fixture")
     now = record(case, model)
+    newly = before["status"] == "not-applicable" != now["status"]
+    if newly and _assembler_scene(case, model):
+        pytest.skip("answered by the mechanism assembler since issue 9 (tests/test_mechanism*)")
     assert now["status"] == before["status"]
     assert now["n_steps"] == before["n_steps"]
     tol = tolerance(model)

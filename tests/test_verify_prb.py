@@ -413,8 +413,8 @@ def test_shape_tips_are_the_reported_tips_on_every_catalog_case(case):
     solved = 0
     for name in PRB_NAMES:
         sol = reports.solve(scene, name)
-        if sol.status == "not-applicable":
-            continue
+        if sol.status == "not-applicable" or len(scene.members) != 1:
+            continue  # mechanisms (assembler): one shape per member, tested in test_mechanism
         solved += 1
         tip = scene.outputs[0].name
         for st in sol.steps:

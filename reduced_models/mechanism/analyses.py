@@ -1,0 +1,268 @@
+"""Analyses on an assembled mechanism: load, distance, energy, kinematics (and the steps).
+
+* ``load``: load factor 0 -> factor_end at the scene's steps (continuation with cuts).
+* ``distance``: the driver coordinate is a target; the load factor is the unknown
+  (``Step.factor`` = load factor), DAS-2D "Distance analysis".
+* ``energy``: scene loads held at factor_end, the driver prescribed from start to stop;
+  ``Step.factor`` = driver coordinate (degrees for a rotation), outputs ``driver.force`` /
+  ``driver.torque`` = the force the driver exerts along +coordinate; ``extras["equilibria"]``
+  lists where it crosses zero (stable: energy minimum along the driver) and ``barrier``.
+* ``path``: arc-length continuation (``pathfollow``), ``Step.factor`` = load factor.
+* ``kinematics``: constraints only (no flexible members): position analysis along the
+  driver, Gauss-Newton with minimum-norm steps; mobility checked.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from reduced_models.base import Step, load_factors
+from reduced_models.mechanism.newton import SolveError, Solver, State, follow
+from reduced_models.mechanism.system import MechanismSystem
+
+
+class Run:
+    """One analysis on one system; collects steps and extras."""
+
+    def __init__(self, sysm: MechanismSystem, solver_opts: dict | None = None) -> None:
+        self.s = sysm
+        self.solver = Solver(sysm, **(solver_opts or {}))
+        self.scene = sysm.scene
+        self.steps: list[Step] = []
+        self.states: list[State] = []
+        self.extras: dict = {"ndof": int(len(sysm.free)), "constraints": int(sysm.m)}
+
+    # -- helpers -------------------------------------------------------------------------------
+    def zero(self, lam: float = 0.0) -> State:
+        return State(self.s.q0.copy(), np.zeros(self.s.m), lam)
+
+    def record(
+        self, st: State, factor: float, hold_driver: bool, extra: dict | None = None
+    ) -> None:
+        s = self.s
+        stable, low = self.solver.stable(st, hold_driver)
+        out = s.outputs(st.q)
+        out.update(extra or {})
+        self.states.append(st)
+        self.steps.append(
+            Step(
+                factor=float(factor),
+                outputs=out,
+                energy=s.strain_energy(st.q),
+                iterations=int(st.iterations),
+                stable=stable,
+                shapes=s.shapes(st.q),
+                max_stress=s.max_stress(st.q),
+                info={"residual": float(st.residual), "min_pivot": low, "load_factor": st.lam},
+            )
+        )
+
+    def add_driver(self) -> tuple[int, float, float]:
+        """Append the driver row; returns (row, base value, unit scale)."""
+        s, drv = self.s, self.scene.analysis.driver
+        i = s.driver_dof
+        base = float(s.q0[i]) if drv.kind == "displacement" else 0.0
+        s.driver_row = s.linear.add([i], [1.0], base, "driver")
+        self.solver = Solver(s, self.solver.tol, self.solver.max_iter)
+        return s.driver_row, base, s.driver_scale
+
+    def set_driver(self, row: int, base: float, scale: float) -> Callable:
+        lin = self.s.linear
+
+        def apply(st: State, t: float) -> State:
+            lin.b[row] = base + t * scale
+            return st
+
+        return apply
+
+    def grow_mu(self, st: State) -> State:
+        m = self.s.m
+        if len(st.mu) < m:
+            st = State(st.q, np.concatenate([st.mu, np.zeros(m - len(st.mu))]), st.lam)
+        return st
+
+    # -- analyses ------------------------------------------------------------------------------
+    def load(self) -> None:
+        st = self.solver.newton(self.zero())
+        self.record(st, 0.0, False)
+        f = load_factors(self.scene)
+
+        def set_lam(x: State, t: float) -> State:
+            x.lam = t
+            return x
+
+        for prev, fk in zip(f[:-1], f[1:]):
+            st = follow(self.solver, st, float(prev), float(fk), set_lam, "lam")
+            st.lam = float(fk)
+            self.record(st, fk, False)
+
+    def driver(self, kind: str) -> None:
+        a = self.scene.analysis
+        lam_free = kind == "distance"
+        lam = 0.0 if lam_free else a.factor_end
+        row, base, scale = self.add_driver()
+        apply = self.set_driver(row, base, scale)
+        vals = np.linspace(a.driver.start, a.driver.stop, a.steps + 1)
+        st = self.zero(lam)
+        apply(st, float(vals[0]))
+        st = self.solver.newton(st, lam_free)
+        key = "driver.torque" if a.driver.kind == "rotation" else "driver.force"
+        d = self.solver.driver_index()
+        for k, v in enumerate(vals):
+            if k:
+                t0 = float(vals[k - 1])
+                st = follow(self.solver, st, t0, float(v), apply, "driver", lam_free, rate=scale)
+            if lam_free:
+                self.record(st, st.lam, False)
+            else:
+                self.record(st, v, True, {key: float(-st.mu[d])})
+        if kind == "energy":
+            self.equilibria(vals, key, apply)
+
+    def equilibria(self, vals: np.ndarray, key: str, apply: Callable) -> None:
+        """Zero crossings of the driving force, refined to F = 0 by regula falsi on the
+        driver coordinate; the verdict is the reduced Hessian with the driver released
+        (the slope of F along the driver where that is singular)."""
+        F = np.array([s.outputs[key] for s in self.steps])
+        eq = []
+        for k in range(len(F) - 1):
+            f0, f1 = F[k], F[k + 1]
+            if not (f0 == 0.0 or f0 * f1 < 0.0):
+                continue
+            rising = (f1 - f0) * (vals[k + 1] - vals[k]) > 0
+            st, v = self._zero_force(k, vals, F, apply)
+            stable, _ = self.solver.stable(st, False)
+            if stable is None:
+                stable = bool(rising)
+            eq.append(
+                {
+                    "coordinate": float(v),
+                    "kind": "stable" if stable else "unstable",
+                    "energy": self.s.strain_energy(st.q),
+                    "outputs": self.s.outputs(st.q),
+                }
+            )
+        self.extras["equilibria"] = eq
+        stab = [e for e in eq if e["kind"] == "stable"]
+        sign = np.sign(vals[-1] - vals[0])
+        after = [
+            e
+            for e in eq
+            if stab
+            and e["kind"] == "unstable"
+            and (e["coordinate"] - stab[0]["coordinate"]) * sign > 0
+        ]
+        if after:
+            self.extras["barrier"] = after[0]["energy"] - stab[0]["energy"]
+
+    def _zero_force(self, k: int, vals: np.ndarray, F: np.ndarray, apply: Callable):
+        """(state, coordinate) where the driving force vanishes between steps k and k + 1."""
+        d = self.solver.driver_index()
+        a, b, fa, fb = float(vals[k]), float(vals[k + 1]), float(F[k]), float(F[k + 1])
+        sa, sb = self.states[k], self.states[k + 1]
+        if fa == 0.0:
+            return sa, a
+        tol = 1e-9 * max(abs(F).max(), self.s.fscale)
+        side = 0
+        st, v = sa, a
+        for _ in range(40):
+            v = (a * fb - b * fa) / (fb - fa)
+            w = (v - a) / (b - a)
+            guess = State(sa.q + w * (sb.q - sa.q), sa.mu + w * (sb.mu - sa.mu), sa.lam)
+            st = self.solver.newton(apply(guess, v))
+            f = -float(st.mu[d])
+            if abs(f) <= tol:
+                break
+            if f * fb > 0:  # Illinois: halve the stale end's value
+                b, fb, sb = v, f, st
+                fa = fa / 2 if side == -1 else fa
+                side = -1
+            else:
+                a, fa, sa = v, f, st
+                fb = fb / 2 if side == 1 else fb
+                side = 1
+        apply(st, float(vals[-1]))  # leave the driver row where the sweep ended
+        return st, v
+
+    def kinematics(self) -> None:
+        """Position analysis along the driver (Gauss-Newton, minimum-norm steps)."""
+        a = self.scene.analysis
+        s = self.s
+        m0 = s.m
+        c, J = s.cons(s.q0)
+        nf = len(s.free)
+        rank = int(np.linalg.matrix_rank(J[:, s.free])) if m0 else 0
+        self.extras["mobility"] = nf - m0
+        self.extras["mobility_rank"] = nf - rank
+        if a.mobility is not None and a.mobility != nf - rank:
+            raise SolveError(
+                f"mobility {nf - rank} (Gruebler count {nf - m0}) differs from the "
+                f"expected {a.mobility}"
+            )
+        row, base, scale = self.add_driver()
+        apply = self.set_driver(row, base, scale)
+        vals = np.linspace(a.driver.start, a.driver.stop, a.steps + 1)
+        q = s.q0.copy()
+        reached = []
+        for v in vals:
+            apply(None, float(v))
+            q, its, res = self.position(q)
+            st = State(q, np.zeros(s.m), 0.0, its, res)
+            self.states.append(st)
+            self.steps.append(
+                Step(
+                    factor=float(v),
+                    outputs=s.outputs(q),
+                    energy=s.strain_energy(q),
+                    iterations=its,
+                    shapes=s.shapes(q),
+                    info={"residual": res},
+                )
+            )
+            reached.append(float(v))
+            self.extras["range"] = [reached[0], reached[-1]]
+
+    def position(self, q: np.ndarray) -> tuple[np.ndarray, int, float]:
+        s, f = self.s, self.s.free
+        cs = s.cscale()
+        for it in range(60):
+            c, J = s.cons(q)
+            res = float(np.max(np.abs(c) / cs, initial=0.0))
+            if res <= 1e-14:
+                return q, it, res
+            dq = np.linalg.lstsq(J[:, f], -c, rcond=None)[0]
+            big = float(np.max(np.abs(dq)) / (0.25 * s.lay.Lref))
+            q = q.copy()
+            q[f] += dq / max(big, 1.0)
+        if res <= 1e-12:
+            return q, it, res
+        raise SolveError(
+            f"kinematic lock or dead point: constraints not closed (residual {res:.1e})"
+        )
+
+
+def run(sysm: MechanismSystem, kind: str) -> Run:
+    """Run the analysis ``kind`` on ``sysm``; raises SolveError (steps so far kept in .steps)."""
+    r = Run(sysm)
+    r.exc = None
+    try:
+        if kind == "load":
+            r.load()
+        elif kind in ("distance", "energy"):
+            r.driver(kind)
+        elif kind == "kinematics":
+            r.kinematics()
+        elif kind == "path":
+            from reduced_models.mechanism.pathfollow import run_path
+
+            run_path(r)
+        else:
+            raise ValueError(kind)
+    except (SolveError, np.linalg.LinAlgError, FloatingPointError) as err:
+        r.exc = f"{type(err).__name__}: {err}" if not isinstance(err, SolveError) else str(err)
+    return r
+
+
+__all__ = ["Run", "run"]

@@ -1,0 +1,329 @@
+"""Model-protocol layer of the mechanism assembler: member laws by model name, ``kinetostatic``,
+``mixed``, and the dispatch that lets every reduced model name solve mechanism scenes.
+
+* ``member_spec(name, options)`` -> the member law of a reduced model name (or the reason it
+  has none): ``linear-N``/``bcm``/``cbcm-N`` -> chained segments; the PRB family -> its PRB
+  matrix (``prb_tables``); ``elastica`` -> declined (no closed-form member law for general
+  end poses: the exact elastica is a boundary-value problem per member).
+* ``MechanismModel(name)`` puts that law into every flexible member; ``Kinetostatic`` solves
+  scenes without flexible members; ``Mixed`` reads each member's ``model`` key.
+* ``routed`` gives a registered single-beam model the mechanism route: plain cantilever
+  scenes keep their specialised solver, every other scene goes through the assembler.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from cases.schema import Member, Scene
+from reduced_models import prb_tables as T
+from reduced_models.base import Model, ModelCard, Solution, not_applicable
+from reduced_models.bcm import BCM_LAW
+from reduced_models.linear import LINEAR_LAW
+from reduced_models.mechanism import analyses
+from reduced_models.mechanism.builder import build
+from reduced_models.mechanism.system import SceneError
+from reduced_models.prb_chain import check_matrix
+from reduced_models.single_beam import cantilever_of
+
+ANALYSES = ("load", "path", "distance", "energy", "kinematics", "synthesis")
+_PRB_FIXED = {
+    "prb-short": lambda o: T.PRB_SHORT,
+    "prb-2r": lambda o: T.PRB_2R,
+    "prb-3r": lambda o: T.prb3r_matrix(o.get("stiffness", "average")),
+    "prb-3r-force": lambda o: T.prb3r_matrix("force"),
+    "prb-3r-moment": lambda o: T.prb3r_matrix("moment"),
+    "prb-2rpr": lambda o: T.prb2rpr_matrix(),
+    # load-ratio dependent in a cantilever; in a mechanism the load ratio of a member is not
+    # known beforehand, so Howell's average parameters are used (documented in the card)
+    "prb-1r": lambda o: T.prb1r_matrix(T.HOWELL_AVERAGE["gamma"], T.HOWELL_AVERAGE["K_Theta"]),
+}
+
+
+def member_spec(name: str, options: dict | None = None) -> tuple | str:
+    """Member law of a reduced model name: ``("chain", law, N, extensible)``,
+    ``("prb", matrix)``, or the reason the name has no member law."""
+    o = dict(options or {})
+    if name in _PRB_FIXED:
+        try:
+            return ("prb", _PRB_FIXED[name](o))
+        except (KeyError, ValueError) as err:
+            return f"{name}: bad options ({err})"
+    if name == "prb-custom":
+        if "matrix" not in o:
+            return "prb-custom needs options.matrix = [[k_theta, k_ex, gamma], ...]"
+        try:
+            return ("prb", check_matrix(o["matrix"]))
+        except ValueError as err:
+            return f"prb-custom: options.matrix: {err}"
+    if name == "bcm":
+        return ("chain", BCM_LAW, 1, True)
+    family, _, n = name.rpartition("-")
+    if n.isdigit() and int(n) >= 1:
+        if family == "cbcm":
+            return ("chain", BCM_LAW, int(n), True)
+        if family == "linear":
+            return ("chain", LINEAR_LAW, int(n), False)
+        if family == "prb-fsm":
+            return ("prb", T.fsm_matrix(int(n), o.get("placement", "mid")))
+    if name.startswith("elastica"):
+        return (
+            "elastica: no closed-form member law for general end poses (the exact elastica "
+            "is a boundary-value problem per member); use cbcm-N or fem-auto for mechanisms"
+        )
+    return f"{name}: no member energy law in the mechanism assembler"
+
+
+def _check_scene(scene: Scene) -> str | None:
+    kind = scene.analysis.kind
+    if kind not in ANALYSES:
+        return f"analysis kind {kind!r} is not run by the mechanism assembler"
+    if any(ld.follower and (ld.fx or ld.fy) for ld in scene.loads):
+        return "follower loads are non-conservative: the energy-based assembler takes dead loads"
+    if any(getattr(m, "sweep_deg", None) for m in scene.members):
+        return "curved (arc) members are not modelled by the mechanism assembler"
+    return None
+
+
+def _held(scene: Scene, node: str, member: str) -> bool:
+    """Is the node tied to something other than this member (support or another member)?"""
+    if scene.support_at(node) is not None:
+        return True
+    return any(m.id != member and node in (m.a, m.b) for m in scene.members)
+
+
+def _locked_prb(scene: Scene, name: str, spec: tuple, flex: list[Member]) -> str | None:
+    """A one-joint PRB member welded at both ends to held nodes cannot bend (its end-b
+    section turns with its only link, so both end rotations fix the link): decline."""
+    if spec[0] != "prb" or int(np.isfinite(spec[1][:, 0]).sum()) >= 2:
+        return None
+    for m in flex:
+        if m.end_a == m.end_b == "weld" and _held(scene, m.a, m.id) and _held(scene, m.b, m.id):
+            return (
+                f"{name} has one PRB joint: member {m.id!r} is welded at both ends (fixed-guided) "
+                "and needs two joints (Howell: two 1R halves); use prb-3r or prb-fsm-N"
+            )
+    return None
+
+
+class MechanismModel:
+    """A reduced model name applied to every flexible member of a mechanism scene."""
+
+    def __init__(self, name: str, options: dict | None = None) -> None:
+        self.name = name
+        self.options = dict(options or {})
+        self.card = ModelCard(
+            name=name,
+            family="mechanism",
+            summary=f"mechanism assembler, every flexible member modelled by {name}",
+            assumptions=(
+                "node-based assembly: member energy laws in node poses + internal unknowns",
+                "rigid links are loop-closure constraints (exact), constrained Newton (KKT)",
+                "dead loads only; a flexible member loaded inside is split at the load point",
+                "prb-1r in a mechanism: Howell's average gamma 0.85, K_Theta 2.65",
+                "PRB members: the end-b section turns with the last PRB link",
+                "bending stress: chained segments from the cubic Hermite curvature at segment "
+                "ends; PRB members from the joint moments (M t / 2I, coarse)",
+            ),
+            validity="that of the member model in each flexible member",
+            references=("DAS-2D seed 000_265bc60728766176.txt, 'Solver- Kinetostatic Analysis'",),
+        )
+
+    def spec_of(self, scene: Scene) -> tuple[Callable[[Member], tuple], tuple | str]:
+        opts = {**scene.model_options(self.name), **self.options}
+        spec = member_spec(self.name, opts)
+
+        def of(m: Member) -> tuple:
+            if isinstance(spec, str):
+                raise SceneError(spec)
+            return spec
+
+        return of, spec
+
+    def applies_to(self, scene: Scene) -> str | None:
+        """None, or why the assembler cannot solve ``scene`` with this member model."""
+        reason = _check_scene(scene)
+        if reason:
+            return reason
+        flex = [m for m in scene.members if m.kind == "flexible"]
+        if not flex:
+            return "no flexible member: solved by `kinetostatic`"
+        if scene.analysis.kind == "kinematics":
+            return "kinematics (rigid-body motion) needs a scene without flexible members"
+        _, spec = self.spec_of(scene)
+        if isinstance(spec, str):
+            return spec
+        return _locked_prb(scene, self.name, spec, flex)
+
+    def solve(self, scene: Scene) -> Solution:
+        """Run the scene's analysis (never raises for a numerical failure)."""
+        reason = self.applies_to(scene)
+        if reason:
+            return not_applicable(scene, self.name, reason)
+        of, _ = self.spec_of(scene)
+        return solve_with(scene, self.name, of)
+
+
+class Kinetostatic(MechanismModel):
+    """``kinetostatic``: mechanisms of rigid links, springs (no flexible member)."""
+
+    def __init__(self, **options) -> None:
+        super().__init__("kinetostatic", options)
+        self.card = ModelCard(
+            name="kinetostatic",
+            family="mechanism",
+            summary="rigid links (closure constraints) + torsion/linear springs, energy "
+            "minimisation under constraints (DAS-2D kinetostatic analysis)",
+            assumptions=("rigid links exact", "dead loads", "springs linear"),
+            validity="exact for the idealised scene (rigid links, linear springs)",
+            references=self.card.references,
+        )
+
+    def applies_to(self, scene: Scene) -> str | None:
+        reason = _check_scene(scene)
+        if reason:
+            return reason
+        if any(m.kind == "flexible" for m in scene.members):
+            return "scene has flexible members: use a reduced model (cbcm-N, prb-3r, ...)"
+        return None
+
+    def solve(self, scene: Scene) -> Solution:
+        reason = self.applies_to(scene)
+        if reason:
+            return not_applicable(scene, self.name, reason)
+        return solve_with(scene, self.name, lambda m: ("none",))
+
+
+class Mixed(MechanismModel):
+    """``mixed``: each flexible member gets its own ``model`` (DAS-2D Ex. 3)."""
+
+    def __init__(self, **options) -> None:
+        super().__init__("mixed", options)
+        self.card = ModelCard(
+            name="mixed",
+            family="mechanism",
+            summary="mechanism assembler with the per-member models of the case "
+            "([[members]] model = ...)",
+            assumptions=self.card.assumptions,
+            validity="that of each member's model",
+            references=self.card.references,
+        )
+
+    def applies_to(self, scene: Scene) -> str | None:
+        reason = _check_scene(scene)
+        if reason:
+            return reason
+        flex = [m for m in scene.members if m.kind == "flexible"]
+        if not flex:
+            return "no flexible member: solved by `kinetostatic`"
+        missing = [m.id for m in flex if m.model is None]
+        if missing:
+            return f"member {missing[0]!r} has no per-member model ([[members]] model = ...)"
+        for m in flex:
+            spec = member_spec(m.model, m.model_options)
+            if isinstance(spec, str):
+                return f"member {m.id!r}: {spec}"
+            locked = _locked_prb(scene, m.model, spec, [m])
+            if locked:
+                return locked
+        return None
+
+    def solve(self, scene: Scene) -> Solution:
+        reason = self.applies_to(scene)
+        if reason:
+            return not_applicable(scene, self.name, reason)
+        return solve_with(scene, self.name, lambda m: member_spec(m.model, m.model_options))
+
+
+def solve_with(scene: Scene, name: str, spec_of: Callable[[Member], tuple]) -> Solution:
+    """Assemble and run; SceneError -> not-applicable, numerical trouble -> failed."""
+    kind = scene.analysis.kind
+    try:
+        if kind == "synthesis":
+            from reduced_models.mechanism.synthesis import synthesise
+
+            return synthesise(scene, name, spec_of)
+        sysm = build(scene, spec_of)
+    except SceneError as err:
+        return not_applicable(scene, name, str(err))
+    r = analyses.run(sysm, kind)
+    return finish(scene, name, r)
+
+
+def finish(scene: Scene, name: str, r: analyses.Run) -> Solution:
+    """Solution from a finished (or failed) run, with MA outputs when requested."""
+    if scene.analysis.ma is not None and r.steps:
+        from reduced_models.mechanism.advantage import add_ma
+
+        r.steps = add_ma(r)
+    if r.exc is not None:
+        return Solution(scene.name, name, "failed", r.exc, tuple(r.steps), r.extras)
+    its = sum(s.iterations for s in r.steps)
+    msg = f"{len(r.steps)} steps, {its} Newton iterations, {r.extras['ndof']} unknowns"
+    return Solution(scene.name, name, "converged", msg, tuple(r.steps), r.extras)
+
+
+class Routed:
+    """Mixin put in front of a registered single-beam model's class (``routed``): plain
+    cantilever scenes keep the specialised solver, every other scene goes through the
+    assembler with the same model name.  ``isinstance`` and attributes are unchanged."""
+
+    _mech: MechanismModel
+
+    def _route(self, scene: Scene) -> tuple[str, str | None]:
+        if not isinstance(cantilever_of(scene), str):
+            return "inner", None
+        if len(scene.members) == 1:
+            inner_reason = super().applies_to(scene)
+            if inner_reason is None:
+                return "inner", None
+            mech_reason = self._mech.applies_to(scene)
+            if mech_reason is None:
+                return "mech", None
+            return "none", f"{inner_reason}; mechanism assembler: {mech_reason}"
+        return "mech", None
+
+    def applies_to(self, scene: Scene) -> str | None:
+        """None, or why neither the single-beam solver nor the assembler applies."""
+        where, reason = self._route(scene)
+        if where == "inner":
+            return super().applies_to(scene)
+        return reason if where == "none" else self._mech.applies_to(scene)
+
+    def solve(self, scene: Scene) -> Solution:
+        """Single-beam solver for cantilevers, the assembler for everything else."""
+        where, reason = self._route(scene)
+        if where == "inner":
+            return super().solve(scene)
+        if where == "none":
+            return not_applicable(scene, self.name, reason)
+        sol = self._mech.solve(scene)
+        return Solution(sol.case, self.name, sol.status, sol.message, sol.steps, sol.extras)
+
+    def postprocess(self, scene: Scene, sol: Solution) -> Solution:
+        """The single-beam model's post-processing for its own answers; the assembler's
+        answers carry their shapes and stresses already."""
+        inner = getattr(super(), "postprocess", None)
+        if inner is None or self._route(scene)[0] != "inner":
+            return sol
+        return inner(scene, sol)
+
+
+_ROUTED: dict[type, type] = {}
+
+
+def routed(model: Model, name: str, options: dict | None = None) -> Model:
+    """Give ``model`` (a registered single-beam model) the mechanism route (``Routed``)."""
+    cls = type(model)
+    sub = _ROUTED.get(cls)
+    if sub is None:
+        sub = type(cls.__name__, (Routed, cls), {"__module__": cls.__module__})
+        _ROUTED[cls] = sub
+    model.__class__ = sub
+    model._mech = MechanismModel(name, options)
+    return model
+
+
+__all__ = ["Kinetostatic", "MechanismModel", "Mixed", "Routed", "member_spec", "routed"]
