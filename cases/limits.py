@@ -39,6 +39,7 @@ MAX_COUNT = {
     "models": 100,
 }
 MAX_ARRAY = 10_000  # entries of any other array (tags, sweep values, option lists)
+MAX_GRID_POINTS = 2_000  # scenes of one sweep grid (the product of its axes; catalog: 125)
 
 Fail = Callable[[str, str], Exception]
 

@@ -10,6 +10,7 @@ import math
 import re
 import tomllib
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -24,10 +25,13 @@ from cases.schema import (
     NODE_QUANTITIES,
     REFERENCE_KINDS,
     SUPPORT_TYPES,
+    SWEEP_OF_KINDS,
     SYNTHESIS_GOALS,
     UNITS,
     Analysis,
+    Boom,
     Driver,
+    GridAxis,
     Load,
     MechanicalAdvantage,
     Member,
@@ -40,6 +44,7 @@ from cases.schema import (
     Synthesis,
     TorsionSpring,
 )
+from cases.sweep import POSITIVE, free_from_rest, key_error
 
 CATALOG = Path(__file__).parent / "catalog"
 _NAME = re.compile(r"^[a-z0-9]+(-[a-z0-9]+)*$")
@@ -124,6 +129,7 @@ class _Builder:
         "outputs",
         "references",
         "models",
+        "booms",
     )
 
     def __init__(self, data: dict[str, Any], source: str) -> None:
@@ -250,11 +256,12 @@ class _Builder:
         loads = self.loads(node_ids, members)
         self._members, self._loads = members, loads
         outputs = self.outputs(node_ids)
+        booms = self.booms(node_ids, supports)
         analysis = self.analysis(node_ids, {m.id for m in members}, outputs)
         if analysis.kind == "path" and analysis.driver is None:
             if not any(ld.fx or ld.fy or ld.moment for ld in loads):
                 raise self.fail("loads", "a 'path' analysis needs a nonzero load to trace")
-        references = self.references(outputs)
+        references = self.references(outputs, booms)
         models = self.models()
         scene = Scene(
             name=name,
@@ -273,7 +280,10 @@ class _Builder:
             description=self.str_(case, "description", "case", default="") or "",
             reference_model=self.str_(case, "reference_model", "case"),
             path=self.src,
+            booms=booms,
         )
+        scene = self.resolve_rest_angles(scene)
+        self.check_analysis_needs(scene)
         self.check_connected(scene)
         self.check_restrained(scene)
         return scene
@@ -412,7 +422,8 @@ class _Builder:
             self.keys(
                 t,
                 p,
-                ("id", "node", "member_a", "member_b", "stiffness", "free_angle_deg"),
+                ("id", "node", "member_a", "member_b", "stiffness", "free_angle_deg")
+                + ("rest_angle_deg",),
                 ("id", "node", "member_a", "stiffness"),
             )
             node = self.str_(t, "node", p)
@@ -428,6 +439,8 @@ class _Builder:
                     raise self.fail(f"{p}.{key}", f"member {mid!r} does not end at node {node!r}")
             if names[0] == names[1]:
                 raise self.fail(f"{p}.member_b", "a torsion spring joins two different members")
+            if "free_angle_deg" in t and "rest_angle_deg" in t:
+                raise self.fail(f"{p}.rest_angle_deg", "give free_angle_deg or rest_angle_deg")
             out.append(
                 TorsionSpring(
                     id=self.str_(t, "id", p),
@@ -436,6 +449,7 @@ class _Builder:
                     member_b=names[1],
                     stiffness=self.num(t, "stiffness", p, positive=True),
                     free_angle_deg=self.num(t, "free_angle_deg", p, default=0.0),
+                    rest_angle_deg=self.num(t, "rest_angle_deg", p),
                 )
             )
         self.unique([s.id for s in out], "torsion_springs")
@@ -509,6 +523,8 @@ class _Builder:
                 "driver",
                 "sweep_key",
                 "sweep_values",
+                "sweep_of",
+                "grid",
                 "mobility",
                 "synthesis",
                 "ma",
@@ -559,8 +575,19 @@ class _Builder:
             for v in sweep_values
         ):
             raise self.fail(f"{p}.sweep_values", "must be an array of finite numbers")
-        if kind == "sweep" and (not sweep_values or "sweep_key" not in t):
-            raise self.fail(f"{p}.sweep_key", "a sweep needs sweep_key and sweep_values")
+        grid = self.grid(t, p)
+        if "sweep_key" in t and sweep_values:
+            grid = (GridAxis((self.str_(t, "sweep_key", p),), tuple(map(float, sweep_values))),)
+            grid += self.grid(t, p)
+        if kind == "sweep" and not grid:
+            raise self.fail(f"{p}.grid", "a sweep needs [[analysis.grid]] (or sweep_key/values)")
+        if kind != "sweep" and grid:
+            raise self.fail(f"{p}.grid", f"only a sweep takes a grid (kind is {kind!r})")
+        points = math.prod(len(ax.values) for ax in grid)
+        if points > limits.MAX_GRID_POINTS:
+            raise self.fail(
+                f"{p}.grid", f"{points} sweep scenes exceed the limit of {limits.MAX_GRID_POINTS}"
+            )
         factor_end = self.num(t, "factor_end", p, default=1.0)
         if kind in ("load", "path") and factor_end <= 0:
             raise self.fail(
@@ -578,10 +605,43 @@ class _Builder:
             driver=driver,
             sweep_key=self.str_(t, "sweep_key", p),
             sweep_values=tuple(float(v) for v in sweep_values),
+            grid=grid,
+            sweep_of=self.str_(t, "sweep_of", p, default="load", choices=SWEEP_OF_KINDS),
             mobility=self.int_(t, "mobility", p, None, lo=0),
             synthesis=self.synthesis(t, kind, driver, keys),
             ma=self.ma(t, driver, outputs),
         )
+
+    def grid(self, t: dict, p: str) -> tuple[GridAxis, ...]:
+        """``[[analysis.grid]]``: axes of ``key`` (or ``keys``, set together) and ``values``."""
+        items = t.get("grid", [])
+        if not isinstance(items, list) or not all(isinstance(i, dict) for i in items):
+            raise self.fail(f"{p}.grid", "must be an array of tables ([[analysis.grid]])")
+        out = []
+        for i, ax in enumerate(items):
+            q = f"{p}.grid[{i}]"
+            self.keys(ax, q, ("key", "keys", "values"), ("values",))
+            if ("key" in ax) == ("keys" in ax):
+                raise self.fail(f"{q}.key", "give exactly one of key or keys")
+            keys = [ax["key"]] if "key" in ax else ax["keys"]
+            if (
+                not isinstance(keys, list)
+                or not keys
+                or not all(isinstance(k, str) and k for k in keys)
+            ):
+                raise self.fail(f"{q}.keys", "must be a non-empty array of scene keys")
+            vals = ax["values"]
+            if (
+                not isinstance(vals, list)
+                or not vals
+                or not all(
+                    isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+                    for v in vals
+                )
+            ):
+                raise self.fail(f"{q}.values", "must be a non-empty array of finite numbers")
+            out.append(GridAxis(tuple(keys), tuple(float(v) for v in vals)))
+        return tuple(out)
 
     def synthesis(self, t: dict, kind: str, driver: Driver | None, keys: set[str]):
         """``[analysis.synthesis]`` (required by, and only allowed with, kind "synthesis")."""
@@ -639,8 +699,11 @@ class _Builder:
             raise self.fail(f"{p}.input", f"{inp!r} is neither 'driver' nor a load id")
         return MechanicalAdvantage(out, direction, inp)
 
-    def references(self, outputs: tuple[Output, ...]) -> tuple[Reference, ...]:
+    def references(
+        self, outputs: tuple[Output, ...], booms: tuple[Boom, ...] = ()
+    ) -> tuple[Reference, ...]:
         keys = {f"{o.name}.{q}" for o in outputs for q in NODE_QUANTITIES} | set(EXTRA_OUTPUTS)
+        keys |= {f"{b.id}.length" for b in booms}
         out = []
         allowed = (
             "output",
@@ -686,11 +749,80 @@ class _Builder:
             out.append(ModelSpec(self.str_(t, "name", p), dict(opts)))
         return tuple(out)
 
+    def booms(self, node_ids: set[str], supports: tuple[Support, ...]) -> tuple[Boom, ...]:
+        held = {s.node for s in supports if s.type in ("pin", "clamp")}
+        out = []
+        for i, t in enumerate(self.array("booms", required=False)):
+            p = f"booms[{i}]"
+            self.keys(t, p, ("id", "from", "to", "force", "length"), ("id", "from", "to"))
+            for k in ("force", "length"):
+                if k not in t:
+                    raise self.fail(f"{p}.{k}", "missing required key")
+            a, b = self.str_(t, "from", p), self.str_(t, "to", p)
+            for key, nid in (("from", a), ("to", b)):
+                if nid not in node_ids:
+                    raise self.fail(f"{p}.{key}", f"unknown node {nid!r}")
+            if a not in held:
+                raise self.fail(f"{p}.from", f"the base end {a!r} must be a pinned/clamped node")
+            if a == b:
+                raise self.fail(f"{p}.to", "a boom must join two different nodes")
+            out.append(
+                Boom(
+                    id=self.str_(t, "id", p),
+                    a=a,
+                    b=b,
+                    force=self.num(t, "force", p, positive=True),
+                    length=self.num(t, "length", p, positive=True),
+                )
+            )
+        self.unique([b.id for b in out], "booms")
+        return tuple(out)
+
+    def resolve_rest_angles(self, scene: Scene) -> Scene:
+        """Springs given by ``rest_angle_deg`` get their ``free_angle_deg`` from the drawing."""
+        springs = tuple(
+            replace(s, free_angle_deg=free_from_rest(scene, s, s.rest_angle_deg))
+            if s.rest_angle_deg is not None
+            else s
+            for s in scene.torsion_springs
+        )
+        return replace(scene, torsion_springs=springs)
+
+    def check_analysis_needs(self, scene: Scene) -> None:
+        """A deploy needs booms; a boom's deployed length must exceed its drawn length;
+        sweep keys must name numbers of this scene."""
+        a = scene.analysis
+        deploy = a.kind == "deploy" or (a.kind == "sweep" and a.sweep_of == "deploy")
+        if deploy and not scene.booms:
+            raise self.fail("booms", "missing: a deploy analysis needs at least one [[booms]]")
+        for i, b in enumerate(scene.booms):
+            na, nb = scene.node(b.a), scene.node(b.b)
+            drawn = math.hypot(nb.x - na.x, nb.y - na.y)
+            if b.length <= drawn:
+                raise self.fail(
+                    f"booms[{i}].length", f"{b.length:g} must exceed the drawn length {drawn:g}"
+                )
+        for i, ax in enumerate(a.grid):
+            for key in ax.keys:
+                why = key_error(scene, key)
+                if why:
+                    raise self.fail(f"analysis.grid[{i}].keys", why)
+                if key.split(".")[2] in POSITIVE and min(ax.values) <= 0.0:
+                    raise self.fail(f"analysis.grid[{i}].values", f"{key} must stay > 0")
+                table, ident, fld = key.split(".")
+                if table == "booms" and fld == "length":
+                    b = next(b for b in scene.booms if b.id == ident)
+                    na, nb = scene.node(b.a), scene.node(b.b)
+                    drawn = math.hypot(nb.x - na.x, nb.y - na.y)
+                    if min(ax.values) <= drawn:
+                        why = f"{key} must exceed the drawn length {drawn:g}"
+                        raise self.fail(f"analysis.grid[{i}].values", why)
+
     # -- whole-structure checks --------------------------------------------------------------
     def check_connected(self, scene: Scene) -> None:
         """Every node must be reachable from the first through members (one structure)."""
         adj: dict[str, set[str]] = {n.id: set() for n in scene.nodes}
-        for m in scene.members:
+        for m in (*scene.members, *scene.booms):
             adj[m.a].add(m.b)
             adj[m.b].add(m.a)
         seen, todo = {scene.nodes[0].id}, [scene.nodes[0].id]

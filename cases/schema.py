@@ -29,13 +29,24 @@ UNITS: dict[str, str] = {
 MEMBER_KINDS = ("flexible", "rigid", "spring")
 END_KINDS = ("weld", "pin")
 SUPPORT_TYPES = ("clamp", "pin", "slider", "guided")
-ANALYSIS_KINDS = ("load", "path", "distance", "energy", "sweep", "kinematics", "synthesis")
+ANALYSIS_KINDS = (
+    "load",
+    "path",
+    "distance",
+    "energy",
+    "sweep",
+    "kinematics",
+    "synthesis",
+    "deploy",
+)
 SYNTHESIS_GOALS = ("stiffness", "critical-load")
 #: per-member model names a case may assign (``[[members]] model = ...``; issue 9)
 MEMBER_MODEL = (
     r"^(elastica|bcm|prb-short|prb-1r|prb-2r|prb-3r|prb-2rpr|prb-custom"
     r"|prb-fsm-[1-9][0-9]*|cbcm-[1-9][0-9]*|linear-[1-9][0-9]*)$"
 )
+# analyses a sweep may repeat at each grid point
+SWEEP_OF_KINDS = ("load", "deploy")
 REFERENCE_KINDS = ("closed-form", "published", "fe", "model")
 NODE_QUANTITIES = ("x", "y", "ux", "uy", "rot")
 
@@ -117,6 +128,34 @@ class TorsionSpring:
     member_b: str | None
     stiffness: float
     free_angle_deg: float = 0.0
+    rest_angle_deg: float | None = None
+
+
+@dataclass(frozen=True)
+class Boom:
+    """A tape-spring boom from the supported node ``a`` to node ``b`` (the thesis's Part 1 /
+    Part 2 actuator).
+
+    While its length |b - a| is below ``length`` it pushes ``b`` with the constant ``force``
+    along the line a -> b (a conservative force: potential ``-force * |b - a|``); at
+    ``length`` it locks and acts as a rigid bar.  A boom that cannot reach ``length``
+    (insufficient force) stalls at the length where the mechanism balances it.
+    """
+
+    id: str
+    a: str
+    b: str
+    force: float
+    length: float
+
+
+@dataclass(frozen=True)
+class GridAxis:
+    """One axis of a sweep grid: every scene key in ``keys`` (``table.id.field``, e.g.
+    ``torsion_springs.S1.stiffness``) is set to each of ``values`` in turn."""
+
+    keys: tuple[str, ...]
+    values: tuple[float, ...]
 
 
 @dataclass(frozen=True)
@@ -204,7 +243,14 @@ class Analysis:
     ``stop_output`` reaches ``stop_value`` or the factor reaches ``factor_end``, at most
     ``max_steps`` steps.  ``distance``/``energy``: the ``driver`` goes from start to stop in
     ``steps``.  ``sweep``: ``load`` repeated for each value of ``sweep_values`` of the scene
-    parameter ``sweep_key``.  ``kinematics``: rigid-body motion of a mechanism without
+    parameter ``sweep_key``; or, with ``grid``, the analysis ``sweep_of`` (``load`` or
+    ``deploy``) at every point of the cartesian product of the grid axes (``sweep_key`` /
+    ``sweep_values`` are read as a one-axis grid).  ``deploy``: the scene's booms push
+    (Part 1) until they reach their length or stall, reported at ``steps`` + 1 points,
+    ``Step.factor`` = boom extension progress (L - L0) / (L_deployed - L0) in [0, 1]; then
+    (Part 2) the booms lock and the mechanism settles: one more step with ``factor`` = 2.
+    Every deploy step reports ``<boom id>.length``.
+    ``kinematics``: rigid-body motion of a mechanism without
     flexible members, driven by ``driver`` (``Step.factor`` = driver coordinate); ``mobility``
     is the expected mobility (Gruebler count, checked by the solver).  ``synthesis``: see
     ``Synthesis``.  ``ma``: mechanical advantage output (``MechanicalAdvantage``).
@@ -219,6 +265,8 @@ class Analysis:
     driver: Driver | None = None
     sweep_key: str | None = None
     sweep_values: tuple[float, ...] = ()
+    grid: tuple[GridAxis, ...] = ()
+    sweep_of: str = "load"
     mobility: int | None = None
     synthesis: Synthesis | None = None
     ma: MechanicalAdvantage | None = None
@@ -282,6 +330,10 @@ class Scene:
     description: str = ""
     reference_model: str | None = None
     path: str = ""
+    booms: tuple[Boom, ...] = ()
+    # a point of a sweep: the parent case's name and ((scene key, value), ...) at this point
+    sweep_parent: str | None = None
+    sweep_point: tuple[tuple[str, float], ...] = ()
 
     # -- convenience lookups (cheap; scenes are small) ---------------------------------------
     def node(self, node_id: str) -> Node:
@@ -313,7 +365,8 @@ class Scene:
 
     def output_keys(self) -> list[str]:
         """All scalar output keys this scene reports, in order."""
-        return [f"{o.name}.{q}" for o in self.outputs for q in NODE_QUANTITIES]
+        keys = [f"{o.name}.{q}" for o in self.outputs for q in NODE_QUANTITIES]
+        return keys + [f"{b.id}.length" for b in self.booms]
 
     def model_options(self, name: str) -> dict[str, Any]:
         """Options the case gives for a model name (empty dict if none)."""

@@ -336,6 +336,10 @@ class FEM:
         reason = self.applies_to(scene)
         if reason:
             return not_applicable(scene, self.name, reason)
+        if scene.analysis.kind == "deploy":
+            from fem_reference.deploy import solve_deploy
+
+            return solve_deploy(scene, self.name, self.n)
         r, status, message = self.runner(scene)
         return post_process(scene, _solution(scene, self.name, r, status, message))
 
@@ -372,6 +376,10 @@ class FEMAuto:
         reason = self.applies_to(scene)
         if reason:
             return not_applicable(scene, self.name, reason)
+        if scene.analysis.kind == "deploy":  # no Richardson: the finest mesh of the sequence
+            from fem_reference.deploy import solve_deploy
+
+            return solve_deploy(scene, self.name, self.sequence[-1])
         from fem_reference.richardson import combine
 
         # stability is reported from the finest mesh only: skip the eigen-analysis elsewhere

@@ -441,7 +441,7 @@ class Replay:
             from fem_reference.replay_driver import applies  # driver moved as a motion
 
             return applies(scene)
-        if scene.analysis.kind != "load" and self.factors is None:
+        if scene.analysis.kind not in ("load", "deploy") and self.factors is None:
             return f"{scene.analysis.kind} analyses: the replay only ramps a load factor"
         try:
             build(scene, 1)
@@ -454,6 +454,10 @@ class Replay:
         reason = self.applies_to(scene)
         if reason:
             return not_applicable(scene, self.name, reason)
+        if scene.analysis.kind == "deploy":  # the scene's booms are the lock events
+            from fem_reference.deploy import replay_deploy
+
+            return replay_deploy(scene, self)
         if scene.analysis.kind == "energy" and self.factors is None:
             from fem_reference.replay_driver import solve_energy
 

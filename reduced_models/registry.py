@@ -33,6 +33,7 @@ _ENTRIES: dict[str, str] = {
     "prb-2rpr": "reduced_models.prb:PRB2RPR",
     "prb-fsm-N": "reduced_models.prb:PRBFSM",
     "prb-custom": "reduced_models.prb:PRBCustom",
+    "thesis-force-method": "reduced_models.thesis_force_method:ThesisForceMethod",
     "kinetostatic": "reduced_models.mechanism.model:Kinetostatic",
     "mixed": "reduced_models.mechanism.model:Mixed",
     "linear-auto": "reduced_models.auto:LinearAuto",

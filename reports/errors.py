@@ -31,7 +31,7 @@ import numpy as np
 
 TRANSLATIONS = ("x", "y", "ux", "uy")
 SUMMARY_QUANTITIES = ("ux", "uy", "rot")
-FALLBACK_REFERENCES = ("fem-auto", "elastica")
+FALLBACK_REFERENCES = ("fem-auto", "elastica", "kinetostatic")
 # model -> the baseline it is timed against in the same run (speed ratio in the report)
 SPEED_BASELINES: dict[str, str] = {"elastica": "elastica-bvp"}
 _MATCH_RTOL = 1e-9

@@ -305,6 +305,10 @@ def recommend(
         import cases
 
         scene = cases.load(scene)
+    if scene.analysis.kind == "sweep":  # a sweep case is answered at its first grid point
+        from cases.sweep import expand
+
+        scene = expand(scene)[0]
     tol = parse_tolerance(tol)
     known = set(scene.output_keys()) | {"factor"}
     for key in tol.per_output:
@@ -330,6 +334,18 @@ def recommend(
     for c in cands:
         c.ratio_to_reference = c.cpu_s / ref_cpu if c.cpu_s and ref_cpu else None
     best, reason = _verdict(cands, tol, cost)
+    if (
+        best is None
+        and ref_name == "kinetostatic"
+        and not any(c.status != "not-applicable" for c in cands)
+    ):
+        # no compliant member: rigid-body kinematics with springs is exact, not an approximation
+        best = ref_name
+        reason = "no compliant member: kinetostatic (rigid links, springs) is exact here; " + reason
+        exact = Candidate(ref_name, ref_sol.status, "exact for rigid links and springs")
+        exact.worst_error, exact.cpu_s, exact.ratio_to_reference = 0.0, ref_cpu, 1.0
+        exact.qualifies = True
+        cands.insert(0, exact)
     if unc:
         reason += f"; the reference's own error estimate {pct(unc)} is added to every error"
     if ref_note:

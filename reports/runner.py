@@ -47,7 +47,7 @@ from pathlib import Path
 from typing import Any
 
 from cases.schema import Scene
-from reports import api, errors, journal, limits, store, timing
+from reports import api, errors, journal, limits, store, sweep, timing
 from reports.exports import (
     DEFAULT_EXPORT,
     NO_EXPORT,  # noqa: F401  (re-exported)
@@ -160,7 +160,8 @@ def case_meta(scene: Scene) -> dict[str, Any]:
 def model_list(scene: Scene, models: Sequence[str] | None, table: dict[str, str]) -> list:
     """(name, role) pairs for one case: the asked models (else the case's list + defaults),
     the reference model (or a registered fallback) and speed baselines."""
-    names = list(models) if models else [s.name for s in scene.models] + list(api.default_names())
+    defaults = list(api.default_names()) if sweep.uses_defaults(scene) else []
+    names = list(models) if models else [s.name for s in scene.models] + defaults
     pairs = {n: "model" for n in names}
     refs = [scene.reference_model] if scene.reference_model else []
     for cand in refs + [c for c in errors.FALLBACK_REFERENCES if c not in refs]:
@@ -196,14 +197,15 @@ def plan(
     timing = timing or (QUICK_TIMING if quick else DEFAULT_TIMING)
     code = code_hash()
     tasks, fixed, metas = [], [], {}
-    for scene0 in scenes:
+    for scene0 in sweep.expand_all(scenes):
         scene = quick_scene(scene0) if quick else scene0
-        meta = case_meta(scene)
+        meta = case_meta(scene) | sweep.point_meta(scene)
         metas[scene.name] = meta
+        ptiming = sweep.single_shot(scene, timing)
         for name, role in model_list(scene, models, table):
             options = scene.model_options(name)
             fp = json.dumps(
-                [meta["scene_hash"], name, store.jsonable(options), quick, timing.__dict__, code],
+                [meta["scene_hash"], name, store.jsonable(options), quick, ptiming.__dict__, code],
                 sort_keys=True,
             )
             key = f"{scene.name}|{name}|{hashlib.sha1(fp.encode()).hexdigest()[:12]}"
@@ -223,7 +225,7 @@ def plan(
                     "target": target,
                     "n": n,
                     "options": options,
-                    "timing": timing,
+                    "timing": ptiming,
                     "heavy": heavy,
                 }
             )
@@ -483,7 +485,7 @@ def run_matrix(
     tasks, fixed, metas = plan(scenes, models, quick, timing)
     for t in tasks:
         t["time_limit"], t["memory_limit"] = time_limit, memory_limit
-        t["export"], t["out_dir"] = export, str(out.resolve())
+        t["export"], t["out_dir"] = sweep.export_for(t["scene"], export), str(out.resolve())
     if render_shapes is None:
         render_shapes = not quick
     probe = start_render_probe() if render and render_shapes else None

@@ -136,6 +136,15 @@ def test_bounds_keep_the_catalog_valid():
         cases.load(name)
 
 
+def test_sweep_grid_size_is_bounded():
+    """A sweep grid is the product of its axes: 100 x 5 x 5 scenes is refused, by name."""
+    text = (cases.CATALOG / "thesis-sixbar-config4-sweep-rest.toml").read_text()
+    values = ", ".join(f"{20 + 0.2 * i:.1f}" for i in range(100))
+    big = edit("values = [20.0, 25.0, 30.0, 35.0, 40.0]", f"values = [{values}]", text)
+    with pytest.raises(cases.CaseError, match=r"analysis.grid: 2500 sweep scenes exceed .* 2000"):
+        cases.loads(big)
+
+
 def test_bad_model_option_names_the_file(tmp_path, capsys):
     path = tmp_path / "opts.toml"
     path.write_text(HEAD + '[[models]]\nname = "linear-2"\noptions = { no_such_option = 1 }\n')

@@ -28,7 +28,7 @@ from reduced_models.mechanism.system import SceneError
 from reduced_models.prb_chain import check_matrix
 from reduced_models.single_beam import cantilever_of
 
-ANALYSES = ("load", "path", "distance", "energy", "kinematics", "synthesis")
+ANALYSES = ("load", "path", "distance", "energy", "kinematics", "synthesis", "deploy")
 _PRB_FIXED = {
     "prb-short": lambda o: T.PRB_SHORT,
     "prb-2r": lambda o: T.PRB_2R,
@@ -248,6 +248,10 @@ def solve_with(scene: Scene, name: str, spec_of: Callable[[Member], tuple]) -> S
         sysm = build(scene, spec_of)
     except SceneError as err:
         return not_applicable(scene, name, str(err))
+    if kind == "deploy":
+        from reduced_models.mechanism.deploy import deploy
+
+        return deploy(sysm, name)
     r = analyses.run(sysm, kind)
     return finish(scene, name, r)
 

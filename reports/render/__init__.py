@@ -163,6 +163,7 @@ def render_figures(payload: Mapping, out_dir: Path, render: str | None = "auto")
             hist,
         )
         for name, case in payload["cases"].items()
+        if not case.get("sweep")  # sweep points: drawn together as stability maps
     ]
     if render in ("auto", "pyvista"):
         from fem_reference.export import pyvista_available
@@ -216,6 +217,9 @@ def render_report(
     backend = None if not render else ("matplotlib" if pyvista is False else "auto")
     figs = render_figures(payload, out, backend)
     blocks = build_document(payload, figs)
+    from reports.render import stability_maps  # deploy verdicts and sweep maps (issue 10)
+
+    blocks += stability_maps.blocks(payload, out)
     if (out / "teaching.html").is_file():  # written by `flexbench teach` (render/teaching.py)
         note = "Teaching page: model cards, validity atlases, which model to use per case"
         blocks.insert(2, ("links", note, [("teaching.html", "teaching.html")]))

@@ -1,0 +1,490 @@
+"""``thesis-force-method``: the six-bar thesis's incremental force method (seed 001, Appendix C).
+
+A faithful port of the MATLAB listing for Configuration 4, written for any scene of the same
+family: a serial chain of rigid bars from one pinned ground node to another, consecutive bars
+welded at a free node forming ternary links, torsion springs at the joints, one boom from a
+pinned ground node to a chain node.  Per increment (``feb11_conf1_p1`` / ``_p2``):
+
+1. rebuild the free joints along the chain from the bar angles and the stored bar lengths;
+2. equilibrium matrix ``A`` (rows: x, y of the free joints; columns: bar axial forces, one
+   moment column per ternary link -- the listing's ``A(:,9) + A(:,11)`` -- and in Part 2 the
+   locked boom's axial force);
+3. SVD ``A = U S V'``; mechanism modes ``M = U(:, rank+1:end)``; rotation Jacobian ``R_rows``
+   (spring rotation = higher-numbered bar minus lower-numbered bar); ``R = R_rows' M``;
+4. spring loads ``Load_0 = R_rows q``, ``q = -K (alf_spr - theta0)``; Part 1 adds the boom's
+   push along its current line; ``L_app = delta * (load)``;
+5. ``phi = (R' K R) \\ (M' L_app)``, joint increments ``d = M phi`` and spring-angle
+   increments ``R phi`` (the listing wraps them in ``vpa(., 5)``; rounding them to 5
+   significant digits moves Table 4-8's totals in their 6th digit, so the table was not
+   computed with rounded increments: ``digits`` defaults to None, no rounding);
+6. Part 1 repeats while the boom is not longer than its deployed length; Part 2 (boom locked,
+   ``delta`` = 0.5) repeats while ``|U_m' Load_0| >= 1e-6``.
+
+``Lo_tot`` (the sum of ``L_app`` over a part) is what Tables 4-5 to 4-10 print.  The stability
+number is the listing's ``ones' U_m' H U_m ones`` with its Hessian as written:
+``H = L_app 1' + sum_j lam_j d2F_j`` where ``pd_SE`` is the *first* derivative of the load
+work (so each row of the first term repeats one load component) and ``lam`` comes from
+``A^+ Load_0`` in the column order of ``A`` (bar I, II, III, ternary moment, IV, V, VI, boom)
+while ``F`` is ordered (bar I..VI, boom, bending): the listing pairs them index by index.
+Both quirks are kept (``extras`` also holds the eigenvalues of the symmetric part of
+``U_m' H U_m``, which do not depend on the SVD's arbitrary null-space basis).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from cases.schema import Scene
+from reduced_models.base import ModelCard, Solution, Step, not_applicable
+
+PART1_DELTA = 0.005  # Table 4-2: force fraction gamma for Part 1
+PART2_DELTA = 0.5  # ... and for Part 2
+PART2_TOL = 1e-6  # listing: while norm(zero_load) >= 1e-6
+
+
+@dataclass(frozen=True)
+class Chain:
+    """The scene read as the thesis's six-bar family.
+
+    ``nodes``: chain node ids from the first ground joint to the last (n + 1 for n bars);
+    ``free``: indices (into ``nodes``) of the moving joints; ``welds``: bar index pairs
+    (i, i + 1) welded at their common joint; ``springs``: (bar_a, bar_b or -1, stiffness,
+    free angle rad) with bar indices into the chain; ``boom``: (base xy, chain index of the
+    pushed node, force, deployed length).
+    """
+
+    nodes: tuple[str, ...]
+    free: tuple[int, ...]
+    welds: tuple[tuple[int, int], ...]
+    springs: tuple[tuple[int, int, float, float], ...]
+    base: tuple[float, float]
+    tip: int
+    force: float
+    length: float
+
+
+def read_chain(scene: Scene) -> Chain | str:
+    """The chain description of ``scene``, or the reason it is not of the thesis's family."""
+    if any(m.kind != "rigid" for m in scene.members):
+        return "the force method models rigid bars only"
+    if scene.loads:
+        return "the thesis's force method has no external loads besides the boom"
+    if len(scene.booms) != 1:
+        return "the Appendix C algorithm drives exactly one boom"
+    pinned = {s.node for s in scene.supports if s.type == "pin"}
+    if len(pinned) != len(scene.supports):
+        return "only pinned ground joints are modelled"
+    members = scene.members
+    nodes = [members[0].a]
+    for m in members:
+        if m.a != nodes[-1]:
+            return f"members must form one chain in order (member {m.id!r} breaks it)"
+        nodes.append(m.b)
+    boom = scene.booms[0]
+    if nodes[0] not in pinned or nodes[-1] not in pinned or boom.a not in pinned:
+        return "the chain's two ends and the boom's base must be pinned to ground"
+    if len(set(nodes)) != len(nodes) or boom.b not in nodes[1:-1]:
+        return "the boom must push a moving joint of a simple chain"
+    welds = []
+    for i in range(len(members) - 1):
+        ends = (members[i].end_b, members[i + 1].end_a)
+        if ends == ("weld", "weld"):
+            welds.append((i, i + 1))
+        elif "weld" in ends:
+            return f"a weld at {members[i].b!r} must join both bars (a ternary link)"
+    index = {m.id: i for i, m in enumerate(members)}
+    springs = []
+    for t in scene.torsion_springs:
+        ia, ib = index[t.member_a], -1 if t.member_b is None else index[t.member_b]
+        springs.append((ia, ib, t.stiffness, math.radians(t.free_angle_deg)))
+    b = scene.node(boom.a)
+    return Chain(
+        nodes=tuple(nodes),
+        free=tuple(range(1, len(nodes) - 1)),
+        welds=tuple(welds),
+        springs=tuple(springs),
+        base=(b.x, b.y),
+        tip=nodes.index(boom.b),
+        force=boom.force,
+        length=boom.length,
+    )
+
+
+def round_sig(x: np.ndarray, digits: int | None) -> np.ndarray:
+    """Round to ``digits`` significant decimal digits (MATLAB ``vpa(x, digits)``)."""
+    if digits is None:
+        return x
+    return np.array([float(f"{v:.{digits - 1}e}") for v in x])
+
+
+def angles(pos: np.ndarray) -> np.ndarray:
+    """Bar angles (rad) along the chain from joint positions, shape (n_bars,)."""
+    d = np.diff(pos, axis=0)
+    return np.arctan2(d[:, 1], d[:, 0])
+
+
+def rebuild(pos: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    """Free joints re-placed along the chain from the bar angles and stored lengths (the
+    listing's ``x(i) = x_prev + L(i) cosd(alf(i))``); the last ground joint stays put."""
+    th = angles(pos)
+    new = pos.copy()
+    steps = lengths[:-1, None] * np.column_stack([np.cos(th[:-1]), np.sin(th[:-1])])
+    new[1:-1] = pos[0] + np.cumsum(steps, axis=0)
+    return new
+
+
+class ForceMethodState:
+    """Matrices of one increment at joint positions ``pos`` (chain order)."""
+
+    def __init__(self, chain: Chain, pos: np.ndarray, lengths: np.ndarray, locked: bool):
+        nf = len(chain.free)
+        nbar = len(pos) - 1
+        th = angles(pos)
+        e = np.column_stack([np.cos(th), np.sin(th)])
+        n = np.column_stack([-np.sin(th), np.cos(th)])
+        row = {j: 2 * k for k, j in enumerate(chain.free)}
+        cols = []
+
+        def col(entries: list[tuple[int, np.ndarray]]) -> np.ndarray:
+            c = np.zeros(2 * nf)
+            for j, v in entries:
+                if j in row:
+                    c[row[j] : row[j] + 2] += v
+            return c
+
+        welded = dict(chain.welds)
+        for i in range(nbar):
+            cols.append(col([(i, -e[i]), (i + 1, e[i])]))
+            if i in welded:  # the ternary link's moment column: A(:,9) + A(:,11)
+                k = welded[i]
+                cols.append(
+                    col(
+                        [
+                            (i, n[i] / lengths[i]),
+                            (i + 1, -n[i] / lengths[i] - n[k] / lengths[k]),
+                            (k + 1, n[k] / lengths[k]),
+                        ]
+                    )
+                )
+        tip = pos[chain.tip]
+        vb = tip - np.asarray(chain.base)
+        self.boom_length = float(np.hypot(*vb))
+        self.boom_dir = vb / self.boom_length
+        if locked:
+            cols.append(col([(chain.tip, self.boom_dir)]))
+        self.A = np.column_stack(cols)
+        # rotation Jacobian: d(theta_i)/d(x) of every bar, rows = free joint dofs
+        dth = np.zeros((2 * nf, nbar))
+        for i in range(nbar):
+            g = np.array([np.sin(th[i]), -np.cos(th[i])]) / lengths[i]
+            for j, v in ((i, g), (i + 1, -g)):
+                if j in row:
+                    dth[row[j] : row[j] + 2, i] += v
+        self.R_rows = np.column_stack(
+            [dth[:, a] - (dth[:, b] if b >= 0 else 0.0) for a, b, _, _ in chain.springs]
+        )
+        self.K = np.diag([s[2] for s in chain.springs])
+        U, S, Vt = np.linalg.svd(self.A)
+        self.rank = int(np.sum(S > max(self.A.shape) * np.finfo(float).eps * S[0]))  # rank()
+        self.U, self.S, self.V = U, S, Vt.T
+        self.M = U[:, self.rank :]
+        self.R = self.R_rows.T @ self.M
+
+    def spring_load(self, rel: np.ndarray, chain: Chain) -> np.ndarray:
+        """``Load_0 = R_rows q``, ``q = -K (rotation - free angle)`` (N), shape (2 nf,)."""
+        r_ini = rel - np.array([s[3] for s in chain.springs])
+        return self.R_rows @ (-self.K @ r_ini)
+
+    def internal_forces(self, load: np.ndarray) -> np.ndarray:
+        """``sigma = sum_i (u_i' P / s_i) v_i`` over the rank (listing, Part 2)."""
+        r = self.rank
+        return self.V[:, :r] @ ((self.U[:, :r].T @ load) / self.S[:r])
+
+
+def solve_increment(
+    st: ForceMethodState, load: np.ndarray, digits: int | None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Joint and spring-rotation increments for the applied ``load`` (already times delta)."""
+    psi = st.M.T @ load
+    phi = np.linalg.solve(st.R.T @ st.K @ st.R, psi)
+    d = round_sig(st.M @ phi, digits)
+    r_deg = round_sig(st.R @ phi * 180.0 / math.pi, digits)
+    return d, np.radians(r_deg)
+
+
+def constraint_hessians(chain: Chain, lengths: np.ndarray) -> list[np.ndarray]:
+    """Hessians of the listing's F_j in the free joint coordinates, in F order: bars, boom,
+    bending (one per ternary link)."""
+    nf = len(chain.free)
+    row = {j: 2 * k for k, j in enumerate(chain.free)}
+    I2 = np.eye(2)
+    out = []
+
+    def pair(ja: int | None, jb: int, scale: float) -> np.ndarray:
+        H = np.zeros((2 * nf, 2 * nf))
+        for p, sp in ((ja, 1.0), (jb, -1.0)):
+            for q, sq in ((ja, 1.0), (jb, -1.0)):
+                if p in row and q in row:
+                    H[row[p] : row[p] + 2, row[q] : row[q] + 2] += sp * sq * scale * I2
+        return H
+
+    nbar = len(chain.nodes) - 1
+    for i in range(nbar):
+        out.append(pair(i, i + 1, 1.0 / lengths[i]))
+    out.append(pair(None, chain.tip, 1.0 / lengths[nbar]))  # boom: base is ground
+    for i, k in chain.welds:  # F = cross(p_w - p_a, p_b - p_w) / (L_i L_k): bilinear
+        H = np.zeros((2 * nf, 2 * nf))
+        J = np.array([[0.0, 1.0], [-1.0, 0.0]])  # d2/du dv of cross(u, v) = u^T J v
+        terms = {i: -1.0, i + 1: 1.0}  # u = p_{i+1} - p_i
+        termv = {i + 1: -1.0, k + 1: 1.0}  # v = p_{k+1} - p_{i+1}
+        for p, sp in terms.items():
+            for q, sq in termv.items():
+                if p in row and q in row:
+                    blk = sp * sq * J / (lengths[i] * lengths[k])
+                    H[row[p] : row[p] + 2, row[q] : row[q] + 2] += blk
+                    H[row[q] : row[q] + 2, row[p] : row[p] + 2] += blk.T
+        out.append(H)
+    return out
+
+
+@dataclass
+class PartResult:
+    """One part of the computation: joint positions after every increment and the sums."""
+
+    positions: list[np.ndarray]
+    boom_lengths: list[float]
+    load_total: np.ndarray  # Lo_tot: sum of L_app, shape (2 nf,)
+    rel: np.ndarray  # accumulated spring rotations (rad)
+    last: ForceMethodState | None = None
+    last_app: np.ndarray | None = None
+    last_load0: np.ndarray | None = None
+    residual: float = math.nan
+    stalled: bool = False
+    done: bool = False
+
+
+def run_part(
+    chain: Chain,
+    pos: np.ndarray,
+    lengths: np.ndarray,
+    rel: np.ndarray,
+    *,
+    locked: bool,
+    delta: float,
+    digits: int | None,
+    max_increments: int,
+) -> PartResult:
+    """Part 1 (``locked=False``: the boom pushes while not longer than its length) or Part 2
+    (boom locked; while ``|U_m' Load_0| >= PART2_TOL``).
+
+    As in the listing, the matrices of an increment use the bar angles of the positions the
+    previous increment ended at; the increment is added to those positions re-placed along
+    the chain with the stored lengths.
+    """
+    res = PartResult([pos], [], np.zeros(2 * len(chain.free)), rel.copy())
+    zero_load = math.inf
+    tip = 2 * chain.free.index(chain.tip)
+    for _ in range(max_increments):
+        st = ForceMethodState(chain, pos, lengths, locked)
+        res.boom_lengths.append(st.boom_length)
+        if (not locked and st.boom_length > chain.length) or zero_load < PART2_TOL:
+            res.done = True
+            break
+        load0 = st.spring_load(res.rel, chain)
+        load = load0.copy()
+        if not locked:
+            load[tip : tip + 2] += chain.force * st.boom_dir
+        app = delta * load
+        d, dr = solve_increment(st, app, digits)
+        res.load_total = res.load_total + app
+        res.rel = res.rel + dr
+        if locked:
+            zero_load = float(np.linalg.norm(st.M.T @ load0))
+        res.last, res.last_app, res.last_load0 = st, app, load0
+        pos = rebuild(pos, lengths)
+        pos[1:-1] += d.reshape(-1, 2)
+        res.positions.append(pos)
+        if not locked and np.linalg.norm(d) < 1e-12 * chain.length:
+            res.stalled = True  # the boom balances the springs short of its length
+            break
+    res.residual = zero_load
+    return res
+
+
+def thesis_stability(chain: Chain, part2: PartResult, lengths: np.ndarray) -> dict:
+    """The listing's stability number and, beside it, basis-free eigenvalues."""
+    st = part2.last
+    lam = st.internal_forces(part2.last_load0)
+    H = np.outer(part2.last_app, np.ones(len(part2.last_app)))  # pd_SE as written
+    for lj, Hj in zip(lam, constraint_hessians(chain, lengths)):  # index-by-index pairing
+        H = H + lj * Hj
+    Um = st.M
+    mat = Um.T @ H @ Um
+    ones = np.ones(Um.shape[1])
+    return {
+        "stability_number": float(ones @ mat @ ones),
+        "stability_matrix": mat.tolist(),
+        "stability_eigs_sym": np.linalg.eigvalsh(0.5 * (mat + mat.T)).tolist(),
+        "internal_forces": lam.tolist(),
+    }
+
+
+class ThesisForceMethod:
+    """``thesis-force-method``: the thesis's Appendix C incremental force method.
+
+    Parameters
+    ----------
+    delta1, delta2 : force fractions gamma of Part 1 and Part 2 (thesis: 0.005 and 0.5).
+    digits : significant digits the increments are rounded to (the listing's ``vpa(., 5)``
+        taken literally); None (default): no rounding, which reproduces Table 4-8.
+    max_increments : bound on the increments of each part.
+    """
+
+    name = "thesis-force-method"
+    card = ModelCard(
+        name="thesis-force-method",
+        family="mechanism",
+        summary="Incremental force method of the six-bar thesis (Appendix C): SVD of the "
+        "equilibrium matrix, mechanism modes, spring stiffness, load fractions",
+        assumptions=(
+            "rigid bars, pin joints, ternary links as welded bar pairs (one moment column)",
+            "boom: constant push along its line until longer than its length, then a bar",
+            "each increment applies delta times the whole current load through the modal "
+            "spring stiffness R'KR (a relaxation, not a Newton step)",
+            "stability number ones' U_m' H U_m ones with the listing's Hessian as written",
+        ),
+        validity="serial six-bar chains of the thesis; accuracy set by delta (see report)",
+        references=(
+            "seed 001_427a1482c4f4c482.txt, Chapter 2 and Appendix C (feb11_conf1_p1/_p2, "
+            "Jac_Hess_feb11_conf1); Tables 4-2 and 4-8",
+            "Pellegrino & Calladine (1986), Int. J. Solids Struct. 22(4) 409-428",
+        ),
+    )
+
+    def __init__(
+        self,
+        delta1: float = PART1_DELTA,
+        delta2: float = PART2_DELTA,
+        digits: int | None = None,
+        max_increments: int = 20000,
+    ) -> None:
+        for key, v in (("delta1", delta1), ("delta2", delta2)):
+            if isinstance(v, bool) or not isinstance(v, int | float) or not 0.0 < v <= 1.0:
+                raise ValueError(f"option {key}: must be a number in (0, 1], got {v!r}")
+        if digits is not None and (
+            isinstance(digits, bool) or not isinstance(digits, int) or not 1 <= digits <= 17
+        ):
+            raise ValueError(f"option digits: an integer in 1..17 or absent, got {digits!r}")
+        if isinstance(max_increments, bool) or not isinstance(max_increments, int):
+            raise ValueError(f"option max_increments: a positive integer, got {max_increments!r}")
+        if max_increments < 1:
+            raise ValueError(f"option max_increments: a positive integer, got {max_increments!r}")
+        self.delta1, self.delta2 = float(delta1), float(delta2)
+        self.digits, self.max_increments = digits, max_increments
+
+    def applies_to(self, scene: Scene) -> str | None:
+        """None for a deploy of a thesis-family chain, else why not."""
+        if scene.analysis.kind != "deploy":
+            return "the thesis's force method computes deploy analyses only"
+        chain = read_chain(scene)
+        return chain if isinstance(chain, str) else None
+
+    def run(self, scene: Scene) -> tuple[Chain, PartResult, PartResult | None]:
+        """Both parts (Part 2 None when the boom stalled or Part 1 ran out of increments)."""
+        chain = read_chain(scene)
+        pos = np.array([[scene.node(j).x, scene.node(j).y] for j in chain.nodes])
+        lengths = np.hypot(*np.diff(pos, axis=0).T)
+        opts = {"digits": self.digits, "max_increments": self.max_increments}
+        p1 = run_part(
+            chain, pos, lengths, np.zeros(len(chain.springs)), locked=False,
+            delta=self.delta1, **opts,
+        )  # fmt: skip
+        if not p1.done:
+            return chain, p1, None
+        end = p1.positions[-1]
+        lengths2 = np.hypot(*np.diff(end, axis=0).T)  # L_f: Part 2 uses the reached lengths
+        p2 = run_part(chain, end, lengths2, p1.rel, locked=True, delta=self.delta2, **opts)
+        return chain, p1, p2
+
+    def solve(self, scene: Scene) -> Solution:
+        """Part 1 then Part 2; steps at Part 1 report points, last step = Part 2."""
+        why = self.applies_to(scene)
+        if why:
+            return not_applicable(scene, self.name, why)
+        chain, p1, p2 = self.run(scene)
+        extras: dict[str, object] = {
+            "part1_increments": len(p1.positions) - 1,
+            "part1_load_total": p1.load_total.tolist(),
+            "part1_boom_length": p1.boom_lengths,
+        }
+        if p2 is None:
+            last = p1.boom_lengths[-1]
+            if p1.stalled:
+                msg = f"boom {scene.booms[0].id!r} stalled at length {last:.6g} < {chain.length:g}"
+                return self._solution(scene, chain, p1, None, "converged", msg, extras)
+            msg = f"Part 1: {self.max_increments} increments at boom length {last:.6g}"
+            return self._solution(scene, chain, p1, None, "failed", msg, extras)
+        end = p1.positions[-1]
+        lengths = np.append(np.hypot(*np.diff(end, axis=0).T), p1.boom_lengths[-1])
+        extras.update(thesis_stability(chain, p2, lengths))
+        extras["part2_increments"] = len(p2.positions) - 1
+        extras["part2_load_total"] = p2.load_total.tolist()
+        extras["part2_residual"] = p2.residual
+        ok = p2.done
+        msg = (
+            f"Part 1: {len(p1.positions) - 1} increments; Part 2: {len(p2.positions) - 1} "
+            f"increments, |U_m' Load_0| = {p2.residual:.2e} N; stability number "
+            f"{extras['stability_number']:.4g}"
+        )
+        if not ok:
+            msg = f"Part 2 did not settle in {self.max_increments} increments; " + msg
+        return self._solution(scene, chain, p1, p2, "converged" if ok else "failed", msg, extras)
+
+    def _solution(
+        self,
+        scene: Scene,
+        chain: Chain,
+        p1: PartResult,
+        p2: PartResult | None,
+        status: str,
+        msg: str,
+        extras: dict,
+    ) -> Solution:
+        """Steps: Part 1 at ``steps`` + 1 report points of boom extension, then Part 2."""
+        boom = scene.booms[0]
+        L0, Lend = p1.boom_lengths[0], chain.length
+        prog = (np.array(p1.boom_lengths) - L0) / (Lend - L0)
+        picks = []
+        for target in np.linspace(0.0, 1.0, scene.analysis.steps + 1):
+            hit = np.nonzero(prog >= target - 1e-12)[0]
+            picks.append(int(hit[0]) if hit.size else len(prog) - 1)
+        steps = []
+        for k in dict.fromkeys(picks):
+            steps.append(self._step(scene, chain, p1.positions[k], float(prog[k]), boom.id))
+        if p2 is not None:
+            st = self._step(scene, chain, p2.positions[-1], 2.0, boom.id)
+            stable = extras["stability_number"] > 0
+            steps.append(Step(st.factor, st.outputs, stable=bool(stable), info=st.info))
+        return Solution(scene.name, self.name, status, msg, tuple(steps), extras)
+
+    @staticmethod
+    def _step(scene: Scene, chain: Chain, pos: np.ndarray, factor: float, boom_id: str) -> Step:
+        where = dict(zip(chain.nodes, pos))
+        turn = angles(pos) - angles(
+            np.array([[scene.node(j).x, scene.node(j).y] for j in chain.nodes])
+        )
+        turn = (turn + math.pi) % (2 * math.pi) - math.pi  # bar rotations (rad)
+        out = {}
+        for o in scene.outputs:
+            n = scene.node(o.node)
+            x, y = where.get(o.node, (n.x, n.y))
+            # rot: the first member listed at the node (schema convention)
+            first = next(i for i, m in enumerate(scene.members) if o.node in (m.a, m.b))
+            out |= {f"{o.name}.x": x, f"{o.name}.y": y, f"{o.name}.ux": x - n.x}
+            out |= {f"{o.name}.uy": y - n.y, f"{o.name}.rot": float(turn[first])}
+        tip = pos[chain.tip]
+        out[f"{boom_id}.length"] = float(math.hypot(tip[0] - chain.base[0], tip[1] - chain.base[1]))
+        return Step(factor=factor, outputs=out)
