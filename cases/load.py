@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from cases import limits
 from cases.arc import MAX_SWEEP_DEG
 from cases.schema import (
     ANALYSIS_KINDS,
@@ -87,6 +88,11 @@ def load(name_or_path: str | Path) -> Scene:
     """Load and validate a case from the catalog (by name) or from a path."""
     path = resolve(name_or_path)
     try:
+        if path.stat().st_size > limits.MAX_FILE_BYTES:  # before reading it all into memory
+            size = path.stat().st_size
+            raise CaseError(
+                f"{path}: (file): {size} bytes exceeds the limit of {limits.MAX_FILE_BYTES}"
+            )
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise CaseError(f"{path}: (file): cannot read: {exc}") from None
@@ -95,10 +101,18 @@ def load(name_or_path: str | Path) -> Scene:
 
 def loads(text: str, source: str = "<string>") -> Scene:
     """Parse and validate case TOML text; ``source`` names the file in errors."""
+
+    def fail(key: str, reason: str) -> CaseError:
+        return CaseError(f"{source}: {key}: {reason}")
+
+    limits.check_size(text, fail)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise CaseError(f"{source}: (toml): {exc}") from None
+    except RecursionError:  # tomllib recurses once per nesting level
+        raise fail("(toml)", f"nested deeper than the limit of {limits.MAX_DEPTH} levels") from None
+    limits.check_tree(data, fail)
     return _Builder(data, source).scene()
 
 
@@ -161,9 +175,8 @@ class _Builder:
         v = table[key]
         if isinstance(v, bool) or not isinstance(v, int | float):
             raise self.fail(f"{path}.{key}", f"must be a number, got {type(v).__name__}")
+        limits.check_number(v, f"{path}.{key}", self.fail)
         v = float(v)
-        if not math.isfinite(v):
-            raise self.fail(f"{path}.{key}", "must be finite (NaN/inf not allowed)")
         if positive and v <= 0:
             raise self.fail(f"{path}.{key}", f"must be > 0, got {v:g}")
         if nonneg and v < 0:
@@ -178,6 +191,8 @@ class _Builder:
             raise self.fail(f"{path}.{key}", "must be an integer")
         if v < lo:
             raise self.fail(f"{path}.{key}", f"must be >= {lo}, got {v}")
+        if key.endswith("steps"):
+            limits.check_steps(v, f"{path}.{key}", self.fail)
         return v
 
     def str_(
@@ -244,6 +259,9 @@ class _Builder:
         outputs = self.outputs(node_ids)
         booms = self.booms(node_ids, supports)
         analysis = self.analysis(node_ids, {m.id for m in members}, outputs)
+        if analysis.kind == "path" and analysis.driver is None:
+            if not any(ld.fx or ld.fy or ld.moment for ld in loads):
+                raise self.fail("loads", "a 'path' analysis needs a nonzero load to trace")
         references = self.references(outputs, booms)
         models = self.models()
         scene = Scene(
@@ -386,15 +404,16 @@ class _Builder:
         return model, dict(opts)
 
     def supports(self, node_ids: set[str]) -> tuple[Support, ...]:
-        out = []
+        out, supported = [], set()
         for i, t in enumerate(self.array("supports", required=False)):
             p = f"supports[{i}]"
             self.keys(t, p, ("node", "type", "angle_deg"), ("node", "type"))
             node = self.str_(t, "node", p)
             if node not in node_ids:
                 raise self.fail(f"{p}.node", f"unknown node {node!r}")
-            if any(s.node == node for s in out):
+            if node in supported:
                 raise self.fail(f"{p}.node", f"node {node!r} already has a support")
+            supported.add(node)
             typ = self.str_(t, "type", p, choices=SUPPORT_TYPES)
             if "angle_deg" in t and typ not in ("slider",):
                 raise self.fail(f"{p}.angle_deg", "only a slider takes angle_deg")
@@ -482,7 +501,7 @@ class _Builder:
         return tuple(out)
 
     def outputs(self, node_ids: set[str]) -> tuple[Output, ...]:
-        out = []
+        out, names = [], set()
         for i, t in enumerate(self.array("outputs")):
             p = f"outputs[{i}]"
             self.keys(t, p, ("name", "node"), ("name", "node"))
@@ -491,8 +510,9 @@ class _Builder:
                 raise self.fail(f"{p}.node", f"unknown node {node!r}")
             if not re.match(r"^[A-Za-z_][A-Za-z0-9_-]*$", name):
                 raise self.fail(f"{p}.name", f"{name!r}: letters, digits, '_' or '-' only")
-            if any(o.name == name for o in out):
+            if name in names:
                 raise self.fail(f"{p}.name", f"duplicate output name {name!r}")
+            names.add(name)
             out.append(Output(name, node))
         return tuple(out)
 
@@ -571,11 +591,23 @@ class _Builder:
             raise self.fail(f"{p}.grid", "a sweep needs [[analysis.grid]] (or sweep_key/values)")
         if kind != "sweep" and grid:
             raise self.fail(f"{p}.grid", f"only a sweep takes a grid (kind is {kind!r})")
+        points = math.prod(len(ax.values) for ax in grid)
+        if points > limits.MAX_GRID_POINTS:
+            raise self.fail(
+                f"{p}.grid", f"{points} sweep scenes exceed the limit of {limits.MAX_GRID_POINTS}"
+            )
+        # a path traced to a stop output goes on until it gets there (DESIGN.md): no bound
+        factor_end = self.num(t, "factor_end", p, default=math.inf if stop_output else 1.0)
+        if kind in ("load", "path") and factor_end <= 0:
+            raise self.fail(
+                f"{p}.factor_end",
+                f"must be > 0 for a {kind!r} analysis (the load factor rises from 0), got "
+                f"{factor_end:g}; reverse the loads to load the other way",
+            )
         return Analysis(
             kind=kind,
             steps=self.int_(t, "steps", p, 20),
-            # a path traced to a stop output goes on until it gets there (DESIGN.md): no bound
-            factor_end=self.num(t, "factor_end", p, default=math.inf if stop_output else 1.0),
+            factor_end=factor_end,
             stop_output=stop_output,
             stop_value=stop_value,
             max_steps=self.int_(t, "max_steps", p, 400),
@@ -844,12 +876,5 @@ class _Builder:
 
 
 def _check_finite(obj: Any, path: str, fail: Callable[[str, str], CaseError]) -> None:
-    """No NaN/inf hidden in nested model options."""
-    if isinstance(obj, float) and not math.isfinite(obj) and obj != math.inf:
-        raise fail(path, "NaN is not allowed")
-    if isinstance(obj, dict):
-        for k, v in obj.items():
-            _check_finite(v, f"{path}.{k}", fail)
-    elif isinstance(obj, list):
-        for i, v in enumerate(obj):
-            _check_finite(v, f"{path}[{i}]", fail)
+    """Numbers hidden in nested model options: finite and in range (iterative, linear)."""
+    limits.check_tree({path: obj}, fail)

@@ -15,8 +15,10 @@
     flexbench fit-prb ...                    fit a PRB matrix (reduced_models.prb_fit)
 
 Exit codes: 0 success, 1 regression (compare) or a report that could not be rendered (run),
-2 bad input (one line ``flexbench: error: ...`` on stderr, never a traceback), 130
-interrupted (finished pairs are kept in DIR/partial.jsonl; rerun to resume).
+2 bad input (one line ``flexbench: error: ...`` on stderr, never a traceback; an unwritable
+or full --out included), 3 an internal error (one line naming case, model and exception type;
+``--debug`` anywhere on the line shows the traceback), 130 interrupted (finished pairs are
+kept in DIR/partial.jsonl; rerun to resume).
 """
 
 from __future__ import annotations
@@ -40,6 +42,9 @@ from reports.compare import DEFAULT_ABS_TOL, DEFAULT_REL_FACTOR
 from reports.timing import DEFAULT_TIME_LIMIT, QUICK_TIME_LIMIT  # not the runner: lazy
 
 PROG = "flexbench"
+SOLVE_TIME_LIMIT = 600.0  # s: `flexbench solve` ends a model that runs away
+# what the command was working on, for the one-line internal-error message
+_CONTEXT: dict[str, str] = {}
 
 
 class UsageError(Exception):
@@ -60,7 +65,10 @@ def _fail(message: str) -> int:
 
 
 def _user_errors() -> tuple[type[BaseException], ...]:
+    from reports.journal import LockedError, OutputError
+
     errs: list[type[BaseException]] = [UsageError, api.UnknownModelError, api.OptionError]
+    errs += [OutputError, LockedError]
     try:
         import cases
 
@@ -170,20 +178,35 @@ def cmd_models(args: argparse.Namespace) -> int:
     return 0
 
 
+def _option_key(scene: Any, model: str) -> str:
+    """Where a model's options come from: ``FILE: models[i].options``."""
+    i = next((i for i, s in enumerate(scene.models) if s.name == model), None)
+    return f"{scene.path}: " + ("(no options given)" if i is None else f"models[{i}].options")
+
+
 def cmd_solve(args: argparse.Namespace) -> int:
+    from reports import limits
+
+    _CONTEXT.update(case=args.case, model=args.model)
+    _check_limits(args)
     scene = _load(args.case)
     try:
         model = api.make_model(args.model, scene)
     except ValueError as exc:
         if isinstance(exc, api.UnknownModelError):
             raise
-        raise UsageError(str(exc)) from None
+        raise UsageError(f"{_option_key(scene, args.model)}: {exc}") from None
     except Exception as exc:  # a broken model module is not the user's mistake: say so
         text = f"cannot build model: {type(exc).__name__}: {exc}".splitlines()[0]
         sol, wall = Solution(scene.name, args.model, "failed", text), 0.0
     else:
         t0 = time.perf_counter()
-        sol = api.run_model(model, scene)
+        memory = None if args.memory_limit == 0 else args.memory_limit
+        try:
+            with limits.guard(args.time_limit, memory):
+                sol = limits.explain(api.run_model(model, scene), memory)
+        except limits.LimitExceeded as exc:
+            sol = Solution(scene.name, args.model, "failed", str(exc))
         wall = time.perf_counter() - t0
     if args.json:
         print(json.dumps(solution_json(sol, wall), allow_nan=False))
@@ -244,11 +267,17 @@ def select_cases(patterns: str | None) -> list[Any]:
     return [_load(n) for n in names]
 
 
-def cmd_run(args: argparse.Namespace) -> int:
-    from reports import runner
+def _check_limits(args: argparse.Namespace) -> None:
+    for flag, v in (("--time-limit", args.time_limit), ("--memory-limit", args.memory_limit)):
+        if v is not None and not (0 <= v < math.inf):
+            raise UsageError(f"{flag} must be a finite number >= 0, got {v:g}")
 
-    if args.time_limit is not None and args.time_limit < 0:
-        raise UsageError(f"--time-limit must be >= 0, got {args.time_limit:g}")
+
+def cmd_run(args: argparse.Namespace) -> int:
+    from reports import journal, runner
+
+    _CONTEXT.update(case=args.cases or "(catalog)", model=args.models or "(defaults)")
+    _check_limits(args)
     if args.workers is not None and args.workers < 1:
         raise UsageError(f"--workers must be >= 1, got {args.workers}")
     models = [m.strip() for m in args.models.split(",") if m.strip()] if args.models else None
@@ -279,19 +308,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     if out.exists() and not out.is_dir():
         raise UsageError(f"--out {out}: exists and is not a directory")
     try:
-        res = runner.run_matrix(
-            scenes,
-            models,
-            out,
-            quick=args.quick,
-            workers=args.workers,
-            dask=args.dask,
-            history=args.history,
-            fresh=args.fresh,
-            render=not args.no_report,
-            time_limit="auto" if args.time_limit is None else (args.time_limit or None),
-            tolerance=tol,
-        )
+        with journal.RunLock(out, wait=args.wait):
+            res = _run(args, runner, scenes, models, out, tol)
     except KeyboardInterrupt:
         print(
             f"{PROG}: interrupted; finished pairs are kept in {out / 'partial.jsonl'} "
@@ -302,7 +320,33 @@ def cmd_run(args: argparse.Namespace) -> int:
     except (OSError, TimeoutError) as exc:
         if args.dask:
             return _fail(f"dask scheduler {args.dask}: {type(exc).__name__}: {exc}")
-        raise
+        err = journal.output_error(exc, out) if isinstance(exc, OSError) else None
+        if err is None:
+            raise
+        return _fail(str(err))
+    return _summary(res)
+
+
+def _run(
+    args: argparse.Namespace, runner: Any, scenes: list, models: Any, out: Path, tol: Any
+) -> Any:
+    return runner.run_matrix(
+        scenes,
+        models,
+        out,
+        quick=args.quick,
+        workers=args.workers,
+        dask=args.dask,
+        history=args.history,
+        fresh=args.fresh,
+        render=not args.no_report,
+        time_limit="auto" if args.time_limit is None else (args.time_limit or None),
+        memory_limit=args.memory_limit or None,
+        tolerance=tol,
+    )
+
+
+def _summary(res: Any) -> int:
     stats = res.payload["stats"]
     failed = sum(r["status"] == "failed" for r in res.payload["results"])
     print(
@@ -370,6 +414,18 @@ def cmd_fit_prb(argv: Sequence[str]) -> int:
     return int(fit_prb_cli(list(argv)) or 0)
 
 
+def _memory_flag(p: argparse.ArgumentParser) -> None:
+    from reports.limits import DEFAULT_MEMORY_LIMIT_MB
+
+    p.add_argument(
+        "--memory-limit",
+        type=float,
+        default=DEFAULT_MEMORY_LIMIT_MB,
+        metavar="MB",
+        help=f"memory per solve before it is failed (0: none; default {DEFAULT_MEMORY_LIMIT_MB:g})",
+    )
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser (exposed for docs and tests)."""
     p = _Parser(prog=PROG, description="FEA-validated benchmark of reduced compliant-beam models")
@@ -380,6 +436,14 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("case", help="catalog name or path to a .toml case file")
     s.add_argument("--model", "-m", required=True, help="registry name, e.g. elastica, linear-8")
     s.add_argument("--json", action="store_true", help="print the contract JSON object")
+    s.add_argument(
+        "--time-limit",
+        type=float,
+        default=SOLVE_TIME_LIMIT,
+        metavar="S",
+        help=f"seconds before the solve is failed (0: none; default {SOLVE_TIME_LIMIT:g})",
+    )
+    _memory_flag(s)
     s.set_defaults(func=cmd_solve)
     rc = sub.add_parser("recommend", help="the cheapest model within a tolerance for one case")
     rc.add_argument("case", help="catalog name or path to a .toml case file")
@@ -411,6 +475,8 @@ def build_parser() -> argparse.ArgumentParser:
         f" --quick {QUICK_TIME_LIMIT:g})",
     )
     r.add_argument("--no-report", action="store_true", help="results only, no HTML/MD/PNG")
+    _memory_flag(r)
+    r.add_argument("--wait", action="store_true", help="wait for another run using --out")
     r.add_argument("--tol", help="grade every model against this tolerance (default: per family)")
     r.set_defaults(func=cmd_run)
     c = sub.add_parser("compare", help="regression check of CURRENT against BASE")
@@ -442,7 +508,10 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``flexbench`` console script; returns the exit code."""
     argv = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in argv
+    argv = [a for a in argv if a != "--debug"]
     user_errors = _user_errors()
+    _CONTEXT.clear()
     try:
         if argv and argv[0] == "fit-prb":
             return cmd_fit_prb(argv[1:])
@@ -452,6 +521,26 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _fail(str(exc))
     except BrokenPipeError:  # `flexbench cases | head`
         return 0
+    except KeyboardInterrupt:  # `run` says more itself; elsewhere nothing is left half-done
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:  # a bug of ours: one line (the traceback with --debug), exit 3
+        return _internal(exc, debug)
+
+
+def _internal(exc: Exception, debug: bool) -> int:
+    if debug:
+        import traceback
+
+        traceback.print_exc()
+    where = f"case {_CONTEXT.get('case', '-')}, model {_CONTEXT.get('model', '-')}"
+    text = " ".join(f"{type(exc).__name__}: {exc}".split())[:300]
+    print(
+        f"{PROG}: internal error ({where}): {text}; please report this with the output of "
+        "the same command run with --debug",
+        file=sys.stderr,
+    )
+    return 3
 
 
 if __name__ == "__main__":

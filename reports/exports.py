@@ -64,7 +64,7 @@ NO_EXPORT = ExportPolicy(paraview=False, replay_frames=False, animation=False)
 
 def _slug(name: str) -> str:
     """File-name-safe version of a case or model name (same rule as the report's)."""
-    return re.sub(r"[^A-Za-z0-9_.-]+", "_", name)
+    return re.sub(r"^\.", "_", re.sub(r"[^A-Za-z0-9_.-]+", "_", name))  # never "." or ".."
 
 
 def _decimated(sol: Solution, n: int) -> Solution:

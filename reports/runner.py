@@ -22,8 +22,10 @@ the solve alone, median/min/max/spread over repeats; the model's ``postprocess``
 stress) runs once afterwards and is timed apart (``post_s``, ``post_cpu_s``); BLAS is pinned
 to one thread in the workers.
 
-Time limit: ``time_limit`` seconds per pair (SIGALRM in the worker, then the worker is killed
-after ``KILL_GRACE_S``); such pairs are ``failed`` and retried on resume.
+Limits: ``time_limit`` seconds and ``memory_limit`` MB per pair (``reports.limits``: SIGALRM
+and an rlimit in pool workers, a watchdog thread on Dask; a pool worker still running
+``KILL_GRACE_S`` after its time limit is killed); timed-out pairs are ``failed`` and retried on
+resume.
 
 Exports: ParaView series and the replay GIF are written by the worker right after the
 timed solves (``reports.exports``); the record's ``exports`` holds their relative paths.
@@ -33,22 +35,19 @@ from __future__ import annotations
 
 import collections
 import concurrent.futures as cf
-import contextlib
 import dataclasses
 import hashlib
 import json
 import math
 import multiprocessing
 import os
-import signal
-import threading
 import time
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 from cases.schema import Scene
-from reports import api, errors, store, sweep, timing
+from reports import api, errors, journal, limits, store, sweep, timing
 from reports.exports import (
     DEFAULT_EXPORT,
     NO_EXPORT,  # noqa: F401  (re-exported)
@@ -238,33 +237,6 @@ def plan(
 
 
 # -- solving one pair (runs in workers) ------------------------------------------------------
-class PairTimeout(BaseException):
-    """Raised by the alarm when a pair exceeds its time limit (a BaseException, so a model's
-    ``except Exception`` cannot swallow it)."""
-
-
-@contextlib.contextmanager
-def _alarm(seconds: float | None) -> Iterator[None]:
-    """SIGALRM-based time limit; a no-op off the main thread (Dask) or without setitimer."""
-    usable = (
-        seconds
-        and hasattr(signal, "setitimer")
-        and threading.current_thread() is threading.main_thread()
-    )
-    if not usable:
-        yield
-        return
-
-    def _raise(signum: int, frame: object) -> None:
-        raise PairTimeout
-
-    previous = signal.signal(signal.SIGALRM, _raise)
-    signal.setitimer(signal.ITIMER_REAL, float(seconds))
-    try:
-        yield
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0.0)
-        signal.signal(signal.SIGALRM, previous)
 
 
 def solve_task(task: dict) -> dict:
@@ -286,8 +258,9 @@ def solve_task(task: dict) -> dict:
     t_start, c_start = timing.clocks()
     sol = None
     try:
-        with _alarm(limit):
+        with limits.guard(limit, task.get("memory_limit")):
             sol = api.run_model(model, scene, post=False)  # the solve alone is timed
+            sol = limits.explain(sol, task.get("memory_limit"))
             first = (time.perf_counter() - t_start, time.process_time() - c_start)
             if sol.status == "not-applicable":
                 return store.record(base, sol.status, sol.message, card=card)
@@ -296,10 +269,9 @@ def solve_task(task: dict) -> dict:
             times = timing.repeat(solve_again, first, task["timing"], deadline)
             sol, post_s, post_cpu_s = timing.timed(lambda: api.finish(model, scene, sol))
             times.update(post_s=post_s, post_cpu_s=post_cpu_s)
-    except PairTimeout:
+    except limits.LimitExceeded as exc:
         if sol is None:
-            msg = f"time limit of {limit:g} s exceeded"
-            return store.record(base, "failed", msg, card=card, retry=True)
+            return store.record(base, "failed", str(exc), card=card, retry=True)
         policy = dataclasses.replace(task["timing"], cold_cap_s=0)
         times = timing.repeat(lambda: None, first, policy)
     trace = sol.extras.get("traceback") if isinstance(sol.extras, Mapping) else None
@@ -484,6 +456,7 @@ def run_matrix(
     progress: bool | None = None,
     timing: TimingPolicy | None = None,
     time_limit: float | None | str = "auto",
+    memory_limit: float | None = limits.DEFAULT_MEMORY_LIMIT_MB,
     export: ExportPolicy | None | str = "auto",
     render_shapes: bool | None = None,
     tolerance: float | None = None,
@@ -493,9 +466,10 @@ def run_matrix(
     Finished pairs are appended to ``out_dir/partial.jsonl`` as they complete; a rerun with
     the same ``out_dir`` (same scenes, models, code and ``quick``) skips them (``fresh``
     starts over); pairs lost to a killed worker or to ``time_limit`` (seconds per pair;
-    "auto": ``QUICK_TIME_LIMIT`` / ``DEFAULT_TIME_LIMIT``; None: none; not enforced on Dask)
-    are retried.  ``history`` defaults to
-    ``out_dir/history.sqlite``.  ``export``: "auto" (``QUICK_EXPORT`` / ``DEFAULT_EXPORT``),
+    "auto": ``QUICK_TIME_LIMIT`` / ``DEFAULT_TIME_LIMIT``; None: none) are retried;
+    ``memory_limit`` (MB of growth per pair; None: none) fails a pair that needs more.
+    ``history`` defaults to ``out_dir/history.sqlite``.
+    ``export``: "auto" (``QUICK_EXPORT`` / ``DEFAULT_EXPORT``),
     an ``ExportPolicy`` or None (no ParaView files or GIFs).  ``render_shapes``: add the
     rendered final deformed scene per case to the report (None: unless ``quick``); then the
     pyvista probe (a child process, ~1.5 s) runs in a thread while the pairs solve, so the
@@ -503,7 +477,7 @@ def run_matrix(
     """
     t_start = time.perf_counter()
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    journal.prepare(out)
     partial = out / "partial.jsonl"
     if fresh:
         partial.unlink(missing_ok=True)
@@ -513,18 +487,18 @@ def run_matrix(
         export = QUICK_EXPORT if quick else DEFAULT_EXPORT
     tasks, fixed, metas = plan(scenes, models, quick, timing)
     for t in tasks:
-        t["time_limit"] = time_limit
+        t["time_limit"], t["memory_limit"] = time_limit, memory_limit
         t["export"], t["out_dir"] = sweep.export_for(t["scene"], export), str(out.resolve())
     if render_shapes is None:
         render_shapes = not quick
     probe = start_render_probe() if render and render_shapes else None
     wanted = {t["key"] for t in tasks}
+    previous = journal.read(partial)  # a torn last line is cut off
+    earlier = [] if fresh else previous_records(out / "results.json")
+    token = journal.run_token(out, new=not (previous or earlier))  # this run's history rows
     done = {
         r["key"]: r
-        for r in [
-            *([] if fresh else previous_records(out / "results.json")),
-            *store.read_partial(partial),
-        ]
+        for r in [*earlier, *previous]
         if r.get("key") in wanted and not r.get("retry")  # killed/timed out: try again
     }
     todo = [t for t in tasks if t["key"] not in done]
@@ -532,7 +506,7 @@ def run_matrix(
     bar = Progress(len(todo), enabled=progress, tasks=todo, workers=workers or os.cpu_count() or 1)
     try:
         for rec in execute(todo, workers, dask, time_limit):
-            store.append_partial(partial, rec)
+            journal.append(partial, rec)
             records.append(rec)
             bar.update(f"{rec['case']} / {rec['model']}", rec)
     finally:
@@ -559,7 +533,7 @@ def run_matrix(
         "results.csv": store.write_csv(out / "results.csv", payload["results"]),
     }
     hist = Path(history) if history else out / "history.sqlite"
-    store.append_history(hist, payload, str(out), elapsed)
+    journal.record_history(hist, payload, str(out), elapsed, token)
     paths["history"] = hist
     paths["errors.csv"] = write_errors_csv(out / "errors.csv", payload)
     partial.unlink(missing_ok=True)  # every pair is in results.json now (resume reads it)

@@ -209,14 +209,6 @@ def read_partial(path: Path) -> list[dict]:
     return records
 
 
-def append_partial(path: Path, record: Mapping) -> None:
-    """Append one finished pair and flush it to disk at once."""
-    with path.open("a") as fh:
-        fh.write(json.dumps(jsonable(record), allow_nan=False) + "\n")
-        fh.flush()
-        os.fsync(fh.fileno())
-
-
 # -- results.json / csv ------------------------------------------------------------------------
 def write_results(path: Path, payload: Mapping) -> Path:
     """Write ``results.json`` atomically (temp file + rename)."""

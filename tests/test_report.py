@@ -76,12 +76,20 @@ def test_store_csv_and_sqlite_history(run, dummies):
     )
     assert again.resumed == 10
     con = sqlite3.connect(out / "history.sqlite")
-    try:
+    try:  # a resumed run replaces its own rows
+        assert con.execute("SELECT COUNT(*) FROM runs").fetchone()[0] == 1
+        assert con.execute("SELECT COUNT(*) FROM results").fetchone()[0] == 10
+    finally:
+        con.close()
+    scenes = [dummy_scene("dummy-a"), dummy_scene("dummy-b")]
+    runner.run_matrix(scenes, MODELS, out, workers=1, render=False, fresh=True)
+    con = sqlite3.connect(out / "history.sqlite")
+    try:  # a fresh run is a new run
         assert con.execute("SELECT COUNT(*) FROM runs").fetchone()[0] == 2
         assert con.execute("SELECT COUNT(*) FROM results").fetchone()[0] == 20
         (err,) = con.execute(
             "SELECT summary_error FROM results WHERE case_name = 'dummy-a'"
-            " AND model = 'dummy-scaled' AND run_id = 2"
+            " AND model = 'dummy-scaled' ORDER BY run_id DESC"
         ).fetchone()
         commit = con.execute("SELECT cpu, python FROM runs WHERE id = 1").fetchone()
     finally:

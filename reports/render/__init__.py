@@ -19,7 +19,7 @@ from reports.render.document import build_document
 # -- formatting ---------------------------------------------------------------------------------
 def slug(name: str) -> str:
     """File-name-safe version of a case name."""
-    return re.sub(r"[^A-Za-z0-9_.-]+", "_", name)
+    return re.sub(r"^\.", "_", re.sub(r"[^A-Za-z0-9_.-]+", "_", name))  # never "." or ".."
 
 
 # -- points for the speed-vs-error plots ----------------------------------------------------------

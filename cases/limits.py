@@ -1,0 +1,94 @@
+"""Size and range limits every case file must respect, checked before the scene is built.
+
+A hostile or mistaken file must end in one line naming the file, the key and the reason --
+never in a crash, a hang or an exhausted memory.  The rules are general, not per key:
+
+* the file is at most ``MAX_FILE_BYTES`` long and its tables/arrays nest at most
+  ``MAX_DEPTH`` deep (``tomllib`` recurses per level: the loader turns its
+  ``RecursionError`` on thousands of levels into the same error);
+* every number anywhere in the tree is finite (model options may say ``inf``: a rigid PRB
+  link) and of magnitude 0 or within [``MIN_MAGNITUDE``, ``MAX_MAGNITUDE``]: products of a
+  few inputs (E*A, E*I/L^3) then stay normal floats, and an integer too large for a float
+  is an error, not an ``OverflowError``;
+* the counts of nodes, members, outputs, ... are bounded (``MAX_COUNT``), and so are the
+  analysis step counts (``MAX_STEPS``): the solvers' work grows with them.
+
+Every bound is named in the message, so a user who really needs more knows what to change.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any
+
+MAX_FILE_BYTES = 1_000_000  # the largest catalog case is ~5 kB
+MAX_DEPTH = 16  # nesting of tables and arrays (a case needs 4)
+MAX_MAGNITUDE = 1e30  # |x| of any number; MIN..MAX spans every unit system in use
+MIN_MAGNITUDE = 1e-30  # smallest non-zero |x| (E*A, E*I*... stay far from underflow)
+MAX_STRING = 10_000  # characters in any string (descriptions are a few hundred)
+MAX_STEPS = 10_000  # analysis steps / max_steps (the catalog uses <= 600)
+# entries per array of tables: enough for a 1000-element flexure drawn node by node
+MAX_COUNT = {
+    "nodes": 5_000,
+    "members": 5_000,
+    "outputs": 500,
+    "loads": 5_000,
+    "supports": 5_000,
+    "references": 2_000,
+    "models": 100,
+}
+MAX_ARRAY = 10_000  # entries of any other array (tags, sweep values, option lists)
+MAX_GRID_POINTS = 2_000  # scenes of one sweep grid (the product of its axes; catalog: 125)
+
+Fail = Callable[[str, str], Exception]
+
+
+def check_size(text: str, fail: Fail) -> None:
+    """Reject a file larger than ``MAX_FILE_BYTES`` before parsing it."""
+    if len(text) > MAX_FILE_BYTES:
+        raise fail("(file)", f"{len(text)} characters exceeds the limit of {MAX_FILE_BYTES}")
+
+
+def check_tree(data: dict[str, Any], fail: Fail) -> None:
+    """Depth, array lengths, string lengths and number ranges of the parsed TOML tree.
+
+    Iterative (no recursion), linear in the size of the tree; keys are reported as paths
+    (``members[2].E``).
+    """
+    todo: list[tuple[str, Any, int]] = [(k, v, 1) for k, v in data.items()]
+    while todo:
+        path, v, depth = todo.pop()
+        if depth > MAX_DEPTH:
+            raise fail(path, f"nested deeper than the limit of {MAX_DEPTH} levels")
+        if isinstance(v, dict):
+            todo += [(f"{path}.{k}", x, depth + 1) for k, x in v.items()]
+        elif isinstance(v, list):
+            bound = MAX_COUNT.get(path, MAX_ARRAY)
+            if len(v) > bound:
+                raise fail(path, f"{len(v)} entries exceed the limit of {bound}")
+            todo += [(f"{path}[{i}]", x, depth + 1) for i, x in enumerate(v)]
+        elif isinstance(v, str):
+            if len(v) > MAX_STRING:
+                raise fail(path, f"string of {len(v)} characters exceeds {MAX_STRING}")
+        elif isinstance(v, int | float) and not isinstance(v, bool):
+            if not (v == math.inf and "options" in path):  # +inf in options: rigid, e.g. PRB
+                check_number(v, path, fail)
+
+
+def check_number(v: float, path: str, fail: Fail) -> None:
+    """One number: finite, and 0 or MIN_MAGNITUDE <= |v| <= MAX_MAGNITUDE."""
+    if isinstance(v, int) and abs(v) > MAX_MAGNITUDE:  # float(v) may overflow
+        raise fail(path, f"magnitude exceeds the limit of {MAX_MAGNITUDE:g}")
+    if not math.isfinite(v):
+        raise fail(path, "must be finite (NaN/inf not allowed)")
+    if abs(v) > MAX_MAGNITUDE:
+        raise fail(path, f"magnitude {abs(v):.3g} exceeds the limit of {MAX_MAGNITUDE:g}")
+    if 0 < abs(v) < MIN_MAGNITUDE:
+        raise fail(path, f"magnitude {abs(v):.3g} is below {MIN_MAGNITUDE:g} (write 0)")
+
+
+def check_steps(v: int, path: str, fail: Fail) -> None:
+    """A step count: 1 <= v <= MAX_STEPS."""
+    if v > MAX_STEPS:
+        raise fail(path, f"{v} exceeds the limit of {MAX_STEPS} steps")
