@@ -102,6 +102,9 @@ class Progress:
         self._finish(rec)
         if not self.mode or self.total == 0:
             return
+        shown = self.mode == "bar" or self.done % self.every == 0 or self.done == self.total
+        if not shown:  # the ETA walks every pending pair: only for a line that is printed
+            return
         el = time.monotonic() - self.t0
         eta = self.eta()
         eta_txt = "ETA ?" if eta is None else f"ETA {'>= ' if eta[1] else ''}{clock(eta[0])}"
@@ -110,7 +113,7 @@ class Progress:
             bar = "#" * fill + "." * (30 - fill)
             text = f"[{bar}] {self.done}/{self.total}  {clock(el)} elapsed  {eta_txt}  {label}"
             self.stream.write("\r" + text[:110].ljust(110))
-        elif self.done % self.every == 0 or self.done == self.total:
+        else:
             self.stream.write(
                 f"flexbench: {self.done}/{self.total} pairs, {clock(el)} elapsed, {eta_txt}\n"
             )

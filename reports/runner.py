@@ -47,7 +47,7 @@ from pathlib import Path
 from typing import Any
 
 from cases.schema import Scene
-from reports import api, errors, journal, limits, store, sweep, timing
+from reports import api, errors, journal, limits, overlap, store, sweep, timing
 from reports.exports import (
     DEFAULT_EXPORT,
     NO_EXPORT,  # noqa: F401  (re-exported)
@@ -231,8 +231,17 @@ def plan(
                     "heavy": heavy,
                 }
             )
-    # long jobs first (shorter tail): heavy pairs, among them replays, then longer paths
-    tasks.sort(key=lambda t: (not t["heavy"], t["model"] != "replay", -t["scene"].analysis.steps))
+    # long jobs first (shorter tail): heavy pairs, among them replays, then longer paths;
+    # sweep points (short) last, so the other cases complete and their figures are drawn
+    # while the points solve (overlap.py)
+    tasks.sort(
+        key=lambda t: (
+            t["scene"].sweep_parent is not None,
+            not t["heavy"],
+            t["model"] != "replay",
+            -t["scene"].analysis.steps,
+        )
+    )
     return tasks, fixed, metas
 
 
@@ -338,7 +347,7 @@ def _submit(
     from concurrent.futures.process import BrokenProcessPool
 
     try:
-        fut = ex.submit(solve_task, task)
+        fut = ex.submit(task.get("call", solve_task), task)  # or a figure job (overlap.py)
     except BrokenProcessPool:
         origin.appendleft(task)
         raise
@@ -349,10 +358,11 @@ def run_pool(tasks: Sequence[dict], workers: int, time_limit: float | None = Non
     """Local process pool, at most one task in flight per worker (so a task's start time is
     known).  A pair running past ``time_limit`` + ``KILL_GRACE_S`` has its worker killed; a worker
     that dies takes only its own pair (the pairs in flight with it are re-run one at a time
-    to find the culprit).  Killed and timed-out pairs are ``failed`` and retried on resume."""
+    to find the culprit).  Killed and timed-out pairs are ``failed`` and retried on resume.
+    A deque ``tasks`` is used as the queue itself: the caller may add jobs while iterating."""
     from concurrent.futures.process import BrokenProcessPool
 
-    pending = collections.deque(tasks)
+    pending = tasks if isinstance(tasks, collections.deque) else collections.deque(tasks)
     suspects: collections.deque = collections.deque()  # in flight when a worker died
     hard = time_limit + KILL_GRACE_S if time_limit else math.inf
     while pending or suspects:
@@ -503,12 +513,22 @@ def run_matrix(
     }
     todo = [t for t in tasks if t["key"] not in done]
     records = list(done.values()) + fixed
+    queue = collections.deque(todo)  # figure jobs join it as cases complete (overlap.py)
+    pooled = not dask and (workers or os.cpu_count() or 1) > 1 and len(todo) > 1
+    early = None
+    if render and pooled:
+        backend = "auto" if render_shapes else None
+        early = overlap.EarlyFigures(todo, records, metas, out.resolve(), backend, probe)
     bar = Progress(len(todo), enabled=progress, tasks=todo, workers=workers or os.cpu_count() or 1)
     try:
-        for rec in execute(todo, workers, dask, time_limit):
+        for rec in execute(queue if pooled else todo, workers, dask, time_limit):
+            if early is not None and early.take(rec):
+                continue
             journal.append(partial, rec)
             records.append(rec)
             bar.update(f"{rec['case']} / {rec['model']}", rec)
+            if early is not None:
+                early.pair_done(rec, queue)
     finally:
         bar.close()
     config = {
@@ -545,7 +565,8 @@ def run_matrix(
             from reports.render import render_report
 
             with stage("rendering report", enabled=bar.mode != ""):
-                paths.update(render_report(payload, out, render=render_shapes))
+                figs = early.figures if early is not None else None
+                paths.update(render_report(payload, out, render=render_shapes, early=figs))
         except Exception as exc:  # results are safe on disk; say what broke
             result.report_error = f"{type(exc).__name__}: {exc}"
     result.elapsed_s = time.perf_counter() - t_start

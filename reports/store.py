@@ -68,6 +68,13 @@ GRADE_COLUMNS = ("grade", "tolerance", "validity_warning")
 
 def jsonable(obj: Any) -> Any:
     """Recursively convert numpy scalars/arrays, tuples and non-finite floats (-> None)."""
+    t = type(obj)  # exact built-in types first: the ABC check below is slow on 40 MB payloads
+    if t is str or obj is None or t is bool or t is int:
+        return obj
+    if t is float:
+        return obj if math.isfinite(obj) else None
+    if t is list:
+        return [jsonable(v) for v in obj]
     if isinstance(obj, Mapping):
         return {str(k): jsonable(v) for k, v in obj.items()}
     if isinstance(obj, np.ndarray):

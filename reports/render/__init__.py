@@ -61,7 +61,6 @@ def case_points(records: Sequence[Mapping], uncertainty: float | None = None) ->
 # -- orchestration --------------------------------------------------------------------------------
 def _case_figures(job: tuple) -> dict[str, Any]:
     """All figures of one case (a picklable job, so cases can render in parallel)."""
-    from reports import history as H
     from reports.render import figures as F
     from reports.render import mechfig as M
     from reports.render import paths as P
@@ -82,11 +81,9 @@ def _case_figures(job: tuple) -> dict[str, Any]:
             render = F.render_figure(case, ref_rec, figdir / f"{s}-render.png", backend)
         except Exception as exc:  # the rest of the report must still appear
             render_error = f"{type(exc).__name__}: {exc}"
-    if hist_db is not None and Path(hist_db).is_file():
-        try:
-            trend = H.trend_figure(name, H.trends(hist_db, name), cmap, figdir / f"{s}-trend.png")
-        except (ValueError, OSError) as exc:
-            render_error = f"history not read: {exc}"
+    if hist_db is not None:
+        trend, trend_error = _trend(name, cmap, figdir, hist_db)
+        render_error = trend_error or render_error
     pts = case_points(recs, case.get("uncertainty"))
     title = f"{name}: speed against error (reference {ref or 'none'})"
     return {
@@ -106,6 +103,20 @@ def _case_figures(job: tuple) -> dict[str, Any]:
         "animation": _existing(out_dir, [(r.get("exports") or {}).get("animation") for r in recs]),
         "links": export_links(recs, out_dir),
     }
+
+
+def _trend(name: str, cmap: Mapping, figdir: Path, hist_db: Any) -> tuple[Path | None, str | None]:
+    """The case's trend over the stored runs (None with fewer than two) and why it is missing."""
+    from reports import history as H
+
+    if not Path(hist_db).is_file():
+        return None, None
+    try:
+        return H.trend_figure(
+            name, H.trends(hist_db, name), cmap, figdir / f"{slug(name)}-trend.png"
+        ), None
+    except (ValueError, OSError) as exc:
+        return None, f"history not read: {exc}"
 
 
 def _existing(out_dir: Path, paths: Sequence[Any]) -> str | None:
@@ -131,7 +142,12 @@ def export_links(recs: Sequence[Mapping], out_dir: Path) -> list[tuple[str, str]
     return links
 
 
-def render_figures(payload: Mapping, out_dir: Path, render: str | None = "auto") -> dict[str, dict]:
+def render_figures(
+    payload: Mapping,
+    out_dir: Path,
+    render: str | None = "auto",
+    early: Mapping[str, dict] | None = None,
+) -> dict[str, dict]:
     """Every PNG of the report under ``out_dir/figures``; returns case -> kind -> rel. path
     (plus ``links``: ParaView files, ``animation``: the replay GIF, when the run wrote them).
 
@@ -140,7 +156,8 @@ def render_figures(payload: Mapping, out_dir: Path, render: str | None = "auto")
     ``pyvista``; None: no render).  Cases render in parallel on a small fork pool when there
     are several (matplotlib is single-threaded; ~0.1-0.3 s per figure) and this process has
     not loaded VTK itself (the probe runs in a child process, so normally it has not); any
-    pool problem falls back to serial.
+    pool problem falls back to serial.  ``early``: case -> figures already drawn while the
+    run was solving (``reports.overlap``); only their history trend is added here.
     """
     import multiprocessing
     import os
@@ -164,6 +181,7 @@ def render_figures(payload: Mapping, out_dir: Path, render: str | None = "auto")
         )
         for name, case in payload["cases"].items()
         if not case.get("sweep")  # sweep points: drawn together as stability maps
+        and name not in (early or {})
     ]
     if render in ("auto", "pyvista"):
         from fem_reference.export import pyvista_available
@@ -186,6 +204,10 @@ def render_figures(payload: Mapping, out_dir: Path, render: str | None = "auto")
     if results is None:
         results = [_case_figures(job) for job in jobs]
     made: dict[str, dict] = {job[0]: res for job, res in zip(jobs, results)}
+    for name, figs in (early or {}).items():  # the trend needs this run's history row
+        trend, error = _trend(name, cmap, out_dir / "figures", hist)
+        rel = trend.relative_to(out_dir).as_posix() if trend else None
+        made[name] = {**figs, "trend": rel, "render_error": error or figs.get("render_error")}
     from reports.render import frontpage as FP
 
     models, common, _ = FP.common_set(payload)
@@ -202,20 +224,26 @@ def render_figures(payload: Mapping, out_dir: Path, render: str | None = "auto")
 
 
 def render_report(
-    payload: Mapping, out_dir: str | Path, *, pyvista: bool | None = None, render: bool = True
+    payload: Mapping,
+    out_dir: str | Path,
+    *,
+    pyvista: bool | None = None,
+    render: bool = True,
+    early: Mapping[str, dict] | None = None,
 ) -> dict:
     """Write ``report.html``, ``report.md`` and ``figures/*.png``; returns their paths.
 
     The final deformed scene of each case is rendered unless ``render`` is False: ``pyvista``
     None (default) or True picks pyvista when it can render here, else matplotlib; False
-    draws it with matplotlib.
+    draws it with matplotlib.  ``early``: per-case figures drawn while solving (see
+    ``render_figures``).
     """
     from reports.render.html import to_html
     from reports.render.md import to_markdown
 
     out = Path(out_dir)
     backend = None if not render else ("matplotlib" if pyvista is False else "auto")
-    figs = render_figures(payload, out, backend)
+    figs = render_figures(payload, out, backend, early)
     blocks = build_document(payload, figs)
     from reports.render import stability_maps  # deploy verdicts and sweep maps (issue 10)
 

@@ -175,11 +175,12 @@ def sweep_figures(parent: str, pts: Mapping, by_case: Mapping, fig_dir: Path) ->
         for (i, (model, label)), (j, z) in itertools.product(enumerate(METHODS), enumerate(third)):
             ax = axes[i, j]
             sel = [k for k in range(len(names)) if z is None or X[k, 2] == z]
-            for k in sel:
-                v = verdict(by_case[names[k]].get(model))
+            vs = [verdict(by_case[names[k]].get(model)) for k in sel]
+            for v in sorted(set(vs)):  # one scatter per verdict, not per point (draw time)
+                ks = [k for k, w in zip(sel, vs) if w == v]
                 ax.scatter(
-                    X[k, 0],
-                    X[k, 1],
+                    X[ks, 0],
+                    X[ks, 1],
                     c=colour.get(v, "k"),
                     marker="o" if v == "stable" else "x",
                     s=18,
