@@ -1,0 +1,66 @@
+"""Figures drawn in the solving pool while a run solves (reports/overlap.py)."""
+
+from __future__ import annotations
+
+import copy
+
+import pytest
+
+from reports import overlap, runner, store
+from tests.test_report import MODELS, PNG, dummies  # noqa: F401  (fixture)
+from tests.test_runner import dummy_scene
+
+
+@pytest.fixture
+def spy(monkeypatch):
+    """The EarlyFigures of the run, with each queued job's case and records kept."""
+    made = []
+
+    class Spy(overlap.EarlyFigures):
+        def __init__(self, *a, **k):
+            super().__init__(*a, **k)
+            self.jobs: dict[str, tuple] = {}
+            made.append(self)
+
+        def pair_done(self, rec, queue):
+            n = len(queue)
+            super().pair_done(rec, queue)
+            if len(queue) > n:
+                self.jobs[queue[0]["case"]] = copy.deepcopy(queue[0]["args"])  # as sent
+
+    monkeypatch.setattr(overlap, "EarlyFigures", Spy)
+    return made
+
+
+def test_case_figures_drawn_while_solving_equal_the_final_ones(dummies, spy, tmp_path):  # noqa: F811
+    scenes = [dummy_scene("dummy-a"), dummy_scene("dummy-b")]
+    res = runner.run_matrix(scenes, MODELS, tmp_path, workers=2, render_shapes=False)
+    assert res.report_error is None
+    (early,) = spy
+    assert sorted(early.figures) == sorted(early.jobs) == ["dummy-a", "dummy-b"]
+    for name, (_, case, recs, *_rest) in early.jobs.items():
+        # the case's errors and records as the final payload has them (grades come later)
+        assert case == res.payload["cases"][name]
+        final = [r for r in res.payload["results"] if r["case"] == name]
+        assert [{k: v for k, v in r.items() if k != "grade"} for r in final] == recs
+        for kind in ("pareto", "path", "shapes"):
+            assert (tmp_path / early.figures[name][kind]).read_bytes()[:8] == PNG
+    html = (tmp_path / "report.html").read_text()
+    assert "figures/dummy-a-pareto.png" in html and "figures/dummy-b-path.png" in html
+
+
+def test_sweep_points_are_planned_last_and_get_no_figure_job(tmp_path):
+    import collections
+
+    import cases
+
+    scenes = [cases.load("thesis-sixbar-config4-sweep-rest"), cases.load("thesis-sixbar-config4")]
+    tasks, _, metas = runner.plan(scenes, quick=True)
+    is_point = [t["scene"].sweep_parent is not None for t in tasks]
+    assert any(is_point) and is_point == sorted(is_point)  # every point after every case
+    queue: collections.deque = collections.deque()
+    early = overlap.EarlyFigures(tasks, [], metas, tmp_path, None)
+    for t in tasks:
+        base = {k: t[k] for k in ("key", "case", "model", "role")}
+        early.pair_done(store.record(base, "failed", "not solved in this test"), queue)
+    assert [j["case"] for j in queue] == ["thesis-sixbar-config4"]
