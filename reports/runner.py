@@ -2,7 +2,9 @@
 
 Flow: ``plan`` (which pairs) -> ``execute`` (serial, local process pool or Dask; every
 finished pair appended to ``DIR/partial.jsonl`` at once) -> ``errors.attach_errors`` per case
--> ``results.json`` / ``results.csv`` / SQLite history -> ``render.render_report``.
+-> ``results.json`` / ``results.csv`` / SQLite history -> ``render.render_report`` (on the
+local pool each case's figures are drawn by the pool as soon as its pairs are in:
+``reports.overlap``).
 
 A pair record (JSON-level dict built by ``solve_task`` with ``store.record``)::
 
