@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import re
 
 import pytest
 
@@ -64,3 +65,20 @@ def test_sweep_points_are_planned_last_and_get_no_figure_job(tmp_path):
         base = {k: t[k] for k in ("key", "case", "model", "role")}
         early.pair_done(store.record(base, "failed", "not solved in this test"), queue)
     assert [j["case"] for j in queue] == ["thesis-sixbar-config4"]
+
+
+def test_sweep_points_are_one_section_with_a_row_each(tmp_path):
+    from reports.render import build_document
+    from reports.render.html import to_html
+    from tests.test_stability_report import small_sweep
+
+    res = runner.run_matrix(
+        [small_sweep()], ["kinetostatic"], tmp_path, workers=1, export=None, render=False
+    )
+    html = to_html(build_document(res.payload, {}), "t")
+    assert html.count("<h2") - html.count("Sweep thesis-sixbar") < 10  # no section per point
+    assert html.count("Sweep thesis-sixbar-config4-sweep-rest: 8 points") == 1
+    for r in res.payload["results"]:  # every point's row holds each model's numbers
+        assert f"<td>{r['case'].rsplit('/', 1)[-1]}</td>" in html
+    ids = set(re.findall(r'id="([^"]+)"', html))
+    assert set(re.findall(r'href="#([^"]+)"', html)) <= ids  # points link to the sweep

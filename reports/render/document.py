@@ -18,6 +18,7 @@ from typing import Any
 
 from reports import grading
 from reports.render import frontpage as FP
+from reports.render import sweep_section as SW
 from reports.render.cells import Cell
 
 Block = tuple
@@ -334,7 +335,9 @@ def build_document(payload: Mapping, figures: Mapping[str, Mapping[str, Any]]) -
         ("Accuracy map", "accuracy"),
         ("Speed against error", "overall"),
     ]
-    toc += [(name, FP.anchor(name)) for name in cases]
+    sweeps = SW.parents(cases)  # sweep points: one section per sweep (sweep_section.py)
+    toc += [(name, FP.anchor(name)) for name in cases if not cases[name].get("sweep")]
+    toc += [(f"{p} ({len(n)} sweep points)", FP.anchor(p)) for p, n in sweeps.items()]
     toc += [("Model cards", "cards"), ("Run environment", "environment")]
     bad = [r for r in results if r["status"] == "failed" or r.get("warnings")]
     if bad:
@@ -380,8 +383,12 @@ def build_document(payload: Mapping, figures: Mapping[str, Mapping[str, Any]]) -
     if any(r.get("exports") for r in results):
         blocks.append(("p", PARAVIEW_NOTE))
     for name, case in cases.items():
+        if case.get("sweep"):
+            continue
         recs = [r for r in results if r["case"] == name]
         blocks += case_blocks(name, case, recs, figures.get(name, {}), FP.tolerance(payload))
+    for parent, names in sweeps.items():
+        blocks += SW.blocks(parent, names, cases, results)
     blocks += card_blocks(payload.get("models") or {})
     if bad:
         items = [

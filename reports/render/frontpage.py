@@ -68,6 +68,11 @@ def anchor(case: str) -> str:
     return "case-" + "".join(c if c.isalnum() or c in "-_" else "-" for c in case)
 
 
+def case_anchor(name: str, case: Mapping) -> str:
+    """Where a case's row links: its section, or its sweep's (points have no section)."""
+    return anchor((case.get("sweep") or {}).get("parent") or name)
+
+
 def error_class(err: float | None, tol: float = TOLERANCE) -> str:
     """CSS class of an error cell."""
     if err is None:
@@ -160,7 +165,7 @@ def pick_table(payload: Mapping) -> tuple[list[str], list[list]]:
         recs = [r for r in payload["results"] if r["case"] == name]
         p = pick(recs, tol)
         ref = case.get("reference") or "–"
-        link = Cell(name, href="#" + anchor(name), title=case.get("title"))
+        link = Cell(name, href="#" + case_anchor(name, case), title=case.get("title"))
         if p is None:
             n_na = sum(r["status"] == "not-applicable" for r in recs)
             text = f"none: {n_na} models decline" if n_na else "none: no reduced model solved it"
@@ -192,7 +197,7 @@ def accuracy_map(payload: Mapping) -> tuple[list[str], list[list]]:
     rows = []
     for name in payload["cases"]:
         by = {r["model"]: r for r in payload["results"] if r["case"] == name}
-        row: list = [Cell(name, href="#" + anchor(name))]
+        row: list = [Cell(name, href="#" + case_anchor(name, payload["cases"][name]))]
         for m in models:
             r = by.get(m)
             if r is None:
