@@ -25,6 +25,7 @@ from reduced_models.bcm import BCM_LAW
 from reduced_models.linear import LINEAR_LAW
 from reduced_models.mechanism import analyses
 from reduced_models.mechanism.builder import build
+from reduced_models.mechanism.inextensible import axial_only
 from reduced_models.mechanism.system import MechanismSystem, SceneError
 from reduced_models.prb_chain import check_matrix
 from reduced_models.single_beam import cantilever_of
@@ -255,8 +256,11 @@ def solve_with(scene: Scene, name: str, spec_of: Callable[[Member], tuple]) -> S
 
             return synthesise(scene, name, spec_of)
         sysm = build(scene, spec_of)
+        axial = axial_only(sysm, scene, spec_of)
     except SceneError as err:
         return not_applicable(scene, name, str(err))
+    if axial:
+        return not_applicable(scene, name, axial)
     if kind == "deploy":
         from reduced_models.mechanism.deploy import deploy
 
