@@ -71,12 +71,16 @@ def _align(
     Returns (model indices, reference indices or None, interpolation abscissae or None,
     interpolated?).  Exact matches are used when at least two exist.
     """
-    idx_m, idx_r = [], []
+    idx_m, idx_r, used = [], [], set()
     for i, a in enumerate(m_abs):
         if not math.isfinite(a):
             continue
         close = np.flatnonzero(np.abs(r_abs - a) <= _MATCH_RTOL * (1.0 + abs(a)))
-        if close.size:
+        # each reference point pairs once: a model stuck at one abscissa value (a path that
+        # does not move in the stop output) must not be compared with one reference point
+        # over and over
+        if close.size and int(close[0]) not in used:
+            used.add(int(close[0]))
             idx_m.append(i)
             idx_r.append(int(close[0]))
     if len(idx_m) >= 2 or not _monotonic(r_abs):
@@ -152,6 +156,14 @@ def path_errors(
         out["per_output_at"][key] = _num(model_steps[idx_m[int(np.nanargmax(diff))]]["factor"])
         if key.rsplit(".", 1)[-1] in SUMMARY_QUANTITIES:
             summary.append(err)
+    if abscissa != "factor" and out["coverage"] < 1.0 - 1e-6:
+        # traced against a displacement: the part of the reference's range the model never
+        # reached is an error of at least that displacement (a model that cannot move there
+        # is not accurate there)
+        short = (last_ref - reached) / _scale(abscissa, r_abs, length)
+        out["per_output"][abscissa] = short
+        out["note"] = f"the model reaches {out['coverage']:.0%} of the reference's {abscissa}"
+        summary.append(short)
     if summary:
         out["summary"] = max(summary)
     elif out["per_output"]:

@@ -49,3 +49,22 @@ def test_reference_on_a_decreasing_driver_path_is_interpolated():
     (chk,) = reference_checks([ref], path, True)
     assert chk["note"] == "interpolated"
     assert chk["model_value"] == pytest.approx(-12.7 - 0.01 * 16.279 / 2.0)
+
+
+def _path(pairs):
+    return [{"factor": f, "outputs": {"apex.uy": u}} for f, u in pairs]
+
+
+def test_a_path_stuck_short_of_the_reference_is_not_called_accurate():
+    """A snap-through traced against apex.uy (factor rises, falls, rises): a model that never
+    moves (an axially locked, inextensible truss) must score the displacement it never
+    reached, not ~0 from pairing every one of its steps with the reference's first point."""
+    from reports.errors import path_errors
+
+    ref = _path([(0.0, 0.0), (0.3, -0.05), (0.38, -0.1), (0.0, -0.15), (-0.3, -0.2), (1.0, -0.25)])
+    stuck = _path([(f, 0.0) for f in (0.0, 5.0, 50.0, 100.0)])
+    err = path_errors(stuck, ref, length=2.0, stop_output="apex.uy")
+    assert err["abscissa"] == "apex.uy" and err["coverage"] == 0.0
+    assert err["summary"] == pytest.approx(0.25 / 2.0)
+    exact = path_errors(ref, ref, length=2.0, stop_output="apex.uy")
+    assert exact["summary"] == pytest.approx(0.0, abs=1e-15) and exact["coverage"] == 1.0
