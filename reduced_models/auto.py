@@ -177,21 +177,21 @@ def _card(family: str, summary: str, order: str) -> ModelCard:
 
 
 def _linear(n: int) -> Model:
-    from reduced_models.linear import LinearChain
+    from reduced_models.registry import make  # routed: mechanisms go to the assembler
 
-    return LinearChain(n)
+    return make(f"linear-{n}")
 
 
 def _cbcm(n: int) -> Model:
-    from reduced_models.bcm import ChainedBCM
+    from reduced_models.registry import make  # routed: mechanisms go to the assembler
 
-    return ChainedBCM(n)
+    return make(f"cbcm-{n}")
 
 
 def _fsm(n: int) -> Model:
-    from reduced_models.prb import PRBFSM
+    from reduced_models.registry import make  # routed: mechanisms go to the assembler
 
-    return PRBFSM(n)
+    return make(f"prb-fsm-{n}")
 
 
 class LinearAuto(AutoFidelity):
