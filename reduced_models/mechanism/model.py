@@ -275,11 +275,11 @@ def finish(scene: Scene, name: str, r: analyses.Run) -> Solution:
         from reduced_models.mechanism.advantage import add_ma
 
         r.steps = add_ma(r)
-    if r.exc is not None:
-        return Solution(scene.name, name, "failed", r.exc, tuple(r.steps), r.extras)
     extras = r.extras
-    if getattr(r, "lazy", False):
+    if getattr(r, "lazy", False):  # shapes and stress of the steps by ``postprocess``
         extras = {**extras, "_post": _Post(r.s, [st.q for st in r.states])}
+    if r.exc is not None:
+        return Solution(scene.name, name, "failed", r.exc, tuple(r.steps), extras)
     its = sum(s.iterations for s in r.steps)
     msg = f"{len(r.steps)} steps, {its} Newton iterations, {r.extras['ndof']} unknowns"
     lost = [s for s in r.steps if s.stable is False]
