@@ -33,6 +33,7 @@ class Run:
         self.steps: list[Step] = []
         self.states: list[State] = []
         self.extras: dict = {"ndof": int(len(sysm.free)), "constraints": int(sysm.m)}
+        self.lazy = False  # shapes and stress left to the model's postprocess (``model``)
 
     # -- helpers -------------------------------------------------------------------------------
     def zero(self, lam: float = 0.0) -> State:
@@ -53,8 +54,8 @@ class Run:
                 energy=s.strain_energy(st.q),
                 iterations=int(st.iterations),
                 stable=stable,
-                shapes=s.shapes(st.q),
-                max_stress=s.max_stress(st.q),
+                shapes={} if self.lazy else s.shapes(st.q),
+                max_stress=None if self.lazy else s.max_stress(st.q),
                 info={"residual": float(st.residual), "min_pivot": low, "load_factor": st.lam},
             )
         )
@@ -243,10 +244,12 @@ class Run:
         )
 
 
-def run(sysm: MechanismSystem, kind: str) -> Run:
-    """Run the analysis ``kind`` on ``sysm``; raises SolveError (steps so far kept in .steps)."""
+def run(sysm: MechanismSystem, kind: str, lazy: bool = False) -> Run:
+    """Run the analysis ``kind`` on ``sysm``; a numerical failure is kept in ``.exc`` (steps
+    so far in ``.steps``).  ``lazy``: steps without shapes and stress (``Run.lazy``)."""
     r = Run(sysm)
     r.exc = None
+    r.lazy = lazy
     try:
         if kind == "load":
             r.load()

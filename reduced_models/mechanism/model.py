@@ -13,6 +13,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 
 import numpy as np
@@ -24,7 +25,8 @@ from reduced_models.bcm import BCM_LAW
 from reduced_models.linear import LINEAR_LAW
 from reduced_models.mechanism import analyses
 from reduced_models.mechanism.builder import build
-from reduced_models.mechanism.system import SceneError
+from reduced_models.mechanism.inextensible import axial_only
+from reduced_models.mechanism.system import MechanismSystem, SceneError
 from reduced_models.prb_chain import check_matrix
 from reduced_models.single_beam import cantilever_of
 
@@ -165,6 +167,10 @@ class MechanismModel:
         of, _ = self.spec_of(scene)
         return solve_with(scene, self.name, of)
 
+    def postprocess(self, scene: Scene, sol: Solution) -> Solution:
+        """Shapes and stress of the reported steps (module function ``postprocess``)."""
+        return postprocess(scene, sol)
+
 
 class Kinetostatic(MechanismModel):
     """``kinetostatic``: mechanisms of rigid links, springs (no flexible member)."""
@@ -250,13 +256,16 @@ def solve_with(scene: Scene, name: str, spec_of: Callable[[Member], tuple]) -> S
 
             return synthesise(scene, name, spec_of)
         sysm = build(scene, spec_of)
+        axial = axial_only(sysm, scene, spec_of)
     except SceneError as err:
         return not_applicable(scene, name, str(err))
+    if axial:
+        return not_applicable(scene, name, axial)
     if kind == "deploy":
         from reduced_models.mechanism.deploy import deploy
 
         return deploy(sysm, name)
-    r = analyses.run(sysm, kind)
+    r = analyses.run(sysm, kind, lazy=True)
     return finish(scene, name, r)
 
 
@@ -266,8 +275,11 @@ def finish(scene: Scene, name: str, r: analyses.Run) -> Solution:
         from reduced_models.mechanism.advantage import add_ma
 
         r.steps = add_ma(r)
+    extras = r.extras
+    if getattr(r, "lazy", False):  # shapes and stress of the steps by ``postprocess``
+        extras = {**extras, "_post": _Post(r.s, [st.q for st in r.states])}
     if r.exc is not None:
-        return Solution(scene.name, name, "failed", r.exc, tuple(r.steps), r.extras)
+        return Solution(scene.name, name, "failed", r.exc, tuple(r.steps), extras)
     its = sum(s.iterations for s in r.steps)
     msg = f"{len(r.steps)} steps, {its} Newton iterations, {r.extras['ndof']} unknowns"
     lost = [s for s in r.steps if s.stable is False]
@@ -278,7 +290,30 @@ def finish(scene: Scene, name: str, r: analyses.Run) -> Solution:
             f"; equilibria unstable from load factor {lost[0].factor:g} on (reduced Hessian): "
             "the load path crossed a bifurcation or limit point, run a `path` analysis"
         )
-    return Solution(scene.name, name, "converged", msg, tuple(r.steps), r.extras)
+    return Solution(scene.name, name, "converged", msg, tuple(r.steps), extras)
+
+
+class _Post:
+    """The assembled system and the state of every step, kept in ``extras["_post"]`` for
+    ``postprocess`` (not JSON: ``reports.store.extras_json`` drops it)."""
+
+    def __init__(self, sysm: MechanismSystem, qs: list[np.ndarray]) -> None:
+        self.sysm, self.qs = sysm, qs
+
+
+def postprocess(scene: Scene, sol: Solution) -> Solution:
+    """Shapes and bending stress of every step from the states the solve kept (outside the
+    timed solve); ``sol`` unchanged when it kept none."""
+    post = sol.extras.get("_post")
+    if not isinstance(post, _Post):
+        return sol
+    s = post.sysm
+    steps = tuple(
+        dataclasses.replace(st, shapes=s.shapes(q), max_stress=s.max_stress(q))
+        for st, q in zip(sol.steps, post.qs)
+    )
+    extras = {k: v for k, v in sol.extras.items() if k != "_post"}
+    return dataclasses.replace(sol, steps=steps, extras=extras)
 
 
 class Routed:
@@ -319,10 +354,12 @@ class Routed:
         return Solution(sol.case, self.name, sol.status, sol.message, sol.steps, sol.extras)
 
     def postprocess(self, scene: Scene, sol: Solution) -> Solution:
-        """The single-beam model's post-processing for its own answers; the assembler's
-        answers carry their shapes and stresses already."""
+        """The single-beam model's post-processing for its own answers, the assembler's
+        (shapes and stress of the kept states) for the others."""
         inner = getattr(super(), "postprocess", None)
-        if inner is None or self._route(scene)[0] != "inner":
+        if self._route(scene)[0] != "inner":
+            return postprocess(scene, sol)
+        if inner is None:
             return sol
         return inner(scene, sol)
 

@@ -46,6 +46,7 @@ class State:
     residual: float = 0.0
     K: np.ndarray | None = None  # KKT matrix at this state (reused by tangent/stability)
     lam_free: bool = False
+    ldl: tuple | None = None  # (lu, piv, sc): LDL^T of the scaled K from ``Solver.stable``
 
 
 class Solver:
@@ -142,6 +143,12 @@ class Solver:
             rhs[: self.nf] = -self.s.reduced_load(st.q)
         else:
             rhs[self.nf + self.driver_index()] = 1.0
+        if st.ldl is not None and not lam_free and len(st.ldl[2]) == len(rhs):
+            # the stability check factorised diag(sc) K diag(sc) at this state already
+            lu, piv, sc = st.ldl
+            x, info = lapack.dsytrs(lu, piv, sc * rhs, lower=1)
+            if info == 0 and np.all(np.isfinite(x)):
+                return sc * x
         return _solve(K, rhs)
 
     def stable(self, st: State, hold_driver: bool) -> tuple[bool | None, float]:
@@ -156,13 +163,20 @@ class Solver:
                 keep[nf + d] = False
             cs = self.cs if d is None or hold_driver else np.delete(self.cs, d)
             sc = np.concatenate([1.0 / np.sqrt(s.rscale[f]), 1.0 / np.sqrt(cs)])
-            self._stab = (np.flatnonzero(keep), np.outer(sc, sc), bool(np.all(keep)))
+            n_p = sum(len(ch.w) for ch in s.chains)
+            self._stab = (np.flatnonzero(keep), np.outer(sc, sc), bool(np.all(keep)), sc, n_p)
             self._stab_key = key
-        keep, S, full = self._stab
+        keep, S, full, sc, n_p = self._stab
         A = K * S if full else K[np.ix_(keep, keep)] * S
-        n_p = sum(len(ch.w) for ch in s.chains)
         m = A.shape[0] - nf
-        n_neg, pivot = _inertia(A)
+        if A.size == 0:
+            return True, 1.0
+        lu, piv, info = lapack.dsytrf(A, lower=1)[:3]
+        if info < 0:
+            return None, 0.0
+        if full and not st.lam_free:
+            st.ldl = (lu, piv, sc)  # reused by ``tangent`` at this state
+        n_neg, pivot = _inertia(lu, piv)
         if n_neg is None:
             return None, pivot
         return n_neg == m + n_p, pivot
@@ -177,37 +191,21 @@ def _solve(K: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     return x
 
 
-def _inertia(A: np.ndarray) -> tuple[int | None, float]:
-    """Number of negative eigenvalues of the symmetric A from its LDL^T factorisation
-    (Sylvester's law of inertia), and the smallest |pivot| relative to the largest;
-    (None, pivot) when A is numerically singular."""
-    if A.size == 0:
-        return 0, 1.0
-    lu, piv, info = lapack.dsytrf(A, lower=1)[:3]
-    if info < 0:
-        return None, 0.0
-    d = np.diag(lu).copy()
-    off = np.zeros(len(d))
+def _inertia(lu: np.ndarray, piv: np.ndarray) -> tuple[int | None, float]:
+    """Number of negative eigenvalues of a symmetric matrix from its Bunch-Kaufman LDL^T
+    factors (LAPACK dsytrf, lower; Sylvester's law of inertia), and the smallest |eigenvalue
+    of D| relative to the largest; (None, pivot) when the matrix is numerically singular."""
+    d = np.diag(lu)
     two = np.flatnonzero(piv < 0)  # 2x2 blocks: rows k, k+1 share a negative pivot index
-    starts = two[::2] if len(two) else two
-    off[starts] = np.diag(lu, -1)[starts] if len(starts) else 0.0
-    neg, mags = 0, []
-    k = 0
-    n = len(d)
-    while k < n:
-        if piv[k] < 0 and k + 1 < n:
-            a, b, c = d[k], off[k], d[k + 1]
-            det = a * c - b * b
-            tr = a + c
-            neg += 1 if det < 0 else (2 if tr < 0 else 0)
-            disc = np.sqrt(max((a - c) ** 2 / 4 + b * b, 0.0))
-            mags += [abs(tr / 2 - disc), abs(tr / 2 + disc)]
-            k += 2
-        else:
-            neg += int(d[k] < 0)
-            mags.append(abs(d[k]))
-            k += 1
-    mags = np.array(mags)
+    starts = two[::2]
+    one = np.ones(len(d), bool)
+    one[starts] = one[starts + 1] = False
+    a, c, b = d[starts], d[starts + 1], lu[starts + 1, starts]
+    det, tr = a * c - b * b, a + c
+    disc = np.sqrt(np.maximum((a - c) ** 2 / 4 + b * b, 0.0))
+    neg = int(np.count_nonzero(d[one] < 0) + np.count_nonzero(det < 0))
+    neg += 2 * int(np.count_nonzero((det >= 0) & (tr < 0)))
+    mags = np.abs(np.concatenate([d[one], tr / 2 - disc, tr / 2 + disc]))
     rel = float(mags.min() / max(mags.max(), 1e-300))
     if rel <= 1e-13:
         return None, rel
