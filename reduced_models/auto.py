@@ -26,10 +26,12 @@ from scipy.optimize import brentq
 from cases.schema import Scene
 from reduced_models.base import Model, ModelCard, Solution, not_applicable, post_process
 from reduced_models.options import Option
+from reduced_models.single_beam import cantilever_of
 
 P_RANGE = (0.5, 6.0)
 MARGIN = 1.1
 MAX_ROUNDS = 8
+MECHANISM_MAX_N = 64  # default largest N per member inside the (dense) mechanism assembler
 
 
 def path_change(a: Solution, b: Solution, length: float) -> float:
@@ -69,7 +71,10 @@ class AutoFidelity:
     target : allowed error estimate (translations / L, rotations in rad).
     start : first N (default: the family's).
     max_n : largest N tried; beyond it the solution is returned with ``target_reached``
-        False in ``extras['fidelity']`` and the message says so.
+        False in ``extras['fidelity']`` and the message says so.  Default: 512 on a single
+        beam; ``MECHANISM_MAX_N`` per member inside the mechanism assembler, whose KKT
+        factorisation is dense (cost ~ (N x members)^3: PRB-FSM on Lee's frame at N = 512
+        took 25 s and 1.4 GB).
     """
 
     family = ""
@@ -84,13 +89,15 @@ class AutoFidelity:
         "max_n": Option("int", 2, 100_000, doc="largest N tried"),
     }
 
-    def __init__(self, target: float = 1e-3, start: int | None = None, max_n: int = 512) -> None:
+    def __init__(
+        self, target: float = 1e-3, start: int | None = None, max_n: int | None = None
+    ) -> None:
         if not (math.isfinite(float(target)) and float(target) > 0):
             raise ValueError(f"target must be a positive number, got {target!r}")
         self.target = float(target)
         self.start = int(start or self.default_start)
-        self.max_n = int(max_n)
-        if not 1 <= self.start < self.max_n:
+        self.max_n = None if max_n is None else int(max_n)
+        if not 1 <= self.start < (self.max_n or MECHANISM_MAX_N):
             raise ValueError("need 1 <= start < max_n")
         self.name = f"{self.family}-auto"
 
@@ -104,6 +111,8 @@ class AutoFidelity:
         if why:
             return not_applicable(scene, self.name, why)
         length = max((scene.member_length(m.id) for m in scene.members), default=1.0) or 1.0
+        single = not isinstance(cantilever_of(scene), str)  # str: why it is not a cantilever
+        max_n = self.max_n or (512 if single else MECHANISM_MAX_N)
         ns = [self.start, 2 * self.start, 4 * self.start]
         sols = [self.make(n).solve(scene) for n in ns]
         p, est = self.formal_order, math.inf
@@ -120,10 +129,10 @@ class AutoFidelity:
             else:
                 p = self.formal_order
                 est = max(d32 / (r**p - 1.0), d32)
-            if est <= self.target or ns[-1] >= self.max_n:
+            if est <= self.target or ns[-1] >= max_n:
                 break
             grow = (est / self.target) ** (1.0 / p) * MARGIN
-            n_next = min(self.max_n, max(ns[-1] + 1, math.ceil(ns[-1] * grow)))
+            n_next = min(max_n, max(ns[-1] + 1, math.ceil(ns[-1] * grow)))
             ns.append(n_next)
             sols.append(self.make(n_next).solve(scene))
         return self._result(scene, sols[-1], ns, p, est, "")
