@@ -142,3 +142,18 @@ def test_rollup_to_two_pi_in_one_reported_step():
     assert tip["tip.rot"] == pytest.approx(2 * math.pi, abs=1e-12)
     assert abs(tip["tip.x"]) < 1e-10 and abs(tip["tip.y"]) < 1e-10
     assert sol.steps[-1].iterations < 200
+
+
+def test_fine_mesh_converges_at_its_round_off_floor():
+    """1024 elements, EA L^2/EI = 1e4: the bending entries 12 EI / L0^3 ~ 1e10 set the
+    residual's round-off floor; with an axial-only floor Newton stalled just above it and the
+    FE failed (regression of the no-slack convergence test).  The converged tip agrees with
+    the 256-element mesh to its O(h^2) discretisation error."""
+    import reports
+
+    scene = cases.load("cantilever-tip-load")
+    fine = reports.solve(scene, "fem-1024")
+    assert fine.status == "converged", fine.message
+    coarse = reports.solve(scene, "fem-256")
+    d = abs(fine.steps[-1].outputs["tip.uy"] - coarse.steps[-1].outputs["tip.uy"])
+    assert d < 1e-5
