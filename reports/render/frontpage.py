@@ -147,6 +147,20 @@ def declines(recs: Sequence[Mapping]) -> dict[str, list[str]]:
     return out
 
 
+def _no_pick(recs: Sequence[Mapping], case: Mapping) -> str:
+    """Why a case has no pick, in words: declines, failures, or nothing to compare with."""
+    if case.get("reference") == "kinetostatic":
+        return "kinetostatic (exact: no compliant member)"
+    n_na = sum(r["status"] == "not-applicable" for r in recs)
+    n_failed = sum(r["status"] == "failed" for r in recs)
+    solved = [r for r in recs if r["status"] == "converged" and not r.get("is_reference")]
+    parts = [f"{n_na} decline"] if n_na else []
+    parts += [f"{n_failed} fail"] if n_failed else []
+    if solved:
+        parts.append(f"{len(solved)} solved without a path error to rank (see the case)")
+    return "none: " + ", ".join(parts) if parts else "none: no reduced model solved it"
+
+
 def pick_table(payload: Mapping) -> tuple[list[str], list[list]]:
     """Headers and rows of the front page's "which model to pick" table."""
     head = [
@@ -167,8 +181,7 @@ def pick_table(payload: Mapping) -> tuple[list[str], list[list]]:
         ref = case.get("reference") or "–"
         link = Cell(name, href="#" + case_anchor(name, case), title=case.get("title"))
         if p is None:
-            n_na = sum(r["status"] == "not-applicable" for r in recs)
-            text = f"none: {n_na} models decline" if n_na else "none: no reduced model solved it"
+            text = _no_pick(recs, case)
             rows.append([link, ref, Cell(text, "na")] + [""] * 5)
             continue
         approx = [r for r in candidates(recs) if r["model"] not in EXACT_MODELS]
