@@ -49,7 +49,7 @@ from pathlib import Path
 from typing import Any
 
 from cases.schema import Scene
-from reports import api, errors, journal, limits, overlap, store, sweep, timing
+from reports import api, errors, journal, limits, overlap, store, sweep, teach_run, timing
 from reports.exports import (
     DEFAULT_EXPORT,
     NO_EXPORT,  # noqa: F401  (re-exported)
@@ -69,16 +69,17 @@ class TimingPolicy:
 
     min_total_s: float = 0.2
     max_runs: int = 5
-    # a first solve as long as the measuring window (min_total_s) is timed by itself: it
-    # already is that long a measurement, and repeating the slow pairs (replay, bvp
-    # baseline, fine FE) doubled the suite's time
-    cold_cap_s: float = 0.2
+    # a first solve of 20 ms or more is timed by itself: in the default run such pairs'
+    # first CPU time was within 1-2 % of their repeats' median (median spread of repeats
+    # 2-5 %), and their repeats were 23 s of the run's ~85 s of solve CPU; below 20 ms the
+    # first call reads 4-33 % slow (cold caches, timer resolution) and repeats matter
+    cold_cap_s: float = 0.02
     min_runs: int = 3
 
 
 DEFAULT_TIMING = TimingPolicy()
 KILL_GRACE_S = 5.0  # after the soft limit (SIGALRM in the worker), the worker is killed
-QUICK_TIMING = TimingPolicy(min_total_s=0.02, max_runs=3, cold_cap_s=0.3, min_runs=2)
+QUICK_TIMING = TimingPolicy(min_total_s=0.02, max_runs=3, cold_cap_s=0.02, min_runs=2)
 
 
 @dataclasses.dataclass
@@ -319,7 +320,7 @@ def _crashed(task: dict, why: str) -> dict:
 # -- execution backends -----------------------------------------------------------------------
 def _preimport(tasks: Iterable[dict]) -> None:
     """Import model modules once before forking so no worker pays it inside a timing."""
-    for target in {t["target"] for t in tasks}:
+    for target in {t["target"] for t in tasks if "target" in t}:  # not figure/teaching jobs
         try:
             api.factory(target)
         except Exception:
@@ -472,6 +473,7 @@ def run_matrix(
     export: ExportPolicy | None | str = "auto",
     render_shapes: bool | None = None,
     tolerance: float | None = None,
+    teaching: tuple[int, int] | None | str = "auto",
 ) -> RunResult:
     """Solve the matrix, store everything under ``out_dir`` and render the report.
 
@@ -485,7 +487,9 @@ def run_matrix(
     an ``ExportPolicy`` or None (no ParaView files or GIFs).  ``render_shapes``: add the
     rendered final deformed scene per case to the report (None: unless ``quick``); then the
     pyvista probe (a child process, ~1.5 s) runs in a thread while the pairs solve, so the
-    report does not wait for it.
+    report does not wait for it.  ``teaching``: (magnitudes, directions) of the teaching
+    page's validity atlases ("auto": ``teach_run.GRID``, ``QUICK_GRID`` with ``quick``; None:
+    no page); they are pool jobs beside the pairs, cached in ``out_dir`` (``reports.teach_run``).
     """
     t_start = time.perf_counter()
     out = Path(out_dir)
@@ -521,10 +525,19 @@ def run_matrix(
     if render and pooled:
         backend = "auto" if render_shapes else None
         early = overlap.EarlyFigures(todo, records, metas, out.resolve(), backend, probe)
+    if teaching == "auto":
+        teaching = teach_run.QUICK_GRID if quick else teach_run.GRID
+    teach = None
+    if render and teaching:
+        teach = teach_run.TeachingJobs(out, teaching, code_hash(), fresh)
+    if teach is not None and pooled:
+        queue.extendleft(reversed(teach.jobs))  # long jobs: first, beside the pairs
     bar = Progress(len(todo), enabled=progress, tasks=todo, workers=workers or os.cpu_count() or 1)
     try:
         for rec in execute(queue if pooled else todo, workers, dask, time_limit):
             if early is not None and early.take(rec):
+                continue
+            if teach is not None and teach.take(rec):
                 continue
             journal.append(partial, rec)
             records.append(rec)
@@ -567,6 +580,8 @@ def run_matrix(
             from reports.render import render_report
 
             with stage("rendering report", enabled=bar.mode != ""):
+                if teach is not None:  # never raises; a page that failed is not linked
+                    paths["teaching.html"] = teach.write(payload, out)
                 figs = early.figures if early is not None else None
                 paths.update(render_report(payload, out, render=render_shapes, early=figs))
         except Exception as exc:  # results are safe on disk; say what broke

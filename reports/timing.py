@@ -10,7 +10,7 @@ BLAS libraries are pinned to one thread in the workers (``threadpoolctl``): Open
 Repeats: the first call is the answer (its times ``first_s``/``first_cpu_s`` are kept); then
 repeats (GC off, as in timeit) until their wall total reaches ``min_total_s`` (and at least
 ``min_runs`` repeats unless they took twice that) or ``max_runs`` repeats.  A first call
-slower than ``cold_cap_s`` is not repeated (n_repeats = 1, its own time).
+whose CPU time exceeds ``cold_cap_s`` is not repeated (n_repeats = 1, its own time).
 """
 
 from __future__ import annotations
@@ -82,7 +82,8 @@ def repeat(
     """
     first_s, first_cpu = first
     walls, cpus = [first_s], [first_cpu]
-    repeated = first_s <= policy.cold_cap_s and time.perf_counter() + first_s < deadline
+    # CPU, not wall: on a loaded machine a cheap pair's wall time would skip its repeats
+    repeated = first_cpu <= policy.cold_cap_s and time.perf_counter() + first_s < deadline
     if repeated:
         walls, cpus = [], []
         gc_was_on = gc.isenabled()

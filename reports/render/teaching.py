@@ -137,6 +137,27 @@ def atlas_data(at: atlas.Atlas) -> dict:
     return out
 
 
+def family_cards() -> list[dict]:
+    """Per model family: title, its models and their cards (assumptions, validity, refs)."""
+    families = []
+    for key, (title, names, param) in FAMILIES.items():
+        cards = []
+        for name in (*names, param):
+            card = api.card_of(name)
+            if card is not None and all(c["name"] != card.name for c in cards):
+                cards.append(
+                    {
+                        "name": card.name,
+                        "summary": card.summary,
+                        "assumptions": list(card.assumptions),
+                        "validity": card.validity,
+                        "references": list(card.references),
+                    }
+                )
+        families.append({"key": key, "title": title, "models": list(names), "cards": cards})
+    return families
+
+
 def build_data(
     cases_for_advice: Sequence[str],
     tolerances: Sequence[str] = ("1%", "0.1%"),
@@ -156,22 +177,6 @@ def build_data(
         at = atlas.compute(fam, models, n_mag, n_ang, workers=workers, progress=progress)
         timing[fam] = round(time.perf_counter() - t, 2)
         atlases[fam] = atlas_data(at)
-    families = []
-    for key, (title, names, param) in FAMILIES.items():
-        cards = []
-        for name in (*names, param):
-            card = api.card_of(name)
-            if card is not None and all(c["name"] != card.name for c in cards):
-                cards.append(
-                    {
-                        "name": card.name,
-                        "summary": card.summary,
-                        "assumptions": list(card.assumptions),
-                        "validity": card.validity,
-                        "references": list(card.references),
-                    }
-                )
-        families.append({"key": key, "title": title, "models": list(names), "cards": cards})
     advice = []
     for case in cases_for_advice:
         for tol in tolerances:
@@ -189,7 +194,7 @@ def build_data(
             if progress:
                 progress(f"recommend {case} {tol}: {rec.recommended}")
     return {
-        "families": families,
+        "families": family_cards(),
         "atlas": atlases,
         "atlas_seconds": timing,
         "contours": list(atlas.CONTOURS),
@@ -334,8 +339,28 @@ function profileChart(a) {
   return div;
 }
 
+function perStateTable() {
+  // CPU cost of a state inside an atlas batch against one ordinary 20-step solve
+  const P = D.per_state; if (!P) return null;
+  const t = el("table"), head = el("tr");
+  ["family", "model", "atlas CPU s", "per state ms", "single solve ms", "ratio"].forEach(
+    h => head.append(el("th", {}, h)));
+  t.append(head);
+  Object.entries(P).forEach(([fam, ms]) => Object.entries(ms).forEach(([m, v]) => {
+    const tr = el("tr"), f = (x, k) => x === null ? "-" : (x * k).toPrecision(3);
+    [fam, m, f(v.atlas_cpu_s, 1), f(v.per_state_s, 1e3), f(v.single_s, 1e3),
+     v.ratio === null ? "-" : v.ratio.toPrecision(3) + "x"].forEach(
+      c => tr.append(el("td", {}, c)));
+    t.append(tr);
+  }));
+  return t;
+}
+
 function build() {
   const root = document.getElementById("root");
+  if (D.note) root.append(el("p", {id: "note"}, D.note));
+  const pst = perStateTable();
+  if (pst) root.append(el("h2", {}, "Atlas cost per load state (CPU, this machine)"), pst);
   D.families.forEach(F => {
     root.append(el("h2", {}, F.title));
     F.cards.forEach(c => {

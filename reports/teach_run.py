@@ -1,0 +1,261 @@
+"""The teaching page inside ``flexbench run``: atlases as pool jobs, cached; advice from the run.
+
+``flexbench teach`` builds the page by itself (minutes: it runs the recommender's ladders on
+every catalog case).  A run already holds most of what the page needs, so here:
+
+* **validity atlases** (``reports.atlas``, one job per load family) and the **cost scaling**
+  and **deformed shapes** (one job) are pool jobs queued first, so they solve beside the case
+  pairs instead of after them; on one worker or Dask they run in this process at the end;
+* each job's result is cached in ``OUT/teaching-cache/<part>-<grid>-<key>.json``, the key
+  hashing the solver packages' sources (``runner.code_hash``), the atlas and page modules,
+  the model list and the grid: a rerun or a resumed run with the same code reuses it
+  (``fresh`` recomputes);
+* the **worked advice** per case is the recommender's judgement (``recommend.judge``,
+  its verdict and text) applied to the models this run solved, at the run's measured CPU
+  times: no extra solve.  It differs from ``flexbench recommend`` where the recommender's
+  ladders try an N the run did not (e.g. ``prb-fsm-32``); the page says so.
+
+Grid: ``GRID`` (40 magnitudes x 41 directions) by default, ``QUICK_GRID`` with ``--quick``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import time
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from reports import atlas
+
+ROLE = "teaching"  # the ``role`` of a teaching job and of what it returns
+CACHE_DIR = "teaching-cache"
+GRID = (40, 41)  # (load magnitudes, directions) of the force and follower atlases
+QUICK_GRID = (20, 21)
+TOLERANCES = ("1%", "0.1%")
+_SOURCES = ("reports/atlas.py", "reports/render/teaching.py", "reports/api.py")
+
+
+def parts() -> tuple[str, ...]:
+    """The cached pieces: one per atlas family, plus ``extras`` (cost scaling, shapes)."""
+    return (*atlas.FAMILIES, "extras")
+
+
+def cache_key(part: str, grid: tuple[int, int], code: str) -> str:
+    """Hash of what a part's result depends on: solver code, page code, models, grid."""
+    h = hashlib.sha1(f"{code}|{part}|{grid}|{atlas.MODELS}".encode())
+    root = Path(__file__).resolve().parent.parent
+    for rel in _SOURCES:
+        h.update((root / rel).read_bytes())
+    return h.hexdigest()[:12]
+
+
+def cache_path(out_dir: Path, part: str, grid: tuple[int, int], code: str) -> Path:
+    """Where ``part``'s cached result lives."""
+    name = f"{part}-{grid[0]}x{grid[1]}-{cache_key(part, grid, code)}.json"
+    return Path(out_dir) / CACHE_DIR / name
+
+
+def plan_jobs(
+    out_dir: Path, grid: tuple[int, int], code: str, fresh: bool = False
+) -> tuple[list[dict], dict[str, dict]]:
+    """(jobs to run, cached results by part) for the page of a run writing to ``out_dir``."""
+    jobs, cached = [], {}
+    for part in parts():
+        path = cache_path(out_dir, part, grid, code)
+        if path.is_file() and not fresh:
+            try:
+                cached[part] = json.loads(path.read_text(encoding="utf-8"))
+                continue
+            except (OSError, ValueError):
+                pass  # unreadable: computed again
+        job = {"key": f"{ROLE}|{part}", "case": f"({ROLE})", "model": part, "role": ROLE}
+        jobs.append(job | {"call": run_job, "grid": grid, "cache": str(path)})
+    return jobs, cached
+
+
+def run_job(job: Mapping) -> dict:
+    """Compute one part (in a pool worker or in-process), cache it; never raises."""
+    from reports import timing
+    from reports.render import teaching
+
+    out = {k: job[k] for k in ("key", "case", "model", "role")}
+    timing.pin_blas()
+    t0, c0 = time.perf_counter(), time.process_time()
+    try:
+        if job["model"] == "extras":
+            data: dict[str, Any] = {
+                "cost": teaching.cost_scaling(),
+                "shapes": teaching.shapes("cantilever-tip-load"),
+            }
+        else:
+            n_mag, n_ang = job["grid"]
+            at = atlas.compute(job["model"], atlas.MODELS, n_mag, n_ang)
+            data = {"atlas": teaching.atlas_data(at), "per_state": per_state(at)}
+    except Exception as exc:  # the report still appears; the page says what is missing
+        return out | {"error": f"{type(exc).__name__}: {exc}"}
+    data["wall_s"] = time.perf_counter() - t0
+    data["cpu_s"] = time.process_time() - c0
+    path = Path(job["cache"])
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        for stale in path.parent.glob(f"{job['model']}-{job['grid'][0]}x{job['grid'][1]}-*"):
+            stale.unlink(missing_ok=True)  # an older code version's result
+        tmp = path.with_suffix(".tmp")
+        tmp.write_text(json.dumps(data, allow_nan=False), encoding="utf-8")
+        tmp.replace(path)
+    except OSError:
+        pass  # not cached: the next run computes it again
+    return out | {"data": data}
+
+
+def per_state(at: atlas.Atlas) -> dict[str, dict[str, float]]:
+    """Per model: CPU s of its whole atlas, per state, and a single 20-step solve's CPU s
+    divided by the per-state cost (how much cheaper a state is inside the batch)."""
+    states = len(at.mags) * len(at.angles)
+    out = {}
+    for name, sec in at.seconds.items():
+        each = sec / states
+        single = at.single_s.get(name)
+        ratio = single / each if single and each > 0 else None
+        out[name] = {"atlas_cpu_s": sec, "per_state_s": each, "single_s": single, "ratio": ratio}
+    return out
+
+
+class TeachingJobs:
+    """Collects the teaching jobs' results while the run solves (see module docstring)."""
+
+    def __init__(self, out_dir: Path, grid: tuple[int, int], code: str, fresh: bool = False):
+        self.grid = grid
+        self.jobs, self.results = plan_jobs(out_dir, grid, code, fresh)
+        self.cached = sorted(self.results)
+        self.errors: dict[str, str] = {}
+        self.page_error: str | None = None
+
+    def take(self, rec: Mapping) -> bool:
+        """Keep a teaching job's result; False when ``rec`` is anything else."""
+        if rec.get("role") != ROLE:
+            return False
+        if "data" in rec:
+            self.results[rec["model"]] = rec["data"]
+        else:
+            self.errors[rec["model"]] = str(rec.get("error", "lost"))
+        return True
+
+    def write(self, payload: Mapping, out_dir: Path) -> Path | None:
+        """Run, in this process, the jobs no pool ran (one worker, Dask, a lost job), then
+        write ``teaching.html``; never raises (None, and ``self.page_error``, on failure)."""
+        for job in self.jobs:
+            if job["model"] not in self.results:
+                self.errors.pop(job["model"], None)
+                self.take(run_job(job))
+        try:
+            return write_page(self, payload, out_dir)
+        except Exception as exc:  # the report itself must still appear
+            self.page_error = f"{type(exc).__name__}: {exc}"
+            (Path(out_dir) / "teaching.html").unlink(missing_ok=True)  # never a stale page
+            return None
+
+
+# -- the page --------------------------------------------------------------------------------
+def advice(payload: Mapping, tolerances: Sequence[str] = TOLERANCES) -> list[dict]:
+    """The recommender's verdict per (case, tolerance) over the models this run solved."""
+    from reports.recommend import format_text
+    from reports.render import teaching
+
+    out = []
+    for name, case in payload["cases"].items():
+        if case.get("sweep"):
+            continue  # a point of a sweep: its parent's scene is one of many
+        recs = [r for r in payload["results"] if r["case"] == name]
+        for tol in tolerances:
+            rec = run_recommendation(case, recs, tol)
+            if rec is None:
+                continue
+            curves = {c.model: c.profile for c in rec.candidates if c.profile}
+            out.append(
+                {
+                    "case": name,
+                    "tol": tol,
+                    "recommended": rec.recommended,
+                    "text": format_text(rec).rsplit("\n", 1)[0],  # no elapsed time line
+                    "profiles": {k: teaching._r(v, 3) for k, v in curves.items()},
+                }
+            )
+    return out
+
+
+def run_recommendation(case: Mapping, recs: Sequence[Mapping], tol: str) -> Any:
+    """A ``recommend.Recommendation`` from the run's records of one case (None without a
+    converged reference)."""
+    from reports import errors
+    from reports.recommend import EXCLUDED, Candidate, Recommendation, _rank, _verdict, judge
+    from reports.tolerance import parse_tolerance
+
+    tolerance = parse_tolerance(tol)
+    ref_name = case.get("reference")
+    ref = next((r for r in recs if r["model"] == ref_name), None)
+    if ref is None or ref["status"] != "converged" or not ref.get("steps"):
+        return None
+    ref_cpu = errors.cost_s(ref)
+    cands = []
+    for r in recs:
+        name = r["model"]
+        if r["role"] != "model" or name == ref_name or name in EXCLUDED or name.endswith("-auto"):
+            continue
+        cand = Candidate(name, r["status"], r.get("message") or "", rank=_rank(name))
+        cand.cpu_s = errors.cost_s(r)
+        if r.get("steps"):
+            judge(cand, _solution(r), ref["steps"], case, tolerance, case.get("uncertainty") or 0)
+        cand.ratio_to_reference = cand.cpu_s / ref_cpu if cand.cpu_s and ref_cpu else None
+        cands.append(cand)
+    best, reason = _verdict(cands, tolerance, lambda name, cpu: cpu or math.inf)
+    reason += " (from this run's models; `flexbench recommend` also tries other N)"
+    return Recommendation(case["name"], tolerance, best, reason, ref_name, ref_cpu, cands)
+
+
+def _solution(rec: Mapping) -> Any:
+    """A record's steps as a ``Solution`` (what ``recommend.judge`` reads)."""
+    from reduced_models.base import Solution, Step
+
+    steps = tuple(
+        Step(s["factor"], s["outputs"], s.get("energy", math.nan), s.get("iterations", 0))
+        for s in rec["steps"]
+    )
+    message, extras = rec.get("message") or "", rec.get("extras") or {}
+    return Solution(rec["case"], rec["model"], rec["status"], message, steps, extras)
+
+
+def write_page(jobs: TeachingJobs, payload: Mapping, out_dir: Path) -> Path | None:
+    """``OUT/teaching.html`` from the jobs' results and the run's advice (None when no atlas
+    could be computed)."""
+    from reports.render import teaching
+
+    res = jobs.results
+    fams = [f for f in atlas.FAMILIES if f in res]
+    if not fams or "extras" not in res:
+        return None
+    n_mag, n_ang = jobs.grid
+    source = f"reused from {CACHE_DIR}/ (same code)" if jobs.cached else "computed in this run"
+    data = {
+        "families": teaching.family_cards(),
+        "atlas": {f: res[f]["atlas"] for f in fams},
+        "atlas_seconds": {f: round(res[f]["wall_s"], 2) for f in fams},
+        "per_state": {f: res[f]["per_state"] for f in fams},
+        "contours": list(atlas.CONTOURS),
+        "cost": res["extras"]["cost"],
+        "advice": advice(payload),
+        "shapes": res["extras"]["shapes"],
+        "seconds": round(sum(p.get("cpu_s", 0.0) for p in res.values()), 1),
+        "note": (
+            f"Written by flexbench run: force and follower atlases on {n_mag} load magnitudes x "
+            f"{n_ang} directions (flexbench teach: {GRID[0]} x {GRID[1]}), atlases and costs "
+            f"{source}"
+            "; the worked advice judges the models this run solved with the recommender's rules "
+            "at their CPU times in this run (flexbench recommend CASE also tries other N)."
+            + (f" Missing: {jobs.errors}." if jobs.errors else "")
+        ),
+    }
+    return teaching.write_page(data, Path(out_dir) / "teaching.html")
