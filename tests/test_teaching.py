@@ -16,6 +16,19 @@ CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 
 
 @pytest.fixture(scope="module")
+def run_page(tmp_path_factory):
+    """The page as ``flexbench run`` writes it (atlases as pool jobs, advice from the run)."""
+    import cases
+    from reports import runner
+
+    out = tmp_path_factory.mktemp("run")
+    scenes = [cases.load("cantilever-tip-load")]
+    kw = dict(workers=2, progress=False, teaching=(5, 3), render_shapes=False, export=None)
+    runner.run_matrix(scenes, ["prb-1r", "bcm", "linear-8"], out, fresh=True, **kw)
+    return out / "teaching.html"
+
+
+@pytest.fixture(scope="module")
 def page(tmp_path_factory):
     data = teaching.build_data(
         ["cantilever-tip-load"], ("1%",), n_mag=6, n_ang=5, workers=1, cost_ns=(1, 2, 4)
@@ -33,7 +46,9 @@ def test_page_is_self_contained(page):
 
 
 @pytest.mark.skipif(CHROMIUM is None, reason="Debian chromium not installed (.ci/run installs it)")
-def test_page_in_headless_chromium(page):
+@pytest.mark.parametrize("which", ["page", "run_page"])
+def test_page_in_headless_chromium(which, request):
+    page = request.getfixturevalue(which)
     cmd = [
         CHROMIUM,
         "--headless",
