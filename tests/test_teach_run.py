@@ -58,7 +58,7 @@ def test_atlases_are_cached_by_code_version(run, tmp_path):
     assert len(cached) == len(teach_run.parts())
     again = runner.run_matrix([cases.load(CASE)], MODELS, out, **kw)
     assert again.solved == 0  # resumed pairs ...
-    assert "reused from teaching-cache" in page_data(out / "teaching.html")["note"]  # ... and atlases
+    assert "reused from teaching-cache" in page_data(out / "teaching.html")["note"]  # atlases too
     assert sorted(p.name for p in (out / teach_run.CACHE_DIR).glob("*.json")) == cached
     jobs, hits = teach_run.plan_jobs(out, GRID, "another-code-version")
     assert not hits and len(jobs) == len(teach_run.parts())
