@@ -398,7 +398,7 @@ def run_pool(tasks: Sequence[dict], workers: int, time_limit: float | None = Non
                         yield _crashed(task, f"worker error: {type(exc).__name__}: {exc}")
                 now = time.monotonic()
                 for fut, (task, t0, _) in list(running.items()):
-                    if now - t0 > hard:
+                    if now - t0 > hard and task.get("killable", True):
                         running.pop(fut)
                         yield _crashed(task, f"time limit of {time_limit:g} s exceeded (killed)")
                         killed = True

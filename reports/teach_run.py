@@ -24,6 +24,7 @@ import hashlib
 import json
 import math
 import time
+import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -72,6 +73,7 @@ def plan_jobs(
             except (OSError, ValueError):
                 pass  # unreadable: computed again
         job = {"key": f"{ROLE}|{part}", "case": f"({ROLE})", "model": part, "role": ROLE}
+        job["killable"] = False  # no per-pair time limit: an atlas is many solves
         jobs.append(job | {"call": run_job, "grid": grid, "cache": str(path)})
     return jobs, cached
 
@@ -119,7 +121,8 @@ def per_state(at: atlas.Atlas) -> dict[str, dict[str, float]]:
     for name, sec in at.seconds.items():
         each = sec / states
         single = at.single_s.get(name)
-        ratio = single / each if single and each > 0 else None
+        ran = any(s != "not-applicable" for s in at.status[name])  # declining is no solve
+        ratio = single / each if ran and single and each > 0 else None
         out[name] = {"atlas_cpu_s": sec, "per_state_s": each, "single_s": single, "ratio": ratio}
     return out
 
@@ -155,6 +158,7 @@ class TeachingJobs:
             return write_page(self, payload, out_dir)
         except Exception as exc:  # the report itself must still appear
             self.page_error = f"{type(exc).__name__}: {exc}"
+            warnings.warn(f"teaching page not written: {self.page_error}", stacklevel=1)
             (Path(out_dir) / "teaching.html").unlink(missing_ok=True)  # never a stale page
             return None
 
@@ -220,8 +224,16 @@ def _solution(rec: Mapping) -> Any:
     """A record's steps as a ``Solution`` (what ``recommend.judge`` reads)."""
     from reduced_models.base import Solution, Step
 
+    def num(x: Any) -> float:  # JSON null (NaN or unknown) back to NaN
+        return math.nan if x is None else float(x)
+
     steps = tuple(
-        Step(s["factor"], s["outputs"], s.get("energy", math.nan), s.get("iterations", 0))
+        Step(
+            num(s["factor"]),
+            {k: num(v) for k, v in s["outputs"].items()},
+            num(s.get("energy")),
+            int(s.get("iterations") or 0),
+        )
         for s in rec["steps"]
     )
     message, extras = rec.get("message") or "", rec.get("extras") or {}
