@@ -14,7 +14,9 @@ Batching: one load ramp per direction, whose ``n_mag`` steps are the atlas's mag
 1600 separate solves.  The error at a state is the report's summary error: the largest of
 |d ux| / L, |d uy| / L and |d rot| (rad).  ``locus`` is the distance from the model's tip to
 the elastica's tip path of the same direction, divided by the tip deflection: what Howell's
-0.5 % claim is about (the tip locus, not the force-deflection relation).
+0.5 % claim is about (the tip locus, not the force-deflection relation); for the ``force``
+family that path is solved ``FINE`` times denser than the grid, for the others (no claim
+reads their locus) it is the grid's own.
 """
 
 from __future__ import annotations
