@@ -46,9 +46,22 @@ def figure(data: Mapping, dest: str | Path | None = None) -> bytes:
     rows = math.ceil(len(models) / cols)
     fig, axes = plt.subplots(rows, cols, figsize=(3.1 * cols, 2.5 * rows), dpi=80, squeeze=False)
     X, Y = np.meshgrid(np.array(data["drive"], float), np.array(data["values"], float))
+    cmap = plt.get_cmap("viridis").copy()
+    cmap.set_bad("#bbbbbb")  # grey: the model declined or failed there (or no reference)
     for ax, name in zip(axes.ravel(), models):
         err = _arr(data["models"][name]["error"])
-        ax.pcolormesh(X, Y, np.log10(np.clip(err, 1e-6, None)), vmin=-4, vmax=0, cmap="viridis")
+        ax.pcolormesh(X, Y, np.log10(np.clip(err, 1e-6, None)), vmin=-4, vmax=0, cmap=cmap)
+        if not np.isfinite(err).any():
+            msg = data["models"][name]["message"] or "no state"
+            ax.text(
+                0.5,
+                0.5,
+                "\n".join(msg[i : i + 40] for i in range(0, 120, 40)),
+                transform=ax.transAxes,
+                ha="center",
+                va="center",
+                fontsize=6,
+            )
         if np.isfinite(err).sum() > 3 and len(data["values"]) > 1:
             cs = ax.contour(X, Y, err, levels=list(data["contours"]), colors="w", linewidths=0.7)
             ax.clabel(cs, fmt={v: f"{v * 100:g}%" for v in data["contours"]}, fontsize=6)
@@ -66,7 +79,8 @@ def figure(data: Mapping, dest: str | Path | None = None) -> bytes:
         ax.axis("off")
     fig.supxlabel(data["drive_label"], fontsize=8)
     fig.supylabel(data["axis_label"], fontsize=8)
-    fig.suptitle(f"{data['case']}: log10 error vs fem-auto (dark < 1e-4, yellow >= 1)", fontsize=9)
+    title = f"{data['case']}: log10 error vs fem-auto (dark < 1e-4, yellow >= 1, grey: none)"
+    fig.suptitle(title, fontsize=9)
     fig.tight_layout()
     buf = io.BytesIO()
     fig.savefig(buf, format="png")
