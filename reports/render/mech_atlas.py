@@ -127,7 +127,7 @@ def summary(data: Mapping) -> str:
 
 def teaching_data(
     names: Sequence[str] = TEACH_CASES,
-    n_axis: int = 7,
+    n_axis: int = 5,
     progress: Callable[[str], None] | None = None,
 ) -> dict[str, dict]:
     """case -> atlas JSON (``atlas_mech.as_json``) + ``png`` data URI, or ``{"none": why}``."""

@@ -148,7 +148,7 @@ def build_data(
     progress: Callable[[str], None] | None = None,
     cost_ns: Sequence[int] = COST_N,
     mech_cases: Sequence[str] = mech_atlas.TEACH_CASES,
-    mech_n_axis: int = 7,
+    mech_n_axis: int = 5,
 ) -> dict:
     """Everything the page shows (cards, atlases, costs, recommendations, shapes)."""
     t0 = time.perf_counter()
