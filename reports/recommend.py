@@ -10,7 +10,10 @@ a fixed model such as ``prb-3r`` is a ladder of one), cheapest first:
 * a ladder ends at its first qualifying member (a larger N costs more) or when a model
   declines the scene;
 * once a model qualifies at cost c, every ladder whose bound is at least c is dropped: none of
-  its members can be cheaper (early exit).
+  its members can be cheaper (early exit);
+* a self-refining ``family-auto`` (target: the smallest tolerance) joins once its family's
+  N0, 2 N0, 4 N0 members are measured, with their summed cost as its bound
+  (``auto_candidates``).
 
 *Qualifies* means: the model converged over the whole path (it reaches the reference's last
 load factor) and, for every judged output, the largest error along the path (the path error of
@@ -53,8 +56,8 @@ LADDER_N: dict[str, tuple[int, ...]] = {
     "fem-N": (2, 4, 8, 16, 32, 64, 128),
 }
 DEFAULT_N = (1, 2, 4, 8, 16, 32)  # a parametrised family registered by another package
-# never candidates: baselines, the dynamic reference, and self-refining models (the ladder
-# does their refinement explicitly)
+# never candidates: baselines and the dynamic reference (``*-auto`` join through
+# ``auto_candidates``, not as ladders of their own)
 EXCLUDED = ("elastica-bvp", "replay")
 # a-priori unknowns of fixed models (tie-break only; measured cost decides)
 RANK = {"prb-short": 1, "prb-1r": 1, "bcm": 3, "prb-2r": 2, "prb-3r": 3, "prb-2rpr": 3}
