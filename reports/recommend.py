@@ -350,14 +350,20 @@ def recommend(
     for c in cands:
         c.ratio_to_reference = c.cpu_s / ref_cpu if c.cpu_s and ref_cpu else None
     best, reason = _verdict(cands, tol, cost)
+    rigid_only = not any(m.kind == "flexible" for m in scene.members)
+    best_cpu = next((c.cpu_s for c in cands if c.model == best), None)
     if (
-        best is None
-        and ref_name == "kinetostatic"
-        and not any(c.status != "not-applicable" for c in cands)
+        ref_name == "kinetostatic"
+        and rigid_only
+        and (best is None or best_cpu is None or cost(ref_name, ref_cpu) <= cost(best, best_cpu))
     ):
-        # no compliant member: rigid-body kinematics with springs is exact, not an approximation
+        # no compliant member: rigid-body kinematics with springs is exact, not an approximation,
+        # so it is the pick unless another exact-within-tolerance model is measured cheaper
         best = ref_name
-        reason = "no compliant member: kinetostatic (rigid links, springs) is exact here; " + reason
+        reason = (
+            "no compliant member: kinetostatic (rigid links, springs) is exact here and no "
+            "measured model is cheaper; runner-up: " + reason
+        )
         exact = Candidate(ref_name, ref_sol.status, "exact for rigid links and springs")
         exact.worst_error, exact.cpu_s, exact.ratio_to_reference = 0.0, ref_cpu, 1.0
         exact.qualifies = True

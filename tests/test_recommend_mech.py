@@ -115,3 +115,12 @@ def test_rigid_only_scene_declines_in_solve_without_cost():
     assert rec.recommended == "kinetostatic"
     fem = [c for c in rec.candidates if c.model.startswith("fem-")]
     assert len(fem) == 1 and fem[0].cpu_s is None and fem[0].status == "not-applicable"
+
+
+def test_rigid_scene_picks_exact_kinetostatic_over_a_costlier_model_within_tolerance():
+    """The thesis six-bar (rigid links, springs, booms): thesis-force-method and fem-N are
+    within 1 %, but kinetostatic is exact there and costs less, so it is the pick."""
+    rec = recommend(cases.load("thesis-sixbar-config4"), "1%", cost=unknowns)
+    assert rec.recommended == "kinetostatic"
+    others = [c for c in rec.candidates if c.qualifies and c.model != "kinetostatic"]
+    assert others, "the scene should have other models within tolerance to beat"
