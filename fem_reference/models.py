@@ -52,7 +52,8 @@ FEM_OPTIONS: dict[str, tuple] = {
     "arc_length": ("float", 1e-12, 1e3, (), "initial arc length (W-norm)"),
     "arc_length_max": ("float", 1e-12, 1e3, (), "largest arc length"),
     "stability": ("bool", None, None, (), "tangent stability test per step"),
-    "rigid_factor": ("float", 1e2, 1e12, (), "rigid link stiffness / member stiffness"),
+    "rigid_factor": ("float", 1e2, 1e12, (), "stiff rigid links: stiffness / member stiffness"),
+    "rigid_links": ("str", None, None, ("exact", "stiff"), "exact constraints or stiff elements"),
     "dense_max": ("int", 1, 100_000, (), "largest dense eigenproblem"),
     "limit_points": ("bool", None, None, (), "refine limit points of paths"),
     "bifurcation": ("bool", None, None, (), "detect bifurcations and switch branch"),
@@ -95,7 +96,11 @@ class Runner:
         self.o = o
         a = scene.analysis
         self.system = build(
-            scene, n, rigid_factor=float(o.get("rigid_factor", 1e6)), driver_load=a.kind == "energy"
+            scene,
+            n,
+            rigid_factor=float(o.get("rigid_factor", 1e6)),
+            driver_load=a.kind == "energy",
+            exact_rigid=o.get("rigid_links", "exact") == "exact",
         )
         if a.kind == "energy":
             self.system.const_factor = a.factor_end
