@@ -179,6 +179,11 @@ class Runner:
             else:
                 return "not-applicable", f"analysis kind {kind!r} is not solved by fem"
         except S.SolveError as err:
+            if kind in ("distance", "energy") and self.system.con_dofs.shape[0]:
+                return "failed", (
+                    f"{err}; the rigid links (exact constraints) admit no equilibrium beyond "
+                    "this driver value: a driver beyond the mechanism's reach, or the links lock"
+                )
             return "failed", str(err)
         except (np.linalg.LinAlgError, FloatingPointError, ValueError) as err:
             return "failed", f"{type(err).__name__}: {err}"
@@ -339,10 +344,11 @@ class FEM:
         assumptions=(
             "Euler-Bernoulli beams: no shear deformation; linear elastic local law",
             "small strains, arbitrarily large rotations (corotational)",
-            "rigid links = one stiff element (relative compliance ~1e-6)",
+            "rigid links = exact constraints (rigid bodies, Lagrange multipliers; option "
+            "rigid_links = 'stiff': one stiff element, relative compliance ~1e-6, stretch "
+            "checked <= 1e-4 at every state)",
             "stability from the lowest eigenvalue of the symmetric tangent (conservative loads "
             "only; under follower loads the verdict is None)",
-            "rigid links = stiff elements whose stretch is checked (<= 1e-4) at every state",
         ),
         validity="any planar scene of the case format; discretisation error O(h^2) in "
         "displacements (use fem-auto for an error estimate)",
