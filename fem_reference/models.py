@@ -26,6 +26,7 @@ import numpy as np
 
 from cases.schema import Scene
 from fem_reference import static as S
+from fem_reference.adaptive import flexible_ids, solve_per_member
 from fem_reference.assembly import FEMSystem, ModelError, build
 from fem_reference.bifurcation import Watch, is_conservative
 from fem_reference.driver_post import post_process
@@ -357,9 +358,10 @@ class FEM:
 
     OPTIONS = FEM_OPTIONS
 
-    def __init__(self, n: int = 32, **options: object):
-        self.n = int(n)
-        self.name = f"fem-{self.n}"
+    def __init__(self, n: int | dict[str, int] = 32, **options: object):
+        # a dict gives each flexible member its own count (``fem-auto``'s per-member meshes)
+        self.n = {k: int(v) for k, v in n.items()} if isinstance(n, dict) else int(n)
+        self.name = f"fem-{max(self.n.values(), default=1) if isinstance(n, dict) else self.n}"
         self.options = dict(options)
 
     def applies_to(self, scene: Scene) -> str | None:
@@ -402,6 +404,9 @@ class FEMAuto:
     """``fem-auto``: mesh sequence + Richardson extrapolation with an error estimate.
 
     Options: ``sequence`` (element counts, default 8, 16, 32, 64) plus the ``fem-N`` options.
+    Scenes with two or more flexible members mesh each member as its own error estimate asks
+    (``adaptive.py``): the sequence gives the top member's counts; a ``target`` (relative
+    error: translations / L, rotations in rad) extends it while the estimate is above.
     ``extras['error_estimate'][key]`` = absolute error estimate at the last step;
     ``extras['observed_order'][key]`` = observed order at the last step.
     """
@@ -416,10 +421,16 @@ class FEMAuto:
         references=_REFS,
     )
 
-    OPTIONS = {**FEM_OPTIONS, "sequence": ("ints", 1, 100_000, (), "element counts")}
+    OPTIONS = {
+        **FEM_OPTIONS,
+        "sequence": ("ints", 1, 100_000, (), "element counts"),
+        "target": ("float", 1e-14, 1e-1, (), "per-member meshes: relative error target"),
+    }
 
     def __init__(self, sequence: tuple[int, ...] | list[int] = (8, 16, 32, 64), **options):
         self.sequence = tuple(int(n) for n in sequence)
+        target = options.pop("target", None)
+        self.target = None if target is None else float(target)
         self.options = dict(options)
         self.name = "fem-auto"
 
@@ -438,6 +449,9 @@ class FEMAuto:
             return solve_deploy(scene, self.name, self.sequence[-1])
         from fem_reference.richardson import combine
 
+        if len(flexible_ids(scene)) >= 2:  # each member meshed as its error needs
+            sol = solve_per_member(scene, self.name, self.sequence, self.options, self.target)
+            return post_process(scene, sol)
         # stability is reported from the finest mesh only: skip the eigen-analysis elsewhere
         coarse = {**self.options, "stability": False}
         runs = [FEM(n, **coarse).runner(scene) for n in self.sequence[:-1]]

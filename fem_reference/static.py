@@ -40,14 +40,14 @@ from fem_reference.banded import (
 from fem_reference.banded import factor as _band_factor
 from fem_reference.newton import (
     Options,
-    bordered_solve,
-    ops,
     Scaler,
     SolveError,
     State,
+    bordered_solve,
     converged,
     lu_of,
     newton,
+    ops,
     tangent_lu,
 )
 from fem_reference.rigid import stability_view
