@@ -65,13 +65,15 @@ def _local_shapes(runner: object, steps: list) -> dict[str, np.ndarray]:
     return out
 
 
-def indicators(scene: Scene, options: dict) -> dict[str, float] | str:
-    """``{member id: e_m}`` (module docstring, step 1), or why they could not be measured."""
+def member_changes(scene: Scene, n1: int, n2: int, options: dict) -> dict[str, float] | str:
+    """``{member id: d_m}``: largest change (length) of each flexible member's deflection from
+    the chord of its deformed ends between uniform meshes of ``n1`` and ``n2`` elements, over
+    the path (path analyses: the end point); or why it could not be measured."""
     from fem_reference.models import FEM
 
     opts = {**options, "stability": False, "bifurcation": False, "limit_points": False}
     shapes = []
-    for n in (N_INDICATOR, 2 * N_INDICATOR):
+    for n in (n1, n2):
         r, status, msg = FEM(n, **opts).runner(scene)
         if status != "converged" or not r.steps:
             return f"indicator mesh n = {n}: {msg or status}"
@@ -80,7 +82,6 @@ def indicators(scene: Scene, options: dict) -> dict[str, float] | str:
     (k1, a), (k2, b) = shapes
     if k1 != k2:
         return "indicator meshes reached different numbers of steps"
-    L = _length(scene)
     out = {}
     for m in flexible_ids(scene):
         s1, s2 = a[m + ".s"], b[m + ".s"]
@@ -88,9 +89,16 @@ def indicators(scene: Scene, options: dict) -> dict[str, float] | str:
             [np.array([np.interp(s1, s2, b[m][k, :, c]) for k in range(k2)]) for c in (0, 1)],
             axis=-1,
         )
-        d = float(np.max(np.hypot(*np.moveaxis(fine - a[m], -1, 0)), initial=0.0))
-        out[m] = d / L / (2**P_FORMAL - 1)
+        out[m] = float(np.max(np.hypot(*np.moveaxis(fine - a[m], -1, 0)), initial=0.0))
     return out
+
+
+def indicators(scene: Scene, options: dict) -> dict[str, float] | str:
+    """``{member id: e_m}`` (module docstring, step 1), or why they could not be measured."""
+    d = member_changes(scene, N_INDICATOR, 2 * N_INDICATOR, options)
+    if isinstance(d, str):
+        return d
+    return {m: v / _length(scene) / (2**P_FORMAL - 1) for m, v in d.items()}
 
 
 def halvings(ind: dict[str, float], top0: int) -> dict[str, int]:
@@ -179,4 +187,11 @@ def solve_per_member(
     return Solution(sol.case, sol.model, sol.status, msg, sol.steps, extras)
 
 
-__all__ = ["flexible_ids", "halvings", "indicators", "mesh_of", "solve_per_member"]
+__all__ = [
+    "flexible_ids",
+    "halvings",
+    "indicators",
+    "member_changes",
+    "mesh_of",
+    "solve_per_member",
+]
