@@ -415,8 +415,14 @@ class FEMAuto:
         name="fem-auto",
         family="fem",
         summary="fem-N on a mesh sequence, Richardson-extrapolated with observed order and "
-        "error estimate per output",
-        assumptions=FEM.card.assumptions + ("asymptotic range: error ~ C h^p",),
+        "error estimate per output; several flexible members are meshed each as its own "
+        "error estimate asks",
+        assumptions=FEM.card.assumptions
+        + (
+            "asymptotic range: error ~ C h^p",
+            "per-member meshes: a member's error shows in its deflection from the chord of "
+            "its deformed ends (Richardson indicator from uniform N and 2N meshes)",
+        ),
         validity="as fem-N; the error estimate is meaningful when the observed order is near 2",
         references=_REFS,
     )

@@ -22,6 +22,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from fem_reference.banded import SingularTangent, factor, vdot
 from fem_reference.system import DiscreteSystem
@@ -117,8 +118,6 @@ def bordered_solve(
     the load and a displacement constraint, factorised together (sparse LU).  For a
     mechanism held only by its driver (rigid links without springs) ``K`` alone is singular
     and the bordered system is not."""
-    import scipy.sparse.linalg as spla
-
     K = system.tangent_csr(ev) if hasattr(system, "tangent_csr") else ev.K
     n = K.shape[0]
     f = np.asarray(system.external(ev.u), dtype=float).reshape(-1, 1)
