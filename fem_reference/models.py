@@ -371,7 +371,7 @@ class FEM:
         if getattr(self, "_checked", (None,))[0] is scene:  # scenes are frozen: same answer
             return self._checked[1]
         try:
-            build(scene, 1, check_only=True)
+            build(scene, 1, check_only=True, exact_rigid=True)
             reason = None
         except (ModelError, KeyError) as err:
             reason = f"not representable: {err}"
@@ -382,6 +382,20 @@ class FEM:
         """Run and return the runner (states kept) with status and message."""
         r = Runner(scene, self.n, self.options)
         status, message = r.run()
+        if (
+            status == "failed"
+            and "singular" in message
+            and r.system.con_dofs.shape[0]
+            and "rigid_links" not in self.options
+        ):  # redundant link constraints (over-constrained links): stiff links carry them
+            r = Runner(scene, self.n, {**self.options, "rigid_links": "stiff"})
+            status, message = r.run()
+            note = (
+                "exact rigid-link constraints singular (over-constrained links?): solved with "
+                "stiff links (compliance ~1e-6)"
+            )
+            message = f"{note}; {message}" if message else note
+            r.extras["rigid_links"] = "stiff"
         ignored = sorted(set(self.options) - set(_OPTION_KEYS) - {"sequence"})
         if ignored:
             r.extras["ignored_options"] = ignored

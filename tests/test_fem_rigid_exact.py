@@ -180,3 +180,28 @@ def test_exact_system_has_no_rigid_elements():
     stiff = build(scene, 4)
     assert exact.beams.L0.size == 8 and stiff.beams.L0.size > 8  # 2 x 4 flexible elements
     assert exact.con_dofs.shape[0] >= 1 and exact.is_multiplier.sum() == 2 * exact.con_dofs.shape[0]
+
+
+def test_over_constrained_link_falls_back_to_stiff_links_and_says_so():
+    """A rigid link between two pinned nodes: its two constraints act on one rotation (a
+    singular KKT tangent); the stiff link carries it (statically indeterminate) and the
+    message says so.  Tip moment 0.1 on the clamped beam, propped at B: B cannot rotate
+    more than the link's compliance allows."""
+    scene = Scene(
+        name="propped",
+        title="over-constrained rigid link",
+        units="nondim",
+        nodes=(Node("A", 0.0, 0.0), Node("B", 1.0, 0.0), Node("C", 2.0, 0.0)),
+        members=(
+            Member("beam", "A", "B", "flexible", E=1.0, I=1.0, A=1e4),
+            Member("link", "B", "C", "rigid"),
+        ),
+        supports=(Support("A", "clamp"), Support("B", "pin"), Support("C", "pin")),
+        loads=(Load("M", moment=0.1, node="B"),),
+        analysis=Analysis(kind="load", steps=2),
+        outputs=(Output("b", "B"),),
+    )
+    sol = api.solve(scene, "fem-4")
+    assert sol.status == "converged" and "stiff links" in sol.message
+    assert abs(sol.steps[-1].outputs["b.rot"]) < 1e-6
+    assert api.solve(scene, "fem-4", options={"rigid_links": "exact"}).status == "failed"
