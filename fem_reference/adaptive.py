@@ -16,7 +16,8 @@ error and gives each member the elements its share needs:
    with the largest indicator gets the top count of the mesh sequence, every other member
    ``2^-j_m`` of it, ``j_m = floor(log2(sqrt(e_max / e_m)))`` (rounded down: never fewer
    elements than equal shares ask for), at most ``log2(sequence[0])`` halvings so every
-   member keeps at least one element on the coarsest mesh.
+   member keeps at least one element on the coarsest mesh.  Indicators below ``NOISE`` are
+   round-off (straight bars); when every member's is, the counts stay equal.
 3. *Richardson and target*: the meshes of the sequence scale every member by the same ratio,
    so ``richardson.combine`` extrapolates and estimates exactly as on a uniform sequence
    (same contract: ``extras['error_estimate']`` etc.).  With a ``target``, while the largest
@@ -40,6 +41,7 @@ from reduced_models.base import Solution
 N_INDICATOR = 8
 P_FORMAL = 2.0
 MAX_TOP = 512
+NOISE = 1e-10  # indicators below this (relative) are round-off, not discretisation error
 
 
 def flexible_ids(scene: Scene) -> list[str]:
@@ -105,15 +107,12 @@ def halvings(ind: dict[str, float], top0: int) -> dict[str, int]:
     """``{member id: j_m}``: each member gets ``top / 2^j_m`` elements (module docstring)."""
     jmax = int(math.floor(math.log2(top0)))
     e_max = max(ind.values(), default=0.0)
-    out = {}
-    for m, e in ind.items():
-        if e_max <= 0.0:
-            out[m] = 0
-        elif e <= 0.0:
-            out[m] = jmax
-        else:
-            out[m] = min(jmax, max(0, int(math.floor(0.5 * math.log2(e_max / e)))))
-    return out
+    if e_max <= NOISE:  # no member bends measurably (bars): nothing to tell them apart
+        return dict.fromkeys(ind, 0)
+    return {
+        m: min(jmax, max(0, int(math.floor(0.5 * math.log2(e_max / max(e, NOISE))))))
+        for m, e in ind.items()
+    }
 
 
 def mesh_of(top: int, j: dict[str, int]) -> dict[str, int]:
