@@ -205,3 +205,35 @@ def test_over_constrained_link_falls_back_to_stiff_links_and_says_so():
     assert sol.status == "converged" and "stiff links" in sol.message
     assert abs(sol.steps[-1].outputs["b.rot"]) < 1e-6
     assert api.solve(scene, "fem-4", options={"rigid_links": "exact"}).status == "failed"
+
+
+def _mechanism_cases() -> list[str]:
+    out = []
+    for name in cases.catalog_names():
+        sc = cases.load(name)
+        if any(m.kind == "rigid" for m in sc.members) and sc.analysis.kind in (
+            "load",
+            "path",
+            "distance",
+            "energy",
+        ):
+            out.append(name)
+    return out
+
+
+@pytest.mark.parametrize("name", _mechanism_cases())
+def test_every_mechanism_case_agrees_with_stiff_links_to_their_compliance(name):
+    """The stiff links' relative compliance is ~1e-6 (rigid_factor 1e6): both answers agree
+    to a few times that (translations / L, rotations in rad, forces relative)."""
+    from fem_reference.models import FEM
+
+    scene = cases.load(name)
+    exact = FEM(8).solve(scene)
+    stiff = FEM(8, rigid_links="stiff").solve(scene)
+    assert exact.status == stiff.status == "converged", (exact.message, stiff.message)
+    L = max(scene.member_length(m.id) for m in scene.members)
+    for a, b in zip(exact.steps, stiff.steps, strict=True):
+        for k, v in b.outputs.items():
+            q = k.rsplit(".", 1)[-1]
+            scale = L if q in ("x", "y", "ux", "uy") else (1.0 if q == "rot" else abs(v) + 1.0)
+            assert abs(a.outputs[k] - v) <= 5e-6 * scale, (k, a.factor)
