@@ -9,12 +9,14 @@ Modelling choices (what the scene format means here)
 * Every flexible member is meshed on a scikit-fem ``MeshLine1`` in its arc-length coordinate
   with ``n_elements`` corotational elements; break points are inserted where loads act at a
   fraction along the member (segments get elements in proportion to their length).
-* Rigid members are *one stiff corotational element* per segment (not an exact constraint):
-  ``EI_r = rigid_factor * K_ref * L`` and ``EA_r = 12 EI_r / L^2`` where ``K_ref`` is the
-  largest rotational stiffness scale of the scene (flexible ``EI/L``, torsion-spring and
-  linear-spring stiffnesses).  With the default ``rigid_factor = 1e6`` the link compliance
-  perturbs outputs by ~1e-6 relative, far below the mesh error, and a stiff element keeps
-  large rigid rotations exact (corotational) without a nonlinear constraint.
+* Rigid members are exact constraints with ``exact_rigid`` (what ``fem-N``/``fem-auto`` use,
+  ``rigid.py``): never meshed, the link's two end rotations are one rotation DOF, each
+  segment keeps its chord rotated by it (Lagrange multipliers).  Otherwise (the replay, the
+  deploy analysis, option ``rigid_links = "stiff"``) they are *one stiff corotational element*
+  per segment: ``EI_r = rigid_factor * K_ref * L`` and ``EA_r = 12 EI_r / L^2`` where
+  ``K_ref`` is the largest rotational stiffness scale of the scene (flexible ``EI/L``,
+  torsion-spring and linear-spring stiffnesses); with the default ``rigid_factor = 1e6``
+  the link compliance perturbs outputs by ~1e-6 relative.
 * Welded member ends at a node share one rotation DOF; every pinned end has its own.
   Translations are always shared at a node.
 * Supports: ``clamp`` fixes x, y and the welded rotation; ``pin`` x, y; ``slider`` keeps the
@@ -43,6 +45,7 @@ from scipy.sparse.csgraph import reverse_cuthill_mckee
 from cases.arc import arc_points
 from cases.schema import Member, Scene
 from fem_reference import corotational as cr
+from fem_reference.dofs import number_dofs
 from fem_reference.femsystem import Evaluation, FEMSystem, MemberMesh, ModelError
 from fem_reference.scatter import BandScatter, Scatter
 
@@ -130,47 +133,7 @@ def build(
     kref += [abs(m.k or 0.0) * scene.member_length(m.id) ** 2 for m in springs_m]
     Kref = max(kref) if kref and max(kref) > 0 else 1.0
 
-    # -- rotation DOFs at scene nodes: one shared by welded ends, one per pinned end; with
-    # exact rigid links the two end rotations of a link are one (the body's) rotation
-    weld_nodes = {m.a for m in beams_m if m.end_a == "weld"} | {
-        m.b for m in beams_m if m.end_b == "weld"
-    }
-    parent: dict[tuple, tuple] = {}
-
-    def root(k: tuple) -> tuple:
-        while parent.get(k, k) != k:
-            k = parent[k]
-        return k
-
-    def rkey(m: Member, end: str) -> tuple:
-        nid, kind = (m.a, m.end_a) if end == "a" else (m.b, m.end_b)
-        return ("w", nid) if kind == "weld" else ("e", m.id, end)
-
-    if exact_rigid:
-        for m in beams_m:
-            if m.kind == "rigid" and root(rkey(m, "a")) != root(rkey(m, "b")):
-                parent[root(rkey(m, "a"))] = root(rkey(m, "b"))
-    # per point: list of full DOF ids; numbering is per point (ux, uy, rotations...)
-    nfull = 0
-    trans, weld_rot, end_rot, rot_num = [], {}, {}, {}
-
-    def number(k: tuple) -> int:
-        nonlocal nfull
-        k = root(k)
-        if k not in rot_num:
-            rot_num[k] = nfull
-            nfull += 1
-        return rot_num[k]
-
-    for n in scene.nodes:
-        trans.append([nfull, nfull + 1])
-        nfull += 2
-        if n.id in weld_nodes:
-            weld_rot[n.id] = number(("w", n.id))
-        for m in beams_m:
-            for end, nid in (("a", m.a), ("b", m.b)):
-                if nid == n.id:
-                    end_rot[(m.id, end)] = number(rkey(m, end))
+    trans, weld_rot, end_rot, nfull = number_dofs(scene, beams_m, exact_rigid)
     # -- mesh beam members (scikit-fem MeshLine1 in arc length)
     load_points: dict[tuple[str, float], tuple[int, int]] = {}
     members: list[MemberMesh] = []
@@ -227,7 +190,7 @@ def build(
             load_points[(m.id, f)] = (int(p_ids[np.argmin(np.abs(s_arc - f * L))]), 0)
         if exact:  # never meshed: one constraint per segment, unless already implied
             for i, j in zip(p_ids[:-1], p_ids[1:]):
-                body = root(rkey(m, "a"))
+                body = end_rot[(m.id, "a")]  # the link's rotation DOF names its body
                 if link_root((body, i)) != link_root((body, j)):
                     link_parent[link_root((body, i))] = link_root((body, j))
                     con.append([*trans[i], *trans[j], end_rot[(m.id, "a")], nfull, nfull + 1])
