@@ -19,7 +19,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from reports import errors
+from reports import errors, limits
 
 ROLE = "render"  # the ``role`` of a figure job and of what it returns
 PROBE_ENV = "_FLEXBENCH_PYVISTA_OK"  # fem_reference.export.pyvista_available's cache
@@ -36,6 +36,8 @@ def figure_job(job: dict) -> dict:
         return out | {"figures": _case_figures(job["args"])}
     except Exception as exc:  # the final render draws the case again
         return out | {"error": f"{type(exc).__name__}: {exc}"}
+    finally:
+        limits.trim_heap()  # a render's scratch memory back to the system
 
 
 class EarlyFigures:

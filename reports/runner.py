@@ -306,6 +306,15 @@ def solve_task(task: dict) -> dict:
     )
 
 
+def solve_and_trim(task: dict) -> dict:
+    """``solve_task`` in a pool worker, then the heap trimmed after a long pair (a long solve
+    is the one that grows the heap; trimming costs ~1 ms)."""
+    rec = solve_task(task)
+    if ((rec.get("timing") or {}).get("first_cpu_s") or 0.0) >= 0.05:
+        limits.trim_heap()
+    return rec
+
+
 def solve_batch(tasks: Sequence[dict]) -> list[dict]:
     """Several pairs in one worker call (amortises Dask's per-task overhead)."""
     return [solve_task(t) for t in tasks]
@@ -350,7 +359,7 @@ def _submit(
     from concurrent.futures.process import BrokenProcessPool
 
     try:
-        fut = ex.submit(task.get("call", solve_task), task)  # or a figure job (overlap.py)
+        fut = ex.submit(task.get("call", solve_and_trim), task)  # or a figure job (overlap.py)
     except BrokenProcessPool:
         origin.appendleft(task)
         raise

@@ -29,19 +29,30 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from reports import atlas
+from reports import atlas, limits
 
 ROLE = "teaching"  # the ``role`` of a teaching job and of what it returns
 CACHE_DIR = "teaching-cache"
 GRID = (40, 41)  # (load magnitudes, directions) of the force and follower atlases
 QUICK_GRID = (20, 21)
 TOLERANCES = ("1%", "0.1%")
-_SOURCES = ("reports/atlas.py", "reports/render/teaching.py", "reports/api.py")
+MECH_N_AXIS = 5  # second-axis values of the mechanism atlases (as ``flexbench teach``; at
+# most the force atlas's number of directions)
+_SOURCES = (
+    "reports/atlas.py",
+    "reports/atlas_mech.py",
+    "reports/render/teaching.py",
+    "reports/render/mech_atlas.py",
+    "reports/api.py",
+)
 
 
 def parts() -> tuple[str, ...]:
-    """The cached pieces: one per atlas family, plus ``extras`` (cost scaling, shapes)."""
-    return (*atlas.FAMILIES, "extras")
+    """The cached pieces: one per atlas family, ``extras`` (cost scaling, shapes) and one
+    mechanism atlas per ``mech_atlas.TEACH_CASES`` case (``mech-<case>``)."""
+    from reports.render import mech_atlas
+
+    return (*atlas.FAMILIES, "extras", *(f"mech-{c}" for c in mech_atlas.TEACH_CASES))
 
 
 def cache_key(part: str, grid: tuple[int, int], code: str) -> str:
@@ -81,13 +92,17 @@ def plan_jobs(
 def run_job(job: Mapping) -> dict:
     """Compute one part (in a pool worker or in-process), cache it; never raises."""
     from reports import timing
-    from reports.render import teaching
+    from reports.render import mech_atlas, teaching
 
     out = {k: job[k] for k in ("key", "case", "model", "role")}
     timing.pin_blas()
     t0, c0 = time.perf_counter(), time.process_time()
     try:
-        if job["model"] == "extras":
+        if job["model"].startswith("mech-"):
+            case = job["model"][len("mech-") :]
+            n_axis = min(MECH_N_AXIS, job["grid"][1])  # a coarse grid, a coarse second axis
+            data = {"mech": mech_atlas.teaching_data([case], n_axis)[case]}
+        elif job["model"] == "extras":
             data: dict[str, Any] = {
                 "cost": teaching.cost_scaling(),
                 "shapes": teaching.shapes("cantilever-tip-load"),
@@ -98,6 +113,8 @@ def run_job(job: Mapping) -> dict:
             data = {"atlas": teaching.atlas_data(at), "per_state": per_state(at)}
     except Exception as exc:  # the report still appears; the page says what is missing
         return out | {"error": f"{type(exc).__name__}: {exc}"}
+    finally:
+        limits.trim_heap()
     data["wall_s"] = time.perf_counter() - t0
     data["cpu_s"] = time.process_time() - c0
     path = Path(job["cache"])
@@ -250,7 +267,9 @@ def write_page(jobs: TeachingJobs, payload: Mapping, out_dir: Path) -> Path | No
     if not fams or "extras" not in res:
         return None
     n_mag, n_ang = jobs.grid
-    source = f"reused from {CACHE_DIR}/ (same code)" if jobs.cached else "computed in this run"
+    source = "computed in this run"
+    if jobs.cached:
+        source = f"{len(jobs.cached)} of {len(parts())} reused from {CACHE_DIR}/ (same code)"
     data = {
         "families": teaching.family_cards(),
         "atlas": {f: res[f]["atlas"] for f in fams},
@@ -260,10 +279,12 @@ def write_page(jobs: TeachingJobs, payload: Mapping, out_dir: Path) -> Path | No
         "cost": res["extras"]["cost"],
         "advice": advice(payload),
         "shapes": res["extras"]["shapes"],
+        "mech_atlas": {p[len("mech-") :]: r["mech"] for p, r in res.items() if "mech" in r},
         "seconds": round(sum(p.get("cpu_s", 0.0) for p in res.values()), 1),
         "note": (
             f"Written by flexbench run: force and follower atlases on {n_mag} load magnitudes x "
-            f"{n_ang} directions (flexbench teach: {GRID[0]} x {GRID[1]}), atlases and costs "
+            f"{n_ang} directions (flexbench teach: {GRID[0]} x {GRID[1]}), mechanism atlases "
+            f"at {min(MECH_N_AXIS, n_ang)} second-axis values; atlases and costs "
             f"{source}"
             "; the worked advice judges the models this run solved with the recommender's rules "
             "at their CPU times in this run (flexbench recommend CASE also tries other N)."

@@ -13,8 +13,9 @@ import pytest
 
 import reports
 from reports import atlas, runner, teach_run
+from reports.render import mech_atlas
 
-GRID = (5, 3)
+GRID = (5, 3)  # as conftest.teaching_run
 CASE = "cantilever-tip-load"
 MODELS = ["prb-1r", "bcm", "linear-8"]
 
@@ -25,13 +26,8 @@ def page_data(path) -> dict:
 
 
 @pytest.fixture(scope="module")
-def run(tmp_path_factory):
-    import cases
-
-    out = tmp_path_factory.mktemp("run")
-    kw = dict(workers=2, progress=False, teaching=GRID, render_shapes=False, export=None)
-    first = runner.run_matrix([cases.load(CASE)], MODELS, out, fresh=True, **kw)
-    return out, first, kw
+def run(teaching_run):
+    return teaching_run  # conftest.py: one small run with its teaching page
 
 
 def test_report_links_the_teaching_page_with_atlases(run):
@@ -47,6 +43,8 @@ def test_report_links_the_teaching_page_with_atlases(run):
     assert set(force["models"]) == set(atlas.MODELS)
     assert {(a["case"], a["tol"]) for a in data["advice"]} == {(CASE, t) for t in ("1%", "0.1%")}
     assert data["shapes"]["models"] and data["cost"]["families"]
+    assert set(data["mech_atlas"]) == set(mech_atlas.TEACH_CASES)
+    assert (out / mech_atlas.FILE).is_file()  # the report's case sections show them too
     assert f"{GRID[0]} load magnitudes x {GRID[1]} directions" in data["note"]
 
 

@@ -16,16 +16,9 @@ CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 
 
 @pytest.fixture(scope="module")
-def run_page(tmp_path_factory):
+def run_page(teaching_run):
     """The page as ``flexbench run`` writes it (atlases as pool jobs, advice from the run)."""
-    import cases
-    from reports import runner
-
-    out = tmp_path_factory.mktemp("run")
-    scenes = [cases.load("cantilever-tip-load")]
-    kw = dict(workers=2, progress=False, teaching=(5, 3), render_shapes=False, export=None)
-    runner.run_matrix(scenes, ["prb-1r", "bcm", "linear-8"], out, fresh=True, **kw)
-    return out / "teaching.html"
+    return teaching_run[0] / "teaching.html"
 
 
 @pytest.fixture(scope="module")
@@ -81,7 +74,8 @@ def test_page_in_headless_chromium(which, request):
     assert verdict["tolerance_changes_atlas"] and verdict["load_changes_shapes"]
     models = sum(len(f[1]) for f in teaching.FAMILIES.values())
     assert verdict["atlases"] == 3 * models  # force, follower, moment per model
-    mech = data_of(page)["mech_atlas"]["das2d-ex2-parallelogram"]
-    assert verdict["mech_atlases"] == len(mech["models"])  # one re-coloured canvas per model
+    mech = data_of(page)["mech_atlas"].values()
+    # one re-coloured canvas per model of every mechanism atlas
+    assert verdict["mech_atlases"] == sum(len(m.get("models", ())) for m in mech) > 0
     console = [ln for ln in res.stderr.splitlines() if "CONSOLE" in ln and "ERROR" in ln.upper()]
     assert not console, console
