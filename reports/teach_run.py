@@ -36,8 +36,16 @@ CACHE_DIR = "teaching-cache"
 GRID = (40, 41)  # (load magnitudes, directions) of the force and follower atlases
 QUICK_GRID = (20, 21)
 TOLERANCES = ("1%", "0.1%")
-MECH_N_AXIS = 5  # second-axis values of the mechanism atlases (as ``flexbench teach``; at
-# most the force atlas's number of directions)
+MECH_N_AXIS = 5  # second-axis values of the mechanism atlases (as ``flexbench teach``)
+
+
+def mech_n_axis(grid: tuple[int, int]) -> int:
+    """Second-axis values of the mechanism atlases for a grid: ``MECH_N_AXIS`` at ``GRID``,
+    fewer on coarser grids (3 with ``--quick``: a mechanism atlas costs ~1-1.5 s CPU per
+    axis value, a force-atlas direction ~0.15 s)."""
+    return max(2, min(MECH_N_AXIS, grid[1] // 7))
+
+
 _SOURCES = (
     "reports/atlas.py",
     "reports/atlas_mech.py",
@@ -100,8 +108,7 @@ def run_job(job: Mapping) -> dict:
     try:
         if job["model"].startswith("mech-"):
             case = job["model"][len("mech-") :]
-            n_axis = min(MECH_N_AXIS, job["grid"][1])  # a coarse grid, a coarse second axis
-            data = {"mech": mech_atlas.teaching_data([case], n_axis)[case]}
+            data = {"mech": mech_atlas.teaching_data([case], mech_n_axis(job["grid"]))[case]}
         elif job["model"] == "extras":
             data: dict[str, Any] = {
                 "cost": teaching.cost_scaling(),
@@ -284,7 +291,7 @@ def write_page(jobs: TeachingJobs, payload: Mapping, out_dir: Path) -> Path | No
         "note": (
             f"Written by flexbench run: force and follower atlases on {n_mag} load magnitudes x "
             f"{n_ang} directions (flexbench teach: {GRID[0]} x {GRID[1]}), mechanism atlases "
-            f"at {min(MECH_N_AXIS, n_ang)} second-axis values; atlases and costs "
+            f"at {mech_n_axis(jobs.grid)} second-axis values; atlases and costs "
             f"{source}"
             "; the worked advice judges the models this run solved with the recommender's rules "
             "at their CPU times in this run (flexbench recommend CASE also tries other N)."
