@@ -538,7 +538,7 @@ def run_matrix(
         teaching = teach_run.QUICK_GRID if quick else teach_run.GRID
     teach = None
     if render and teaching:
-        teach = teach_run.TeachingJobs(out, teaching, code_hash(), fresh)
+        teach = teach_run.TeachingJobs(out, teaching, code_hash())  # kept across --fresh
     if teach is not None and pooled:
         queue.extendleft(reversed(teach.jobs))  # long jobs: first, beside the pairs
     bar = Progress(len(todo), enabled=progress, tasks=todo, workers=workers or os.cpu_count() or 1)

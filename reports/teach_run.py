@@ -8,8 +8,8 @@ every catalog case).  A run already holds most of what the page needs, so here:
   pairs instead of after them; on one worker or Dask they run in this process at the end;
 * each job's result is cached in ``OUT/teaching-cache/<part>-<grid>-<key>.json``, the key
   hashing the solver packages' sources (``runner.code_hash``), the atlas and page modules,
-  the model list and the grid: a rerun or a resumed run with the same code reuses it
-  (``fresh`` recomputes);
+  the model list and the grid: a rerun (``--fresh`` included: the key already says when a
+  result is stale) or a resumed run with the same code reuses it;
 * the **worked advice** per case is the recommender's judgement (``recommend.judge``,
   its verdict and text) applied to the models this run solved, at the run's measured CPU
   times: no extra solve.  It differs from ``flexbench recommend`` where the recommender's
@@ -154,9 +154,9 @@ def per_state(at: atlas.Atlas) -> dict[str, dict[str, float]]:
 class TeachingJobs:
     """Collects the teaching jobs' results while the run solves (see module docstring)."""
 
-    def __init__(self, out_dir: Path, grid: tuple[int, int], code: str, fresh: bool = False):
+    def __init__(self, out_dir: Path, grid: tuple[int, int], code: str):
         self.grid = grid
-        self.jobs, self.results = plan_jobs(out_dir, grid, code, fresh)
+        self.jobs, self.results = plan_jobs(out_dir, grid, code)
         self.cached = sorted(self.results)
         self.errors: dict[str, str] = {}
         self.page_error: str | None = None
