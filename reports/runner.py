@@ -497,7 +497,8 @@ def run_matrix(
     rendered final deformed scene per case to the report (None: unless ``quick``); then the
     pyvista probe (a child process, ~1.5 s) runs in a thread while the pairs solve, so the
     report does not wait for it.  ``teaching``: (magnitudes, directions) of the teaching
-    page's validity atlases ("auto": ``teach_run.GRID``, ``QUICK_GRID`` with ``quick``; None:
+    page's validity atlases ("auto": ``teach_run.GRID``, ``QUICK_GRID`` with ``quick``, none
+    when ``models`` is given: the page's atlases and advice are of the default models; None:
     no page); they are pool jobs beside the pairs, cached in ``out_dir`` (``reports.teach_run``).
     """
     t_start = time.perf_counter()
@@ -534,8 +535,8 @@ def run_matrix(
     if render and pooled:
         backend = "auto" if render_shapes else None
         early = overlap.EarlyFigures(todo, records, metas, out.resolve(), backend, probe)
-    if teaching == "auto":
-        teaching = teach_run.QUICK_GRID if quick else teach_run.GRID
+    if teaching == "auto":  # the page is about the default models: not for a --models run
+        teaching = None if models else teach_run.QUICK_GRID if quick else teach_run.GRID
     teach = None
     if render and teaching:
         teach = teach_run.TeachingJobs(out, teaching, code_hash())  # kept across --fresh
