@@ -112,10 +112,7 @@ def shoot(
         r = np.array(end[:3]) - target
         if np.max(np.abs(r)) <= TOL:
             return z, end, D
-        try:
-            dz = np.linalg.solve(D[:3], -r)
-        except np.linalg.LinAlgError as err:
-            raise SolveError(f"elastica member: singular shooting map ({err})") from err
+        dz = np.linalg.lstsq(D[:3], -r, rcond=None)[0]  # least squares at a conjugate point
         # damping: a step at most 4 + |z| (units EI/L^2, EI/L): large loads move freely
         big = float(np.max(np.abs(dz))) / (4.0 + float(np.max(np.abs(z))))
         z = z + (dz / big if big > 1.0 else dz)
@@ -163,10 +160,10 @@ class ElasticaTerm:
                 pass
         try:
             z, end, D = shoot(pose, self.k, z0)
-        except SolveError:  # continuation from the last solved pose
-            if self._pose is None:
-                raise
+        except SolveError:  # continuation from the last solved pose (or the straight one)
             z, start = self._z, self._pose
+            if start is None:
+                start = np.array([1.0, 0.0, 0.0])
             for t in np.linspace(0.0, 1.0, 17)[1:]:
                 z, end, D = shoot(start + t * (pose - start), self.k, z)
         self._z, self._pose, self._last = z, pose, (z, end, D)
