@@ -46,6 +46,33 @@ def test_member_law_derivatives_match_finite_differences(case):
             np.testing.assert_allclose(dg, H[:, i], rtol=1e-5, atol=1e-6 * np.abs(H).max())
 
 
+def test_member_law_in_all_six_end_unknowns():
+    """Both ends free (the scenes above hold end a): the frame-rotation terms are checked."""
+    L, EI, EA = 40.0, 1400.0 * 5 * 1.5**3 / 12, 1400.0 * 5 * 1.5
+    term = ElasticaTerm(range(6), L, EI, EA, 0.4, np.nan)
+    rng = np.random.default_rng(5)
+    base = np.array([1.0, -2.0, 0.0, 1.0 + L * np.cos(0.4), -2.0 + L * np.sin(0.4), 0.0])
+    for _ in range(3):
+        q = base + rng.uniform(-1, 1, 6) * np.array([2.0, 2.0, 0.4, 2.0, 2.0, 0.6])
+        q[3:5] = q[0:2] + (q[3:5] - q[0:2]) * L / np.hypot(*(q[3:5] - q[0:2]))  # chord ~ L
+        _, g, H = term.local(q)
+        h = 1e-5
+        for i in range(6):
+            e = np.zeros(6)
+            e[i] = h
+            dE = (term.energy(q + e) - term.energy(q - e)) / (2 * h)
+            assert dE == pytest.approx(g[0, i], rel=1e-6, abs=1e-6 * np.abs(g).max())
+            dg = (term.local(q + e)[1][0] - term.local(q - e)[1][0]) / (2 * h)
+            np.testing.assert_allclose(dg, H[0, :, i], rtol=1e-5, atol=1e-6 * np.abs(H).max())
+            term.local(q)  # back to q (warm start along the way)
+        # free body: end forces balance, moments balance about end a
+        assert g[0, 0] + g[0, 3] == pytest.approx(0.0, abs=1e-9 * np.abs(g).max())
+        assert g[0, 1] + g[0, 4] == pytest.approx(0.0, abs=1e-9 * np.abs(g).max())
+        d = q[3:5] - q[0:2]
+        m = g[0, 2] + g[0, 5] + d[0] * g[0, 4] - d[1] * g[0, 3]
+        assert m == pytest.approx(0.0, abs=1e-9 * L * np.abs(g).max())
+
+
 def test_parallelogram_matches_fem_auto_at_every_load():
     fe = reports.solve("das2d-ex2-parallelogram", "fem-auto")
     el = reports.solve("das2d-ex2-parallelogram", "elastica")

@@ -9,24 +9,25 @@ curvature m = M L / EI, end forces f = F L^2 / EI and axial compliance k = EI / 
     e = 1 + k n,  n = fx cos theta + fy sin theta (axial force),
     u' = m^2 / 2 + k n^2 / 2                                   (energy in EI / L),
 
-from theta = x = y = 0, m = m0.  The unknowns z = (fx, fy, m0) are found by Newton on the
-shooting map z -> (x, y, theta)(1) = (X, Y, Phi) / (L, L, 1), whose Jacobian B comes from the
-variational equations integrated with the same explicit RK4 steps (the exact derivative of the
-discrete flow, so Newton converges quadratically).  Then (hyperelasticity, virtual work)
+from theta(0) = 0.  The boundary-value problem for a pose (X, Y, Phi) / (L, L, 1) is solved by
+Chebyshev collocation: unknowns w = theta at N + 1 Chebyshev-Lobatto nodes and (fx, fy);
+equations theta(0) = 0, theta(1) = Phi, theta'' = e t at the interior nodes, and the
+Clenshaw-Curtis quadratures of x' and y' equal to X / L and Y / L; damped Newton with the
+analytic Jacobian J (spectral accuracy: 1e-12 for curvatures of order 1 with N = 24; one
+iteration is a (N + 3)^2 dense solve, ~0.1 ms).  Then (hyperelasticity, virtual work)
 
-    gradient  dU/d(X, Y, Phi) = (Fx, Fy, M_b)       (M_b = M(1), the end-b moment),
-    Hessian   d(Fx, Fy, M_b)/d(X, Y, Phi) = A B^-1,  A = d(fx, fy, m(1))/dz,
+    gradient  dU/d(X, Y, Phi) = (Fx, Fy, M_b)       (M_b = EI theta'(1) / L, the end moment),
+    Hessian   d(Fx, Fy, M_b)/d(X, Y, Phi) = from dw/dpose = J^-1 dR/dpose (implicit function),
 
 mapped to the six end unknowns (X_a, Y_a, r_a, X_b, Y_b, r_b) with the Jacobian of
-(xi, eta, Phi) and its curvature in r_a.  The energy is the RK4 quadrature of u'.
+(xi, eta, Phi) and its curvature in r_a.  The energy is the quadrature of u'.
 
-Why extensible: at the straight drawn state the inextensible shooting map is singular
-(dX/dfx = 0: the axial load does not change the chord), so the inextensible member has no
-stiffness matrix there; the finite axial compliance of the real cross-section (the FE's) makes
-the law regular.  The discretisation is ``STEPS`` RK4 steps (error O(STEPS^-4) relative in the
-pose; 1e-9 for curvatures m of order 1).  The shooting is warm-started from the member's last
-solution (continuation along the mechanism's path picks the branch the path is on; from a
-cold start the unbuckled branch nearest z = 0 is taken).
+Why extensible: at the straight drawn state the inextensible problem is singular (the axial
+force does not change the chord to first order), so the inextensible member has no stiffness
+matrix there; the finite axial compliance of the real cross-section (the FE's) makes the law
+regular.  Newton is warm-started from the member's last solution with the tangent predictor
+(continuation along the mechanism's path keeps the branch the path is on; a failure falls back
+to 16 continuation sub-steps from the last solved pose, or from the straight one).
 """
 
 from __future__ import annotations
@@ -37,86 +38,90 @@ import numpy as np
 
 from reduced_models.mechanism.newton import SolveError
 
-STEPS = 64
-TOL = 1e-13  # shooting residual (pose / L, rad)
+N = 24  # Chebyshev-Lobatto intervals along the member (spectral: 1e-12 for |m| of order 1)
+TOL = 1e-9  # last Newton step, relative (quadratic: the returned w is ~TOL^2 off)
 MAX_IT = 40
 
 
-def _rhs(S: tuple, fx: float, fy: float, k: float) -> tuple:
-    """Derivatives of the state (th, m, x, y, u, then dth, dm, dx, dy per direction of z)."""
-    th, m = S[0], S[1]
-    c, s = math.cos(th), math.sin(th)
-    nn = fx * c + fy * s
-    t = fx * s - fy * c
+def _cheb(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Differentiation matrix and nodes on s in [0, 1] (Trefethen, Spectral Methods, cheb)."""
+    x = np.cos(np.pi * np.arange(n + 1) / n)
+    c = np.r_[2.0, np.ones(n - 1), 2.0] * (-1.0) ** np.arange(n + 1)
+    dx = x[:, None] - x[None, :]
+    D = np.outer(c, 1.0 / c) / (dx + np.eye(n + 1))
+    D -= np.diag(D.sum(axis=1))
+    return -2.0 * D, 0.5 * (1.0 - x)  # s = (1 - x) / 2 runs from 0 to 1
+
+
+def _clencurt(n: int) -> np.ndarray:
+    """Clenshaw-Curtis weights on [0, 1] for the nodes of ``_cheb`` (n even)."""
+    th = np.pi * np.arange(n + 1) / n
+    w = np.zeros(n + 1)
+    v = np.ones(n - 1)
+    for k in range(1, n // 2):
+        v -= 2.0 * np.cos(2 * k * th[1:-1]) / (4 * k * k - 1)
+    v -= np.cos(n * th[1:-1]) / (n * n - 1)
+    w[0] = w[n] = 1.0 / (n * n - 1)
+    w[1:-1] = 2.0 * v / n
+    return 0.5 * w
+
+
+D1, S_NODES = _cheb(N)
+D2 = D1 @ D1
+WQ = _clencurt(N)
+_IN = np.arange(1, N)
+_A = D1.copy()  # indefinite integral from s = 0: D1 g = f on nodes 1..N, g(0) = 0
+_A[0] = 0.0
+_A[0, 0] = 1.0
+QINT = np.linalg.inv(_A)
+QINT[:, 0] = 0.0
+
+
+def residual(w: np.ndarray, pose: np.ndarray, k: float) -> tuple[np.ndarray, np.ndarray]:
+    """Collocation residual (N + 3,) and its Jacobian in w = (theta at the nodes, fx, fy)."""
+    th, fx, fy = w[: N + 1], w[N + 1], w[N + 2]
+    c, s = np.cos(th), np.sin(th)
+    nn, t = fx * c + fy * s, fx * s - fy * c
     e = 1.0 + k * nn
-    es, ec = e * s, e * c
-    out = [m, e * t, ec, es, 0.5 * (m * m + k * nn * nn)]
-    for j, (dfx, dfy) in enumerate(((1.0, 0.0), (0.0, 1.0), (0.0, 0.0))):
-        dth = S[5 + 4 * j]
-        de = k * (dfx * c + dfy * s - t * dth)
-        out += (
-            S[6 + 4 * j],
-            de * t + e * (dfx * s - dfy * c + nn * dth),
-            de * c - es * dth,
-            de * s + ec * dth,
-        )
-    return out
+    R = np.empty(N + 3)
+    R[0] = th[0]
+    R[N] = th[N] - pose[2]
+    R[_IN] = (D2[_IN] @ th) - (e * t)[_IN]
+    R[N + 1] = WQ @ (e * c) - pose[0]
+    R[N + 2] = WQ @ (e * s) - pose[1]
+    J = np.zeros((N + 3, N + 3))
+    J[0, 0] = J[N, N] = 1.0
+    J[1:N, : N + 1] = D2[1:N]
+    J[_IN, _IN] -= (e * nn - k * t * t)[_IN]
+    J[_IN, N + 1] = -(k * c * t + e * s)[_IN]
+    J[_IN, N + 2] = -(k * s * t - e * c)[_IN]
+    J[N + 1, : N + 1] = WQ * (-k * t * c - e * s)
+    J[N + 2, : N + 1] = WQ * (-k * t * s + e * c)
+    J[N + 1, N + 1] = WQ @ (k * c * c)
+    J[N + 1, N + 2] = J[N + 2, N + 1] = WQ @ (k * s * c)
+    J[N + 2, N + 2] = WQ @ (k * s * s)
+    return R, J
 
 
-def _rk4(z: tuple[float, float, float], k: float, n: int, points: bool = False):
-    """RK4 flow of the rod equations and their variations in z (module doc).
-
-    Returns (x, y, th, m, u) at s = 1, the 4 x 3 variations d(x, y, th, m)/dz, the largest |m|
-    and, with ``points``, the (n + 1, 2) centre-line points.
-    """
-    fx, fy, m0 = z
-    h, h2, h6 = 1.0 / n, 0.5 / n, 1.0 / (6.0 * n)
-    S = [0.0, m0, 0.0, 0.0, 0.0] + [0.0] * 8 + [0.0, 1.0, 0.0, 0.0]
-    pts = [(0.0, 0.0)] if points else None
-    mmax = abs(m0)
-    for _ in range(n):
-        k1 = _rhs(S, fx, fy, k)
-        k2 = _rhs([a + h2 * b for a, b in zip(S, k1)], fx, fy, k)
-        k3 = _rhs([a + h2 * b for a, b in zip(S, k2)], fx, fy, k)
-        k4 = _rhs([a + h * b for a, b in zip(S, k3)], fx, fy, k)
-        S = [a + h6 * (b + 2.0 * (c + d) + e) for a, b, c, d, e in zip(S, k1, k2, k3, k4)]
-        mmax = max(mmax, abs(S[1]))
-        if points:
-            pts.append((S[2], S[3]))
-    th, m, x, y, u = S[:5]
-    D = np.array(S[5:]).reshape(3, 4).T[[2, 3, 0, 1]]  # rows d(x, y, th, m), columns z
-    return (x, y, th, m, u), D, mmax, (np.array(pts) if points else None)
-
-
-def flow(z: tuple[float, float, float], k: float, n: int = STEPS, points: bool = False) -> tuple:
-    """``_rk4`` with ``n`` and ``n / 2`` steps, Richardson-extrapolated (order 4 -> 5+): the
-    pose, the energy and their variations are one linear combination of two discrete flows,
-    so the variations stay the exact derivatives of the returned map."""
-    fine = _rk4(z, k, n, points)
-    coarse = _rk4(z, k, n // 2)
-    end = tuple((16.0 * a - b) / 15.0 for a, b in zip(fine[0], coarse[0]))
-    D = (16.0 * fine[1] - coarse[1]) / 15.0
-    return end, D, fine[2], fine[3]
-
-
-def shoot(
-    pose: tuple[float, float, float], k: float, z0: np.ndarray
-) -> tuple[np.ndarray, tuple, np.ndarray]:
-    """Loads z = (fx, fy, m0) for a normalised pose (X / L, Y / L, Phi), damped Newton from
-    ``z0``; returns (z, flow end state, variations).  Raises SolveError when it does not
-    converge."""
-    z = np.array(z0, float)
-    target = np.asarray(pose, float)
+def shoot(pose: np.ndarray, k: float, w0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Nodal angles and end forces w for a normalised pose (X / L, Y / L, Phi), damped Newton
+    from ``w0``; returns (w, Jacobian at w).  Raises SolveError when it does not converge."""
+    w = np.array(w0, float)
     for _ in range(MAX_IT):
-        end, D, _, _ = flow(tuple(z), k)
-        r = np.array(end[:3]) - target
-        if np.max(np.abs(r)) <= TOL:
-            return z, end, D
-        dz = np.linalg.lstsq(D[:3], -r, rcond=None)[0]  # least squares at a conjugate point
-        # damping: a step at most 4 + |z| (units EI/L^2, EI/L): large loads move freely
-        big = float(np.max(np.abs(dz))) / (4.0 + float(np.max(np.abs(z))))
-        z = z + (dz / big if big > 1.0 else dz)
-    raise SolveError(f"elastica member: shooting did not converge (residual {np.abs(r).max():.1e})")
+        R, J = residual(w, pose, k)
+        try:
+            dw = np.linalg.solve(J, R)
+        except np.linalg.LinAlgError as err:
+            raise SolveError(f"elastica member: singular collocation matrix ({err})") from err
+        # damping: at most 0.5 rad per nodal angle, 4 + |f| (units EI / L^2) per force
+        big = max(
+            float(np.abs(dw[: N + 1]).max()) / 0.5,
+            float(np.abs(dw[N + 1 :]).max()) / (4.0 + float(np.abs(w[N + 1 :]).max())),
+        )
+        w = w - (dw / big if big > 1.0 else dw)
+        if big <= 1.0 and float(np.abs(dw).max()) <= TOL * (1.0 + float(np.abs(w).max())):
+            return w, residual(w, pose, k)[1]
+    raise SolveError(f"elastica member: no convergence (residual {np.abs(R).max():.1e})")
 
 
 class ElasticaTerm:
@@ -136,9 +141,9 @@ class ElasticaTerm:
         self.dofs = np.asarray(dofs, np.int64).reshape(1, 6)
         self.L, self.EI, self.alpha, self.sfac = float(L), float(EI), float(alpha), float(sfac)
         self.k = EI / (EA * L * L)
-        self._z = np.zeros(3)  # last converged loads (warm start)
+        self._w = np.zeros(N + 3)  # last converged solution (warm start)
         self._pose: np.ndarray | None = None
-        self._last: tuple | None = None  # (z, end, D) at _pose
+        self._J: np.ndarray | None = None
 
     def _local(self, q: np.ndarray) -> tuple:
         Xa, Ya, ra, Xb, Yb, rb = q[self.dofs[0]]
@@ -150,50 +155,58 @@ class ElasticaTerm:
     def _solve(self, q: np.ndarray) -> tuple:
         xi, eta, phi, c, s = self._local(q)
         pose = np.array([xi / self.L, eta / self.L, phi])
-        if self._last is not None and np.array_equal(pose, self._pose):  # same pose again
-            return (*self._last, (xi, eta, c, s))
-        z0 = self._z
-        if self._last is not None:  # Newton step from the last solution (its Jacobian)
-            try:
-                z0 = z0 + np.linalg.solve(self._last[2][:3], pose - self._pose)
-            except np.linalg.LinAlgError:
-                pass
+        geo = (xi, eta, c, s)
+        if self._J is not None and np.array_equal(pose, self._pose):  # same pose again
+            return self._w, self._J, geo
+        w0 = self._w
+        if self._J is not None:  # tangent predictor from the last solution
+            w0 = w0 + self._dw(self._J) @ (pose - self._pose)
         try:
-            z, end, D = shoot(pose, self.k, z0)
+            w, J = shoot(pose, self.k, w0)
         except SolveError:  # continuation from the last solved pose (or the straight one)
-            z, start = self._z, self._pose
+            w, start = self._w, self._pose
             if start is None:
                 start = np.array([1.0, 0.0, 0.0])
             for t in np.linspace(0.0, 1.0, 17)[1:]:
-                z, end, D = shoot(start + t * (pose - start), self.k, z)
-        self._z, self._pose, self._last = z, pose, (z, end, D)
-        return z, end, D, (xi, eta, c, s)
+                w, J = shoot(start + t * (pose - start), self.k, w)
+        self._w, self._pose, self._J = w, pose, J
+        return w, J, geo
+
+    @staticmethod
+    def _dw(J: np.ndarray) -> np.ndarray:
+        """d w / d(X / L, Y / L, Phi): the pose enters rows N + 1, N + 2 and N with -1."""
+        rhs = np.zeros((N + 3, 3))
+        rhs[N + 1, 0] = rhs[N + 2, 1] = rhs[N, 2] = 1.0
+        return np.linalg.solve(J, rhs)
 
     def energy(self, q: np.ndarray) -> float:
-        """Strain energy (force * length)."""
-        _, end, _, _ = self._solve(q)
-        return end[4] * self.EI / self.L
+        """Strain energy (force * length): bending plus axial, Clenshaw-Curtis quadrature."""
+        w, _, _ = self._solve(q)
+        th = w[: N + 1]
+        nn = w[N + 1] * np.cos(th) + w[N + 2] * np.sin(th)
+        return float(WQ @ (0.5 * (D1 @ th) ** 2 + 0.5 * self.k * nn * nn)) * self.EI / self.L
 
     def local(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Gradient (1, 6) and Hessian (1, 6, 6) in the end unknowns."""
-        z, end, D, (xi, eta, c, s) = self._solve(q)
+        w, J, (xi, eta, c, s) = self._solve(q)
         L, EI = self.L, self.EI
-        A = np.eye(3)
-        A[2] = D[3]
-        Hn = A @ np.linalg.inv(D[:3])  # d(fx, fy, mb)/d(X/L, Y/L, Phi), nondimensional
-        Hn = 0.5 * (Hn + Hn.T)  # symmetric up to round-off (hyperelastic)
+        dw = self._dw(J)
+        mb = D1[N] @ w[: N + 1]
+        # d(fx, fy, mb)/d(X/L, Y/L, Phi), nondimensional; symmetric up to the discretisation
+        Hn = np.vstack([dw[N + 1], dw[N + 2], D1[N] @ dw[: N + 1]])
+        Hn = 0.5 * (Hn + Hn.T)
         sc = np.array([EI / (L * L), EI / (L * L), EI / L])  # force, force, moment
-        gl = sc * np.array([z[0], z[1], end[3]])
+        gl = sc * np.array([w[N + 1], w[N + 2], mb])
         Hl = Hn * (sc[:, None] / np.array([L, L, 1.0])[None, :])
-        J = np.array(
+        Jg = np.array(
             [
                 [-c, -s, eta, c, s, 0.0],
                 [s, -c, -xi, -s, c, 0.0],
                 [0.0, 0.0, -1.0, 0.0, 0.0, 1.0],
             ]
         )
-        g = J.T @ gl
-        H = J.T @ Hl @ J
+        g = Jg.T @ gl
+        H = Jg.T @ Hl @ Jg
         # curvature of xi and eta in r_a (the frame turns with end a)
         r = gl[0] * np.array([s, -c, 0.0, -s, c, 0.0]) + gl[1] * np.array([c, s, 0.0, -c, -s, 0.0])
         H[2, :] += r
@@ -202,19 +215,18 @@ class ElasticaTerm:
         return self.dofs, g[None, :], H[None, :, :]
 
     def max_stress(self, q: np.ndarray) -> float:
-        """Largest bending stress E t |kappa| / 2 along the member (NaN when t is unknown)."""
-        z, _, _, _ = self._solve(q)
-        mmax = flow(tuple(z), self.k)[2]
-        return self.sfac * mmax / self.L
+        """Largest bending stress E t |kappa| / 2 at the nodes (NaN when t is unknown)."""
+        w, _, _ = self._solve(q)
+        return self.sfac * float(np.abs(D1 @ w[: N + 1]).max()) / self.L
 
     def shape(self, q: np.ndarray) -> np.ndarray:
-        """(STEPS + 1, 2) centre-line points in global coordinates."""
-        z, _, _, (xi, eta, c, s) = self._solve(q)
-        pts = flow(tuple(z), self.k, points=True)[3] * self.L
+        """(N + 1, 2) centre-line points (the collocation nodes) in global coordinates."""
+        w, _, (_, _, c, s) = self._solve(q)
+        th = w[: N + 1]
+        e = 1.0 + self.k * (w[N + 1] * np.cos(th) + w[N + 2] * np.sin(th))
+        x, y = QINT @ (e * np.cos(th)) * self.L, QINT @ (e * np.sin(th)) * self.L
         Xa, Ya = q[self.dofs[0, 0]], q[self.dofs[0, 1]]
-        return np.column_stack(
-            [Xa + c * pts[:, 0] - s * pts[:, 1], Ya + s * pts[:, 0] + c * pts[:, 1]]
-        )
+        return np.column_stack([Xa + c * x - s * y, Ya + s * x + c * y])
 
 
 def add(sysm, m, L: float, alpha: float, xa: int, xb: int, ra: int, rb: int) -> None:  # noqa: ANN001
@@ -232,4 +244,4 @@ def add(sysm, m, L: float, alpha: float, xa: int, xb: int, ra: int, rb: int) -> 
     sysm.shape_of[m.id] = term.shape
 
 
-__all__ = ["ElasticaTerm", "add", "flow", "shoot"]
+__all__ = ["ElasticaTerm", "add", "residual", "shoot"]

@@ -52,7 +52,7 @@ def _proportional(scene: Scene) -> bool:
 def _scaled_fe(scene: Scene, scale: float) -> tuple[Solution, float]:
     """(FE solution of the synthesised scene, factor to apply to its forces and energies)."""
     if scene.analysis.synthesis.goal == "critical-load" and _proportional(scene):
-        key = (scene.name, repr(scene.members), repr(scene.analysis.driver))
+        key = ("critical-load", scene.name, repr(scene))
         if key not in _CACHE:
             _CACHE[key] = _fe(synthesised_scene(scene, 1.0))
         return _CACHE[key], scale
@@ -113,9 +113,11 @@ def fe_check(scene: Scene, sol: Solution) -> Solution:
         return sol
     goal = a.synthesis.goal
     extras = dict(sol.extras)
-    if goal == "bistable":
-        fe = _fe(energy_scene(scene))
-        fac = 1.0
+    if goal == "bistable":  # the same sweep for every model: solved once per scene
+        key = ("bistable", scene.name, repr(scene))
+        if key not in _CACHE:
+            _CACHE[key] = _fe(energy_scene(scene))
+        fe, fac = _CACHE[key], 1.0
     else:
         syn = extras.get("synthesis")
         if syn is None:
