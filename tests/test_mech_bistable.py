@@ -19,6 +19,8 @@ import pytest
 import cases
 import reports
 from cases.schema import Driver, Synthesis
+from reports.render import synthnote
+from reports.store import extras_json
 
 EX4 = cases.load("das2d-ex4-bistable-fourbar")
 
@@ -75,6 +77,9 @@ def test_critical_load_synthesis_reports_both_stable_positions_and_barrier():
     fe = syn["fem-auto"]  # the synthesised EI re-solved by the FE meets the target
     assert fe["status"] == "converged" and fe["relative_error"] < 2e-3
     assert fe["bistable"]["stable"][0] == pytest.approx(0.0, abs=1e-9)
+    lines = synthnote.notes(extras_json(sol.extras))  # what the report's model table shows
+    assert any(ln.startswith("fem-auto on the synthesised scene: 5.0") for ln in lines)
+    assert any(ln.startswith("bistable: stable at 0 and -90") for ln in lines)
 
 
 def _toml(tmp_path, synthesis: str, driver: bool = True):

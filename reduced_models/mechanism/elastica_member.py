@@ -25,9 +25,9 @@ mapped to the six end unknowns (X_a, Y_a, r_a, X_b, Y_b, r_b) with the Jacobian 
 Why extensible: at the straight drawn state the inextensible problem is singular (the axial
 force does not change the chord to first order), so the inextensible member has no stiffness
 matrix there; the finite axial compliance of the real cross-section (the FE's) makes the law
-regular.  Newton is warm-started from the member's last solution with the tangent predictor
-(continuation along the mechanism's path keeps the branch the path is on; a failure falls back
-to 16 continuation sub-steps from the last solved pose, or from the straight one).
+regular.  Each new pose is reached by continuation along the straight line from the member's
+last solved pose (the straight one at first) in sub-steps of at most ``STEP`` with the tangent
+predictor, so the member stays on the branch it is on (eight times finer after a failure).
 """
 
 from __future__ import annotations
@@ -41,6 +41,7 @@ from reduced_models.mechanism.newton import SolveError
 N = 24  # Chebyshev-Lobatto intervals along the member (spectral: 1e-12 for |m| of order 1)
 TOL = 1e-9  # last Newton step, relative (quadratic: the returned w is ~TOL^2 off)
 MAX_IT = 40
+STEP = 0.1  # largest pose change (X / L, Y / L, Phi in rad) per continuation sub-step
 
 
 def _cheb(n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -158,19 +159,25 @@ class ElasticaTerm:
         geo = (xi, eta, c, s)
         if self._J is not None and np.array_equal(pose, self._pose):  # same pose again
             return self._w, self._J, geo
-        w0 = self._w
-        if self._J is not None:  # tangent predictor from the last solution
-            w0 = w0 + self._dw(self._J) @ (pose - self._pose)
+        start = self._pose if self._pose is not None else np.array([1.0, 0.0, 0.0])
+        # continuation along the straight line from the last solved pose, tangent predictor,
+        # in sub-steps of at most STEP: the branch stays the one the member is on
+        n = max(1, math.ceil(float(np.abs(pose - start).max()) / STEP))
         try:
-            w, J = shoot(pose, self.k, w0)
-        except SolveError:  # continuation from the last solved pose (or the straight one)
-            w, start = self._w, self._pose
-            if start is None:
-                start = np.array([1.0, 0.0, 0.0])
-            for t in np.linspace(0.0, 1.0, 17)[1:]:
-                w, J = shoot(start + t * (pose - start), self.k, w)
+            w, J = self._walk(start, pose, n)
+        except SolveError:
+            w, J = self._walk(start, pose, 8 * n)
         self._w, self._pose, self._J = w, pose, J
         return w, J, geo
+
+    def _walk(self, start: np.ndarray, pose: np.ndarray, n: int) -> tuple:
+        w, J, p = self._w, self._J, start
+        for t in np.linspace(0.0, 1.0, n + 1)[1:]:
+            nxt = start + t * (pose - start)
+            w0 = w if J is None else w + self._dw(J) @ (nxt - p)
+            w, J = shoot(nxt, self.k, w0)
+            p = nxt
+        return w, J
 
     @staticmethod
     def _dw(J: np.ndarray) -> np.ndarray:
