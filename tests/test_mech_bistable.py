@@ -18,7 +18,7 @@ import pytest
 
 import cases
 import reports
-from cases.schema import Driver, Synthesis
+from cases.schema import Driver, Load, Synthesis
 from reports.render import synthnote
 from reports.store import extras_json
 
@@ -114,3 +114,42 @@ def test_bistable_toml_loads(tmp_path):
     scene = cases.load(str(_toml(tmp_path, 'goal = "bistable"')))
     assert scene.analysis.synthesis.goal == "bistable"
     assert isinstance(scene.analysis.driver, Driver)
+
+
+def _pushed(scene, **analysis):
+    """Ex. 4 with a dead force at the crank tip (150 deg: never along the crank over the
+    sweep), so that load control defines a tangent verdict with the driver released."""
+    b = math.radians(150.0)
+    ld = Load(id="push", node="N2", fx=math.cos(b), fy=math.sin(b))
+    a = dataclasses.replace(scene.analysis, **analysis)
+    return dataclasses.replace(scene, loads=(ld,), analysis=a)
+
+
+def test_ex4_verdicts_agree_at_every_equilibrium():
+    """Reduced-Hessian verdict (driver released) at each reported equilibrium = the FE tangent
+    verdict there (distance analysis landing on the equilibrium: load factor ~0, load control)
+    = the replay's impulse probe for the stable ones (each drawn stress-free: the rocker is
+    undeflected at 0 and -90 deg).  The unstable equilibrium cannot be held by a dynamic
+    replay; the FE tangent judges it."""
+    red = reports.solve(dataclasses.replace(EX4, analysis=_search().analysis), "cbcm-8")
+    eq = red.extras["equilibria"]
+    assert [e["kind"] for e in eq] == ["stable", "unstable", "stable"]
+    for e in eq:
+        c = e["coordinate"]
+        drv = dataclasses.replace(EX4.analysis.driver, stop=c)
+        n = max(1, math.ceil(abs(c) / 10.0))
+        fe = reports.solve(_pushed(EX4, kind="distance", steps=n, driver=drv), "fem-16")
+        assert fe.status == "converged", fe.message
+        assert abs(fe.steps[-1].factor) < 0.05  # the FE is at (nearly) its own equilibrium
+        assert fe.steps[-1].stable is (e["kind"] == "stable"), (c, fe.steps[-1].stable)
+    n1 = EX4.node("N1")
+    for c in (0.0, -90.0):  # the two stable positions, drawn
+        x, y = n1.x - 15.0 * math.sin(math.radians(c)), n1.y + 15.0 * math.cos(math.radians(c))
+        nodes = tuple(dataclasses.replace(n, x=x, y=y) if n.id == "N2" else n for n in EX4.nodes)
+        drawn = _pushed(dataclasses.replace(EX4, nodes=nodes), kind="load", steps=1)
+        drawn = dataclasses.replace(
+            drawn, analysis=dataclasses.replace(drawn.analysis, factor_end=0.01, driver=None)
+        )
+        rep = reports.solve(drawn, "replay")
+        assert rep.status == "converged", rep.message
+        assert rep.extras["probes"][0]["stable"] is True and rep.steps[0].stable is not False

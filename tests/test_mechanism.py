@@ -204,7 +204,7 @@ def _rotate(scene, beta_deg):
     return dataclasses.replace(scene, nodes=nodes, loads=loads, supports=sups)
 
 
-@pytest.mark.parametrize("model", ["cbcm-2", "prb-3r"])
+@pytest.mark.parametrize("model", ["cbcm-2", "prb-3r", "elastica"])
 def test_rigid_rotation_changes_no_relative_output(model):
     scene = cases.load("das2d-ex2-parallelogram")
     a, b = reports.solve(scene, model), reports.solve(_rotate(scene, 37.0), model)

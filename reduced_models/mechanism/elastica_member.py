@@ -165,8 +165,14 @@ class ElasticaTerm:
         n = max(1, math.ceil(float(np.abs(pose - start).max()) / STEP))
         try:
             w, J = self._walk(start, pose, n)
-        except SolveError:
-            w, J = self._walk(start, pose, 8 * n)
+        except SolveError:  # finer, then from the straight member (a far jump of the caller)
+            try:
+                w, J = self._walk(start, pose, 8 * n)
+            except SolveError:
+                self._w, self._J = np.zeros(N + 3), None
+                straight = np.array([1.0, 0.0, 0.0])
+                m = max(1, math.ceil(float(np.abs(pose - straight).max()) / STEP))
+                w, J = self._walk(straight, pose, 4 * m)
         self._w, self._pose, self._J = w, pose, J
         return w, J, geo
 
@@ -222,13 +228,22 @@ class ElasticaTerm:
         return self.dofs, g[None, :], H[None, :, :]
 
     def max_stress(self, q: np.ndarray) -> float:
-        """Largest bending stress E t |kappa| / 2 at the nodes (NaN when t is unknown)."""
-        w, _, _ = self._solve(q)
+        """Largest bending stress E t |kappa| / 2 at the nodes (NaN when t or the shape is
+        unknown)."""
+        try:
+            w, _, _ = self._solve(q)
+        except SolveError:
+            return np.nan
         return self.sfac * float(np.abs(D1 @ w[: N + 1]).max()) / self.L
 
     def shape(self, q: np.ndarray) -> np.ndarray:
-        """(N + 1, 2) centre-line points (the collocation nodes) in global coordinates."""
-        w, _, (_, _, c, s) = self._solve(q)
+        """(N + 1, 2) centre-line points (the collocation nodes) in global coordinates; the
+        chord when the shape cannot be re-solved (drawing only, never a result)."""
+        try:
+            w, _, (_, _, c, s) = self._solve(q)
+        except SolveError:
+            i = self.dofs[0]
+            return np.array([[q[i[0]], q[i[1]]], [q[i[3]], q[i[4]]]])
         th = w[: N + 1]
         e = 1.0 + self.k * (w[N + 1] * np.cos(th) + w[N + 2] * np.sin(th))
         x, y = QINT @ (e * np.cos(th)) * self.L, QINT @ (e * np.sin(th)) * self.L
