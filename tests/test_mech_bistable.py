@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from pathlib import Path
 
 import pytest
 
@@ -114,6 +115,8 @@ def test_bistable_toml_loads(tmp_path):
     scene = cases.load(str(_toml(tmp_path, 'goal = "bistable"')))
     assert scene.analysis.synthesis.goal == "bistable"
     assert isinstance(scene.analysis.driver, Driver)
+    example = cases.load(str(Path(__file__).parent / "fixtures" / "das2d-ex4-bistable-driver.toml"))
+    assert example.analysis.synthesis.goal == "bistable" and example.nodes == EX4.nodes
 
 
 def _pushed(scene, **analysis):

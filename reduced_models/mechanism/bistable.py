@@ -11,8 +11,8 @@ the first such triple the summary ``bistable(run)`` reports
 * ``critical`` = the switching loads: the extremum of the driving force between the first
   stable and the unstable position (``forward``, the force that pushes the mechanism over the
   barrier) and between the unstable and the second stable position (``backward``), each with
-  the coordinate where it is reached, refined by a bounded scalar search on the equilibrium
-  force (not the grid value).
+  the coordinate where it is reached, refined to dF/d(driver) = 0 (KKT tangent), not the
+  grid value.
 
 A scene that is not bistable along the driver gets ``{"bistable": False, "reason": ...}``.
 ``search(scene, name, spec_of)`` runs the sweep (the ``bistable`` synthesis goal); the
@@ -26,7 +26,6 @@ from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from cases.schema import Member, Scene
 from reduced_models.base import Solution, not_applicable
@@ -70,30 +69,49 @@ class At:
         """Driving force (torque) along +coordinate at ``v``."""
         return -float(self.state(v).mu[self.d])
 
+    def slope(self, v: float) -> tuple[float, float]:
+        """Driving force at ``v`` and its derivative along the driver (KKT tangent)."""
+        st = self.state(v)
+        dx = self.r.solver.tangent(st, "driver")
+        return -float(st.mu[self.d]), -float(dx[self.r.solver.nf + self.d])
+
     def potential(self, v: float) -> float:
         st = self.state(v)
         return self.r.s.potential(st.q, st.lam)
 
 
 def peak(at: At, lo: float, hi: float, sign: float) -> tuple[float, float]:
-    """(coordinate, force) of the extremum sign * F -> max on [lo, hi] (grid, then Brent)."""
+    """(coordinate, force) of the extremum sign * F -> max on [lo, hi]: the grid's best point,
+    refined where dF/d(driver) (the KKT tangent) changes sign around it (Illinois)."""
     x = at.vals
     F = np.array([s.outputs[force_key(at.r)] for s in at.r.steps])
     inside = np.flatnonzero((x - lo) * (x - hi) <= 0.0)
     k = int(inside[np.argmax(sign * F[inside])])
-    a, b = x[max(k - 1, 0)], x[min(k + 1, len(x) - 1)]
-    a, b = max(min(a, b), min(lo, hi)), min(max(a, b), max(lo, hi))
     best = (float(x[k]), float(F[k]))
-    if b > a:
-        res = minimize_scalar(
-            lambda v: -sign * at.force(v),
-            bounds=(a, b),
-            method="bounded",
-            options={"xatol": 1e-7 * max(abs(b - a), 1e-12)},
-        )
-        if -res.fun >= sign * best[1]:  # objective -sign F: sign F = -fun
-            best = (float(res.x), float(-res.fun * sign))
-    return best
+    a, b = float(x[max(k - 1, 0)]), float(x[min(k + 1, len(x) - 1)])
+    a, b = max(min(a, b), min(lo, hi)), min(max(a, b), max(lo, hi))
+    if not b > a:
+        return best
+    (_, ga), (_, gb) = at.slope(a), at.slope(b)
+    if ga * gb >= 0.0:  # no interior extremum between the neighbours
+        return best
+    side, v, f = 0, a, best[1]
+    for _ in range(60):
+        v = (a * gb - b * ga) / (gb - ga)
+        f, g = at.slope(v)
+        if g == 0.0 or b - a <= 1e-12 * max(abs(hi - lo), 1e-300):
+            break
+        if g * gb > 0:
+            b, gb = v, g
+            ga = ga / 2 if side == -1 else ga
+            side = -1
+        else:
+            a, ga = v, g
+            gb = gb / 2 if side == 1 else gb
+            side = 1
+        if abs(g) * abs(b - a) <= 1e-14 * max(abs(f), 1e-300):  # |dF| over the bracket
+            break
+    return (v, f) if sign * f >= sign * best[1] else best
 
 
 def force_key(run: analyses.Run) -> str:
