@@ -133,7 +133,7 @@ def test_ex5_howell_table_10_1():
 # -- driver force = energy derivative along the driver (finite differences) -------------------
 
 
-@pytest.mark.parametrize("model", ["linear-4", "cbcm-3", "prb-3r"])
+@pytest.mark.parametrize("model", ["linear-4", "cbcm-3", "prb-3r", "elastica"])
 def test_driver_torque_is_energy_derivative(model):
     sol = reports.solve(M.fourbar(), model)
     assert sol.status == "converged", sol.message
