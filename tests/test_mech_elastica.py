@@ -100,3 +100,18 @@ def test_bistable_fourbar_equilibria_match_fem_auto():
 def test_elastica_bvp_still_declines_mechanisms_with_reason():
     sol = reports.solve("das2d-ex2-parallelogram", "elastica-bvp")
     assert sol.status == "not-applicable" and "`elastica` carries the member law" in sol.message
+
+
+def test_lee_frame_limit_points_through_the_snap_back():
+    """Lee's frame by arc length with elastica members: both load-factor extrema, against the
+    published first limit load (18.5, Lee, Manuel & Rossow 1968; the case's reference) and
+    fem-auto's Richardson values (18.5569 +- 0.0023 and -9.4148 +- 0.0046, in the FE's own
+    extras).  Without the path's jump guard the corrector landed past the snap-back and the
+    run 'converged' with no limit point."""
+    el = reports.solve("lee-frame", "elastica")
+    assert el.status == "converged", el.message
+    lp = [(p["kind"], p["factor"]) for p in el.extras["limit_points"]]
+    assert [k for k, _ in lp] == ["max", "min"]
+    assert lp[0][1] == pytest.approx(18.5, rel=5e-3)  # printed to 3 digits (case tolerance)
+    assert lp[0][1] == pytest.approx(18.5569, abs=3 * 0.0023)
+    assert lp[1][1] == pytest.approx(-9.4148, abs=3 * 0.0046)

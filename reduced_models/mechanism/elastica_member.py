@@ -25,9 +25,11 @@ mapped to the six end unknowns (X_a, Y_a, r_a, X_b, Y_b, r_b) with the Jacobian 
 Why extensible: at the straight drawn state the inextensible problem is singular (the axial
 force does not change the chord to first order), so the inextensible member has no stiffness
 matrix there; the finite axial compliance of the real cross-section (the FE's) makes the law
-regular.  Each new pose is reached by continuation along the straight line from the member's
-last solved pose (the straight one at first) in sub-steps of at most ``STEP`` with the tangent
-predictor, so the member stays on the branch it is on (eight times finer after a failure).
+regular.  Each new pose is reached by continuation along the straight line from the nearest of
+the member's last ``HISTORY`` solved poses (the straight one always among them) in sub-steps of
+at most ``STEP`` with the tangent predictor, so the member stays on the branch it is on and a
+far-off Newton trial of the caller does not move it to another (eight times finer after a
+failure).
 """
 
 from __future__ import annotations
@@ -42,6 +44,7 @@ N = 24  # Chebyshev-Lobatto intervals along the member (spectral: 1e-12 for |m| 
 TOL = 1e-9  # last Newton step, relative (quadratic: the returned w is ~TOL^2 off)
 MAX_IT = 40
 STEP = 0.1  # largest pose change (X / L, Y / L, Phi in rad) per continuation sub-step
+HISTORY = 32  # solved poses kept as warm starts
 
 
 def _cheb(n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -125,6 +128,18 @@ def shoot(pose: np.ndarray, k: float, w0: np.ndarray) -> tuple[np.ndarray, np.nd
     raise SolveError(f"elastica member: no convergence (residual {np.abs(R).max():.1e})")
 
 
+def _walk(start: tuple, pose: np.ndarray, n: int, k: float) -> tuple[np.ndarray, np.ndarray]:
+    """Continuation from a solved ``start = (pose, w, J)`` to ``pose`` in ``n`` sub-steps."""
+    p, w, J = start
+    p0 = p
+    for t in np.linspace(0.0, 1.0, n + 1)[1:]:
+        nxt = p0 + t * (pose - p0)
+        w0 = w if J is None else w + ElasticaTerm._dw(J) @ (nxt - p)
+        w, J = shoot(nxt, k, w0)
+        p = nxt
+    return w, J
+
+
 class ElasticaTerm:
     """One elastica member between two end poses (module doc).
 
@@ -142,9 +157,9 @@ class ElasticaTerm:
         self.dofs = np.asarray(dofs, np.int64).reshape(1, 6)
         self.L, self.EI, self.alpha, self.sfac = float(L), float(EI), float(alpha), float(sfac)
         self.k = EI / (EA * L * L)
-        self._w = np.zeros(N + 3)  # last converged solution (warm start)
-        self._pose: np.ndarray | None = None
-        self._J: np.ndarray | None = None
+        straight = (np.array([1.0, 0.0, 0.0]), np.zeros(N + 3), None)
+        self._hist: list[tuple] = [straight]  # (pose, w, J) of the last solves (warm starts)
+        self._last: tuple | None = None
 
     def _local(self, q: np.ndarray) -> tuple:
         Xa, Ya, ra, Xb, Yb, rb = q[self.dofs[0]]
@@ -157,33 +172,22 @@ class ElasticaTerm:
         xi, eta, phi, c, s = self._local(q)
         pose = np.array([xi / self.L, eta / self.L, phi])
         geo = (xi, eta, c, s)
-        if self._J is not None and np.array_equal(pose, self._pose):  # same pose again
-            return self._w, self._J, geo
-        start = self._pose if self._pose is not None else np.array([1.0, 0.0, 0.0])
-        # continuation along the straight line from the last solved pose, tangent predictor,
-        # in sub-steps of at most STEP: the branch stays the one the member is on
-        n = max(1, math.ceil(float(np.abs(pose - start).max()) / STEP))
+        if self._last is not None and np.array_equal(pose, self._last[0]):  # same pose again
+            return self._last[1], self._last[2], geo
+        # continuation along the straight line from the nearest solved pose (a Newton trial of
+        # the caller may have been far off: the accepted states stay in the history), tangent
+        # predictor, sub-steps of at most STEP: the member stays on the branch it is on
+        near = min(self._hist, key=lambda h: float(np.abs(h[0] - pose).max()))
+        n = max(1, math.ceil(float(np.abs(pose - near[0]).max()) / STEP))
         try:
-            w, J = self._walk(start, pose, n)
-        except SolveError:  # finer, then from the straight member (a far jump of the caller)
-            try:
-                w, J = self._walk(start, pose, 8 * n)
-            except SolveError:
-                self._w, self._J = np.zeros(N + 3), None
-                straight = np.array([1.0, 0.0, 0.0])
-                m = max(1, math.ceil(float(np.abs(pose - straight).max()) / STEP))
-                w, J = self._walk(straight, pose, 4 * m)
-        self._w, self._pose, self._J = w, pose, J
+            w, J = _walk(near, pose, n, self.k)
+        except SolveError:  # eight times finer
+            w, J = _walk(near, pose, 8 * n, self.k)
+        self._last = (pose, w, J)
+        self._hist.append(self._last)
+        if len(self._hist) > HISTORY:
+            del self._hist[1]  # the straight state (entry 0) stays
         return w, J, geo
-
-    def _walk(self, start: np.ndarray, pose: np.ndarray, n: int) -> tuple:
-        w, J, p = self._w, self._J, start
-        for t in np.linspace(0.0, 1.0, n + 1)[1:]:
-            nxt = start + t * (pose - start)
-            w0 = w if J is None else w + self._dw(J) @ (nxt - p)
-            w, J = shoot(nxt, self.k, w0)
-            p = nxt
-        return w, J
 
     @staticmethod
     def _dw(J: np.ndarray) -> np.ndarray:

@@ -7,7 +7,8 @@ bordered system
 
 with K the KKT matrix, r_lam = d r / d lam (minus the load vector) and the arc length measured
 on (q / length scale, lam) only (multipliers carry no length).  The step grows after easy
-steps and halves on failure.  A crossing of ``stop_output = stop_value`` is landed exactly
+steps and halves on failure or when the corrector needed more than ``JUMP_ITERATIONS``.
+A crossing of ``stop_output = stop_value`` is landed exactly
 (the arc-length row replaced by the output row); a crossing of ``factor_end`` by a Newton
 solve at that factor.  Load-factor extrema (sign changes of d lam / ds between steps) are
 refined (zero of d lam / ds along the arc), inserted as steps with ``info["limit_point"]``
@@ -19,6 +20,10 @@ from __future__ import annotations
 import numpy as np
 
 from reduced_models.mechanism.newton import SolveError, State
+
+# a corrector needing more Newton iterations than this has wandered far from its predictor
+# (a stiff axial member law on Lee's frame landed past the snap-back): the step is halved
+JUMP_ITERATIONS = 12
 
 
 class ArcLength:
@@ -140,6 +145,9 @@ def run_path(run: object) -> None:
             ds /= 2.0
             if cuts > 12:
                 raise SolveError(f"arc-length step cut 12 times near factor {st.lam:.6g}") from None
+            continue
+        if new.iterations > JUMP_ITERATIONS and ds > 1e-6 * ds_max:
+            ds /= 2.0  # the corrector wandered far from the predictor: a branch may be jumped
             continue
         t_new = al.tangent(new, t)
         if al._dot(t_new, t) < 0.98 and ds > 1e-6 * ds_max:
