@@ -115,3 +115,17 @@ def test_lee_frame_limit_points_through_the_snap_back():
     assert lp[0][1] == pytest.approx(18.5, rel=5e-3)  # printed to 3 digits (case tolerance)
     assert lp[0][1] == pytest.approx(18.5569, abs=3 * 0.0023)
     assert lp[1][1] == pytest.approx(-9.4148, abs=3 * 0.0046)
+
+
+def test_shallow_arch_snap_through_is_followed_not_jumped():
+    """Two straight bars snapping through: the limit loads +-0.381087190418 of fem-auto (its
+    Richardson error estimate 1e-15) and the case's closed-form end factor 1.8302512025075
+    (von Mises truss law at w = 0.25).  Before the path's secant guard the elastica stepped
+    across the snap-through in 6 steps and reported no limit point."""
+    el = reports.solve("shallow-arch-snap", "elastica")
+    assert el.status == "converged", el.message
+    lp = [(p["kind"], p["factor"]) for p in el.extras["limit_points"]]
+    assert [k for k, _ in lp] == ["max", "min"]
+    assert lp[0][1] == pytest.approx(0.381087190418, rel=1e-8)
+    assert lp[1][1] == pytest.approx(-0.381087190418, rel=1e-8)
+    assert el.steps[-1].factor == pytest.approx(1.8302512025075, rel=1e-9)

@@ -7,7 +7,8 @@ bordered system
 
 with K the KKT matrix, r_lam = d r / d lam (minus the load vector) and the arc length measured
 on (q / length scale, lam) only (multipliers carry no length).  The step grows after easy
-steps and halves on failure or when the corrector needed more than ``JUMP_ITERATIONS``.
+steps and halves on failure or when the corrector lands off the step (``JUMP_COS``,
+``JUMP_ITERATIONS``).
 A crossing of ``stop_output = stop_value`` is landed exactly
 (the arc-length row replaced by the output row); a crossing of ``factor_end`` by a Newton
 solve at that factor.  Load-factor extrema (sign changes of d lam / ds between steps) are
@@ -21,8 +22,11 @@ import numpy as np
 
 from reduced_models.mechanism.newton import SolveError, State
 
-# a corrector needing more Newton iterations than this has wandered far from its predictor
-# (a stiff axial member law on Lee's frame landed past the snap-back): the step is halved
+# a corrector whose secant leaves the tangent by more than acos(JUMP_COS), or that needs more
+# than JUMP_ITERATIONS Newton iterations, has left the path's neighbourhood (members with a
+# stiff primal axial law, elastica or PRB-2RPR, landed past Lee's frame's snap-back and across
+# the shallow arch's snap-through): the step is halved
+JUMP_COS = 0.95
 JUMP_ITERATIONS = 12
 
 
@@ -146,8 +150,10 @@ def run_path(run: object) -> None:
             if cuts > 12:
                 raise SolveError(f"arc-length step cut 12 times near factor {st.lam:.6g}") from None
             continue
-        if new.iterations > JUMP_ITERATIONS and ds > 1e-6 * ds_max:
-            ds /= 2.0  # the corrector wandered far from the predictor: a branch may be jumped
+        dz = al._z(new) - z0
+        off = al._dot(dz, t) ** 2 < JUMP_COS**2 * al._dot(dz, dz) * al._dot(t, t)
+        if (off or new.iterations > JUMP_ITERATIONS) and ds > 1e-6 * ds_max:
+            ds /= 2.0  # the corrector landed off the step's direction: a snap may be jumped
             continue
         t_new = al.tangent(new, t)
         if al._dot(t_new, t) < 0.98 and ds > 1e-6 * ds_max:
