@@ -9,14 +9,14 @@ The mixed Lagrangian of ``chain.SegmentLaw``
 
 has the gradient [p, (G + p P + p^2 Q) w, ux + 1/2 w.P.w - p (k - w.Q.w)] and a 4x4 Hessian
 written out below; stability is ``ChainProblem.stability``'s test for this case: p condensed
-(its pivot capped at -1e-9, as there) and the 3x3 (guided: 2x2) remainder positive definite.
+(its pivot capped at -1e-9, as there) and the 3x3 (guided: 2x2) remainder positive definite,
+which reduces to the transverse stiffness K = G + p P + p^2 Q being positive definite.
 A handful of floats per iteration instead of the band machinery of N segments: the path
 costs what its equations cost.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 
 import numpy as np
@@ -24,22 +24,6 @@ import numpy as np
 from reduced_models.chain import ChainProblem
 from reduced_models.path_result import PathResult
 from reduced_models.small_path import minimize_path_small
-
-
-def _pd(A: list) -> bool:
-    """Positive definiteness of a small symmetric matrix (Cholesky succeeds)."""
-    n = len(A)
-    L = [[0.0] * n for _ in range(n)]
-    for i in range(n):
-        for j in range(i + 1):
-            s = A[i][j] - sum(L[i][q] * L[j][q] for q in range(j))
-            if i == j:
-                if not s > 0.0:
-                    return False
-                L[i][i] = math.sqrt(s)
-            else:
-                L[i][j] = s / L[j][j]
-    return True
 
 
 def single_segment_functions(prob: ChainProblem) -> tuple:
@@ -88,12 +72,16 @@ def single_segment_functions(prob: ChainProblem) -> tuple:
         return [-fX, -fY, -m, 0.0]
 
     def stability(x: list, lam: float) -> bool:
-        _, K, _, _, cross, D = terms(x)
-        hpp = min(-D, -1e-9)
-        c = [1.0, cross[0], cross[1]]
-        Hg = [[0.0, 0.0, 0.0], [0.0, K[0][0], K[0][1]], [0.0, K[1][0], K[1][1]]]
-        keep = (0, 1) if prob.guided else (0, 1, 2)
-        return _pd([[Hg[i][j] - c[i] * c[j] / hpp for j in keep] for i in keep])
+        # p condensed (pivot hpp = min(-D, -1e-9) < 0) leaves M = Hg - c c^T / hpp in (X, Y,
+        # phi) with M_XX = -1/hpp > 0; the Schur complement of M_XX is K itself (the c c^T
+        # terms cancel), so by Sylvester's criterion M is positive definite iff K is
+        p = x[3]
+        k00 = G[0][0] + p * P[0][0] + p * p * Q[0][0]
+        if guided:
+            return k00 > 0.0
+        k01 = G[0][1] + p * P[0][1] + p * p * Q[0][1]
+        k11 = G[1][1] + p * P[1][1] + p * p * Q[1][1]
+        return k00 > 0.0 and k00 * k11 - k01 * k01 > 0.0
 
     return grad_hess, load_gradient, stability
 
