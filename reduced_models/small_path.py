@@ -235,7 +235,7 @@ class _Newton:
         """((x, res, stable, x, factor) or None, iterations, reason): as
         ``continuation._Solver.newton``, the accepted state is the evaluated iterate x_k
         whose own correction and residual are small (no extra evaluation)."""
-        n, inv, xtol, gtol, cap = self.n, self.inv_scale, self.xtol, self.gtol, self.cap
+        inv, xtol, gtol, cap = self.inv_scale, self.xtol, self.gtol, self.cap
         evaluate, factor_solve = self.evaluate, self.factor_solve
         prev_res = math.inf
         for it in range(1 + done, self.max_iter + 1):
@@ -321,6 +321,7 @@ def minimize_path_small(
 
     def solve(x: list, lam: float) -> tuple[tuple | None, int, str]:
         return newton.solve_tri(x, lam) if newton.tri else newton.solve(x, lam)
+
     out_f, out_x, out_it, out_cut, out_res, out_stab = [], [], [], [], [], []
 
     def result(ok: bool, reason: str) -> PathResult:
