@@ -20,7 +20,6 @@ from reduced_models import single_beam
 from reduced_models.base import ModelCard, Solution, Step, load_factors, not_applicable
 from reduced_models.chain import ChainProblem, SegmentLaw, chain_shape, local_coords
 from reduced_models.chain_small import solve_single_segment
-from reduced_models.continuation import minimize_path
 from reduced_models.options import Option
 from reduced_models.path_result import PathResult
 
@@ -114,6 +113,8 @@ class ChainModel:
 
     def _path(self, prob: ChainProblem, factors: np.ndarray) -> PathResult:
         """The general continuation (banded, retraction, follower loads)."""
+        from reduced_models.continuation import minimize_path  # scipy: N > 1 or followers
+
         return minimize_path(
             prob.grad_hess,
             prob.x0,

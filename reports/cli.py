@@ -204,7 +204,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
         memory = None if args.memory_limit == 0 else args.memory_limit
         try:
             with limits.guard(args.time_limit, memory):
-                sol = limits.explain(api.run_model(model, scene), memory)
+                # post=False: shapes and stress are not printed (and cost their imports)
+                sol = limits.explain(api.run_model(model, scene, post=False), memory)
         except limits.LimitExceeded as exc:
             sol = Solution(scene.name, args.model, "failed", str(exc))
         wall = time.perf_counter() - t0
@@ -510,21 +511,22 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv
     argv = [a for a in argv if a != "--debug"]
-    user_errors = _user_errors()
     _CONTEXT.clear()
     try:
         if argv and argv[0] == "fit-prb":
             return cmd_fit_prb(argv[1:])
         args = build_parser().parse_args(argv)
         return int(args.func(args))
-    except user_errors as exc:
-        return _fail(str(exc))
     except BrokenPipeError:  # `flexbench cases | head`
         return 0
     except KeyboardInterrupt:  # `run` says more itself; elsewhere nothing is left half-done
         print(f"{PROG}: interrupted", file=sys.stderr)
         return 130
     except Exception as exc:  # a bug of ours: one line (the traceback with --debug), exit 3
+        # the user-error classes are looked up only now: their modules (the run journal and
+        # its store) cost a solve of a reduced model more than the solve itself
+        if isinstance(exc, _user_errors()):
+            return _fail(str(exc))
         return _internal(exc, debug)
 
 
