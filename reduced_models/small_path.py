@@ -157,6 +157,7 @@ class _Newton:
         # ``solve_tri`` (known after the first evaluation)
         self.plain = not fixed and self.unit and cap is None and stability is None
         self.tri = False
+        self.fn = False  # a closed-form solve from grad_hess, nothing fixed: ``solve_fn``
 
     def evaluate(self, x: list, lam: float) -> tuple[list, tuple]:
         """Residual and Hessian: ``(d, e)`` tridiagonal or a dense list of rows."""
@@ -231,6 +232,39 @@ class _Newton:
             x = [a - b for a, b in zip(x, sol)]
         return None, self.max_iter, f"no convergence in {self.max_iter} its"
 
+    def solve_fn(self, x: list, lam: float) -> tuple[tuple | None, int, str]:
+        """``solve`` for a closed-form tangent solve with nothing fixed: no dispatch."""
+        gh, xtol, gtol, cap, inv = self.gh, self.xtol, self.gtol, self.cap, self.inv_scale
+        unit, isfinite = self.unit, math.isfinite
+        prev_res = math.inf
+        for it in range(1, self.max_iter + 1):
+            g, tangent_solve = gh(x, lam)
+            res = max(map(abs, g))
+            if not isfinite(res + sum(g)):
+                return None, it, "non-finite residual"
+            try:
+                sol = tangent_solve(g)
+            except ZeroDivisionError as exc:
+                return None, it, f"singular tangent ({exc})"
+            size = max(map(abs, sol)) if unit else max([abs(s * w) for s, w in zip(sol, inv)])
+            if not isfinite(size):
+                return None, it, "singular tangent"
+            if size <= xtol:
+                if gtol is None or res <= gtol:
+                    st = None if self.stability is None else self.stability(x, lam)
+                    return (x, res, st, x, ("fn", tangent_solve)), it, ""
+                if res > 0.5 * prev_res:
+                    return None, it, f"residual {res:.3g} stalls above gtol {gtol:.3g}"
+            elif size > 1e6:
+                return None, it, "Newton diverged"
+            elif cap is not None:  # damping: the update shortened as a whole
+                over = max([abs(s) * c for s, c in zip(sol, cap)])
+                if over > 1.0:
+                    sol = [s / over for s in sol]
+            prev_res = res
+            x = [a - b for a, b in zip(x, sol)]
+        return None, self.max_iter, f"no convergence in {self.max_iter} its"
+
     def solve(self, x: list, lam: float, done: int = 0) -> tuple[tuple | None, int, str]:
         """((x, res, stable, x, factor) or None, iterations, reason): as
         ``continuation._Solver.newton``, the accepted state is the evaluated iterate x_k
@@ -241,6 +275,7 @@ class _Newton:
         for it in range(1 + done, self.max_iter + 1):
             g, H = evaluate(x, lam)
             self.tri = self.plain and type(H) is tuple
+            self.fn = not self.fixed and callable(H)
             res = max(map(abs, g))
             if not math.isfinite(res + sum(g)):
                 return None, it, "non-finite residual"
@@ -320,7 +355,9 @@ def minimize_path_small(
     newton = _Newton(grad_hess, n, fixed, inv, xtol, gtol, max_iter, cap, stability)
 
     def solve(x: list, lam: float) -> tuple[tuple | None, int, str]:
-        return newton.solve_tri(x, lam) if newton.tri else newton.solve(x, lam)
+        if newton.tri:
+            return newton.solve_tri(x, lam)
+        return newton.solve_fn(x, lam) if newton.fn else newton.solve(x, lam)
 
     out_f, out_x, out_it, out_cut, out_res, out_stab = [], [], [], [], [], []
 
