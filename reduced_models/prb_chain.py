@@ -324,17 +324,27 @@ class PRBChain:
         lo, hi = [0.0, *ko], [*ko, 0.0]  # row p: coefficients of psi_{p-1} and psi_{p+1}
         rows = list(zip(kd, lo, hi, a, b))
 
+        seen: list = [None, None]  # the last point and its unit-load terms Im w
+
         def gh(x: list, lam: float) -> tuple[list, list, list]:
-            g, d = [], []
+            g, d, gw = [], [], []
             for xi, xl, xh, (k, cl, ch, ap, bp) in zip(x, [0.0, *x], [*x[1:], 0.0], rows):
                 c, s = cos(xi), sin(xi)
-                g.append(k * xi + cl * xl + ch * xh + lam * (ap * s + bp * c))
+                w = ap * s + bp * c
+                gw.append(w)
+                g.append(k * xi + cl * xl + ch * xh + lam * w)
                 d.append(k + lam * (ap * c - bp * s))
             g[last] -= lam * m1
+            seen[0], seen[1] = x, gw
             return g, d, ko[:]
 
         def lg(x: list, lam: float) -> list:
-            gw = [a[p] * sin(x[p]) + b[p] * cos(x[p]) for p in range(nj)]
+            # called at the state just accepted: its terms were computed by gh
+            gw = (
+                seen[1][:]
+                if seen[0] is x
+                else [a[p] * sin(x[p]) + b[p] * cos(x[p]) for p in range(nj)]
+            )
             gw[last] -= m1
             return gw
 

@@ -388,7 +388,7 @@ def minimize_path_small(
         for i in fixed:
             dg[i] = 0.0
         t = [-v for v in _solve(c[4], dg, n)]
-        return t if math.isfinite(sum(v * v for v in t)) else None
+        return t if math.isfinite(sum(t)) else None  # a sum is finite iff every entry is
 
     factors = [float(f) for f in factors]
     if not factors:
@@ -425,7 +425,10 @@ def minimize_path_small(
                     conv, why = None, "the step left the stable branch"
                 elif x_prev is not None and lam_cur != lam_prev:
                     back = sum(
-                        (a - b) * (b - c) * w * w for a, b, c, w in zip(conv[0], x_cur, x_prev, inv)
+                        [
+                            (a - b) * (b - c) * w * w
+                            for a, b, c, w in zip(conv[0], x_cur, x_prev, inv)
+                        ]
                     )
                     if back < 0:
                         conv, why = None, "the path turned back (branch jump)"
