@@ -153,9 +153,9 @@ class _Newton:
         self.inv_scale, self.xtol, self.gtol, self.max_iter = inv_scale, xtol, gtol, max_iter
         self.cap, self.stability = cap, stability
         self.unit = all(w == 1.0 for w in inv_scale)  # unit scales: no products per update
-        # (g, d, e) from grad_hess, nothing fixed, unit scales, no damping, pd stability:
-        # ``solve_tri`` (known after the first evaluation)
-        self.plain = not fixed and self.unit and cap is None and stability is None
+        # (g, d, e) from grad_hess, unit scales, no damping, pd stability: ``solve_tri``
+        # (known after the first evaluation)
+        self.plain = self.unit and cap is None and stability is None
         self.tri = False
         self.fn = False  # a closed-form solve from grad_hess, nothing fixed: ``solve_fn``
 
@@ -208,9 +208,16 @@ class _Newton:
     def solve_tri(self, x: list, lam: float) -> tuple[tuple | None, int, str]:
         """``solve`` for the plain tridiagonal case: no dispatch per iteration."""
         gh, n, xtol, gtol, isfinite = self.gh, self.n, self.xtol, self.gtol, math.isfinite
+        fixed, last = self.fixed, self.n - 1
         prev_res = math.inf
         for it in range(1, self.max_iter + 1):
             g, d, e = gh(x, lam)
+            for i in fixed:  # identity equations (as ``evaluate``)
+                g[i], d[i] = 0.0, 1.0
+                if i:
+                    e[i - 1] = 0.0
+                if i < last:
+                    e[i] = 0.0
             res = max(map(abs, g))
             if not isfinite(res + sum(g)):
                 return None, it, "non-finite residual"
