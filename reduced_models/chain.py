@@ -159,9 +159,11 @@ class SegmentLaw:
         self, ux: np.ndarray, y: np.ndarray, a: np.ndarray, p: np.ndarray, k: float
     ) -> np.ndarray:
         """Segment strain energy (N,) at the stationary axial force p (normalised EI/h)."""
-        w = np.stack([y, a], axis=1)
-        wGw = np.einsum("ni,ij,nj->n", w, self.G, w)
-        wQw = np.einsum("ni,ij,nj->n", w, self.Q, w)
+        (g00, g01), (g10, g11) = self.G.tolist()
+        (q00, q01), (q10, q11) = self.Q.tolist()
+        yy, ya, aa = y * y, y * a, a * a  # the quadratic forms written out (no einsum parsing)
+        wGw = g00 * yy + (g01 + g10) * ya + g11 * aa
+        wQw = q00 * yy + (q01 + q10) * ya + q11 * aa
         return 0.5 * wGw + 0.5 * p**2 * (k - wQw)
 
     def stiffness(self, p: np.ndarray) -> np.ndarray:
@@ -401,12 +403,25 @@ class ChainProblem:
         """
         Xs = np.atleast_2d(X)
         nodes, p = self.split(Xs)
-        xi, eta, a, c, s = (v[:, 0] for v in local_coords(nodes[:, -2:], self.h))
-        B = self.law.block(xi - 1.0, eta, a, p[:, -1], self.k)
+        coords = (v[:, 0] for v in local_coords(nodes[:, -2:], self.h))
+        out = self.tip_loads_of(*coords, p[:, -1])
+        return out if np.ndim(X) == 2 else out[0]
+
+    def tip_loads_of(
+        self,
+        xi: np.ndarray,
+        eta: np.ndarray,
+        a: np.ndarray,
+        c: np.ndarray,
+        s: np.ndarray,
+        p: np.ndarray,
+    ) -> np.ndarray:
+        """``tip_loads`` (m, 3) from the last segment's ``local_coords`` (each (m,)) and axial
+        force p (m,), for a caller that has them already."""
+        B = self.law.block(xi - 1.0, eta, a, p, self.k)
         pl, fl, ml = B[:, 0, 4], B[:, 1, 4], B[:, 2, 4]
         N2 = self.N**2
-        out = np.column_stack([N2 * (c * pl - s * fl), N2 * (s * pl + c * fl), self.N * ml])
-        return out if np.ndim(X) == 2 else out[0]
+        return np.column_stack([N2 * (c * pl - s * fl), N2 * (s * pl + c * fl), self.N * ml])
 
 
 def chain_shape(nodes: np.ndarray, xl: np.ndarray, yl: np.ndarray, h: float) -> np.ndarray:

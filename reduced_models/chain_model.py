@@ -167,11 +167,12 @@ class ChainModel:
         # every per-step quantity for all reported states at once: (m, N) segment arrays
         m = len(res.factors)
         nodes, p = prob.split(res.states)  # (m, N + 1, 3), (m, N)
-        xi, eta, a, _, _ = local_coords(nodes, prob.h)
+        xi, eta, a, c, s = local_coords(nodes, prob.h)
         ux = xi - 1.0
         flat = (ux.ravel(), eta.ravel(), a.ravel(), p.ravel(), k)
         energy = EI / L * N * self.law.energy(*flat).reshape(m, N).sum(axis=1)
-        loads = prob.tip_loads(res.states) * np.array([EI / L**2, EI / L**2, EI / L])
+        last = (xi[:, -1], eta[:, -1], a[:, -1], c[:, -1], s[:, -1], p[:, -1])
+        loads = prob.tip_loads_of(*last) * np.array([EI / L**2, EI / L**2, EI / L])
         ymax = np.abs(eta).max(axis=1, initial=0.0)
         flags = self.warning_flags(ux, eta, a, p, k)
         steps = []
