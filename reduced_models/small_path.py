@@ -478,22 +478,22 @@ def _predict(
     if x_prev is None or lam_cur == lam_prev:
         return None if t_cur is None else [c + t * s for c, t in zip(x_cur, t_cur)]
     h = lam_cur - lam_prev
-    back = [p - c for p, c in zip(x_prev, x_cur)]
     r = -s / h
     if t_cur is None:
-        return [c + b * r for c, b in zip(x_cur, back)]
+        return [c + (p - c) * r for c, p in zip(x_cur, x_prev)]
     u = s / h
     c2 = u * u
-    if t_prev is not None:
-        c3 = c2 + c2 * u
-        a1, a2, a3 = s + h * (c2 + c3), c2 + 2.0 * c3, h * c3
-        poly = [t * a1 + b * a2 + q * a3 for t, b, q in zip(t_cur, back, t_prev)]
-    else:
-        a1 = s + h * c2
-        poly = [t * a1 + b * c2 for t, b in zip(t_cur, back)]
+    c3 = c2 + c2 * u if t_prev is not None else 0.0
+    a1, a2, a3 = s + h * (c2 + c3), c2 + 2.0 * c3, h * c3
+    # one pass: the Hermite point, the secant point and their scaled squared lengths
+    poly, secant, size_p, size_s = [], [], 0.0, 0.0
+    for c, p, t, q, w in zip(x_cur, x_prev, t_cur, t_prev or t_cur, inv):
+        b = p - c
+        d = t * a1 + b * a2 + q * a3  # a3 = 0 without t_prev
+        poly.append(c + d)
+        secant.append(c + b * r)
+        size_p += (d * w) ** 2
+        size_s += (b * w) ** 2
     # the polynomial runs more than 3 times further than the secant (scaled 2-norms): keep
     # the secant (a tangent blowing up next to a bifurcation or limit point)
-    a = sum([(p * w) ** 2 for p, w in zip(poly, inv)])
-    if a <= 9.0 * r * r * sum([(b * w) ** 2 for b, w in zip(back, inv)]):
-        return [c + p for c, p in zip(x_cur, poly)]
-    return [c + b * r for c, b in zip(x_cur, back)]
+    return poly if size_p <= 9.0 * r * r * size_s else secant
