@@ -105,7 +105,7 @@ def _ms(t: float | None) -> str:
 
 
 def _verdict(value: float, limit: float) -> str:
-    return "met" if value <= limit else f"missed by {value / limit:.2g}x"
+    return "met" if value <= limit else f"missed by {value / limit:.2f}x"
 
 
 # why a small model costs what it costs (printed next to a missed target; the figures beside
