@@ -37,7 +37,7 @@ from pathlib import Path
 from typing import Any
 
 from reduced_models.base import Solution
-from reports import api
+from reports import api, timing
 from reports.compare import DEFAULT_ABS_TOL, DEFAULT_REL_FACTOR
 from reports.timing import DEFAULT_TIME_LIMIT, QUICK_TIME_LIMIT  # not the runner: lazy
 
@@ -200,6 +200,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
         text = f"cannot build model: {type(exc).__name__}: {exc}".splitlines()[0]
         sol, wall = Solution(scene.name, args.model, "failed", text), 0.0
     else:
+        _one_blas_thread()
         t0 = time.perf_counter()
         memory = None if args.memory_limit == 0 else args.memory_limit
         try:
@@ -220,6 +221,16 @@ def cmd_solve(args: argparse.Namespace) -> int:
             vals = [s.factor, *(s.outputs.get(k, math.nan) for k in keys), s.energy]
             print("  ".join(f"{v:12.6g}" for v in vals) + f"  {s.iterations:12d}")
     return 0
+
+
+def _one_blas_thread() -> None:
+    """One BLAS thread for a solve, as in the runner's workers: the FE's banded factorisations
+    are far below threading's break-even, and threaded OpenBLAS on a busy machine cost 80x
+    (fem-64 on the double parallelogram: 4 s against 0.05 s).  Loaded pools are pinned now;
+    the variables cover a BLAS imported during the solve (scipy ships its own OpenBLAS)."""
+    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(var, "1")
+    timing.pin_blas()
 
 
 def cmd_recommend(args: argparse.Namespace) -> int:
