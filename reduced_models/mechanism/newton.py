@@ -17,15 +17,23 @@ of axial multipliers of chained segments, each of which brings one negative eige
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
+import scipy.sparse as sp
 from scipy.linalg import lapack
+
+from reduced_models.mechanism import kkt_sparse
+from reduced_models.mechanism.kkt import Assembly
 
 if TYPE_CHECKING:
     from reduced_models.mechanism.system import MechanismSystem
+
+#: KKT matrix: dense below ``kkt.SPARSE_FROM`` unknowns, CSC above
+Matrix = np.ndarray | sp.csc_matrix
 
 TOL = 1e-10
 MAX_ITER = 30
@@ -44,24 +52,31 @@ class State:
     lam: float
     iterations: int = 0
     residual: float = 0.0
-    K: np.ndarray | None = None  # KKT matrix at this state (reused by tangent/stability)
+    K: Matrix | None = None  # KKT matrix at this state (reused by tangent/stability)
     lam_free: bool = False
-    ldl: tuple | None = None  # (lu, piv, sc): LDL^T of the scaled K from ``Solver.stable``
+    ldl: tuple | None = None  # (solve K x = b, size): factors from ``Solver.stable``
 
 
 class Solver:
-    """Newton solves on one system; ``lam_free`` makes the load factor the driver's unknown."""
+    """Newton solves on one system; ``lam_free`` makes the load factor the driver's unknown.
+    ``sparse``: force the sparse (True) or dense (False) KKT path (None: by size, ``kkt``)."""
 
-    def __init__(self, sysm: MechanismSystem, tol: float = TOL, max_iter: int = MAX_ITER) -> None:
+    def __init__(
+        self,
+        sysm: MechanismSystem,
+        tol: float = TOL,
+        max_iter: int = MAX_ITER,
+        sparse: bool | None = None,
+    ) -> None:
         self.s = sysm
         self.tol, self.max_iter = tol, max_iter
         self.f = sysm.free
         self.nf = len(self.f)
-        self.cs = None
-        self._irs = None
+        self.asm = Assembly(sysm, sparse)
+        self.sparse = sparse
         self._stab_key: tuple | None = None
         self._cap: np.ndarray | None = None
-        self.memo: tuple | None = None  # last (path kind, t, x, dx) for the Hermite predictor
+        self.memo: tuple | None = None  # (path kind, [(t, x, dx), ...]) for the predictor
 
     def driver_index(self) -> int | None:
         """Row of the driver in the stacked constraint vector (None without a driver)."""
@@ -70,34 +85,23 @@ class Solver:
             return None
         return s.m - s.linear.m + s.driver_row
 
-    def kkt(self, st: State, lam_free: bool = False) -> tuple[np.ndarray, np.ndarray, float]:
-        """Residual (nf + m,) and KKT matrix at a state; the scaled residual norm."""
-        s, f = self.s, self.f
-        mu = st.mu.copy()
-        d = self.driver_index()
+    def kkt(self, st: State, lam_free: bool = False) -> tuple[np.ndarray, Matrix, float]:
+        """Residual (nf + m,) and KKT matrix (dense array or CSC) at a state; the scaled
+        residual norm."""
+        mu, col = st.mu, None
         if lam_free:
+            d = self.driver_index()
+            mu = mu.copy()
             mu[d] = 0.0
-        g, W, c, Jf = s.reduced(st.q, st.lam, mu)
-        r = g + Jf.T @ mu
-        nf, m = self.nf, len(c)
-        K = np.zeros((nf + m, nf + m))
-        K[:nf, :nf] = W
-        K[:nf, nf:] = Jf.T
-        K[nf:, :nf] = Jf
-        if lam_free:
-            K[:nf, nf + d] = s.reduced_load(st.q)
-        if self.cs is None:
-            self.cs = s.cscale()
-        if self._irs is None:
-            self._irs = 1.0 / s.rscale[f]
-            self._ics = 1.0 / self.cs
-        res = float(np.abs(r * self._irs).max()) if nf else 0.0
-        if m:
-            res = max(res, float(np.abs(c * self._ics).max()))
-        return np.concatenate([r, c]), K, res
+            col = self.nf + d
+        R, K = self.asm.evaluate(st.q, st.lam, mu, col)
+        return R, K, float(np.max(np.abs(R * self.asm.isc), initial=0.0))
 
-    def newton(self, st: State, lam_free: bool = False) -> State:
-        """Newton from ``st`` (not modified); raises SolveError when it does not converge."""
+    def newton(self, st: State, lam_free: bool = False, min_iter: int = 0) -> State:
+        """Newton from ``st`` (not modified); raises SolveError when it does not converge.
+        ``min_iter``: iterations taken even when ``st`` already meets the tolerance (a
+        predicted state: one more iteration makes the accepted state quadratically better
+        than the tolerance instead of just inside it)."""
         q, mu, lam = st.q.copy(), st.mu.copy(), st.lam
         s, f, nf = self.s, self.f, self.nf
         d = self.driver_index()
@@ -113,7 +117,7 @@ class Solver:
             R, K, res = self.kkt(cur, lam_free)
             if not np.all(np.isfinite(R)):
                 raise SolveError("non-finite residual")
-            if res <= self.tol:
+            if res <= self.tol and it >= min_iter:
                 return State(q, mu, lam, it, res, K, lam_free)
             if it == self.max_iter or (it > 8 and res > 1e3 * prev):
                 break
@@ -143,16 +147,14 @@ class Solver:
             rhs[: self.nf] = -self.s.reduced_load(st.q)
         else:
             rhs[self.nf + self.driver_index()] = 1.0
-        if st.ldl is not None and not lam_free and len(st.ldl[2]) == len(rhs):
-            # the stability check factorised diag(sc) K diag(sc) at this state already
-            lu, piv, sc = st.ldl
-            x, info = lapack.dsytrs(lu, piv, sc * rhs, lower=1)
-            if info == 0 and np.all(np.isfinite(x)):
-                return sc * x
+        if st.ldl is not None and not lam_free and st.ldl[1] == len(rhs):
+            x = st.ldl[0](rhs)  # the stability check factorised K at this state already
+            if np.all(np.isfinite(x)):
+                return x
         return _solve(K, rhs)
 
     def stable(self, st: State, hold_driver: bool) -> tuple[bool | None, float]:
-        """Reduced-Hessian verdict and the lowest scaled eigenvalue (module doc)."""
+        """Reduced-Hessian verdict and the lowest scaled pivot (module doc)."""
         s, f, nf = self.s, self.f, self.nf
         K = st.K if st.K is not None and not st.lam_free else self.kkt(st)[1]
         d = self.driver_index()
@@ -161,30 +163,76 @@ class Solver:
             keep = np.ones(K.shape[0], bool)
             if d is not None and not hold_driver:
                 keep[nf + d] = False
-            cs = self.cs if d is None or hold_driver else np.delete(self.cs, d)
+            cs = s.cscale()
+            cs = cs if d is None or hold_driver else np.delete(cs, d)
             sc = np.concatenate([1.0 / np.sqrt(s.rscale[f]), 1.0 / np.sqrt(cs)])
             n_p = sum(len(ch.w) for ch in s.chains)
             self._stab = (np.flatnonzero(keep), np.outer(sc, sc), bool(np.all(keep)), sc, n_p)
             self._stab_key = key
         keep, S, full, sc, n_p = self._stab
-        A = K * S if full else K[np.ix_(keep, keep)] * S
-        m = A.shape[0] - nf
-        if A.size == 0:
+        m = len(keep) - nf
+        if len(keep) == 0:
             return True, 1.0
-        lu, piv, info = lapack.dsytrf(A, lower=1)[:3]
-        if info < 0:
-            return None, 0.0
-        if full and not st.lam_free:
-            st.ldl = (lu, piv, sc)  # reused by ``tangent`` at this state
-        n_neg, pivot = _inertia(lu, piv)
+        reuse = full and not st.lam_free
+        if sp.issparse(K):
+            n_neg, pivot = self._sparse_inertia(st, K, keep, full, sc, reuse)
+        else:
+            n_neg, pivot = _dense_inertia(st, K if full else K[np.ix_(keep, keep)], S, sc, reuse)
         if n_neg is None:
             return None, pivot
         return n_neg == m + n_p, pivot
 
+    def _sparse_inertia(
+        self,
+        st: State,
+        K: sp.csc_matrix,
+        keep: np.ndarray,
+        full: bool,
+        sc: np.ndarray,
+        reuse: bool,
+    ) -> tuple[int | None, float]:
+        """Inertia by the sparse symmetric LDL^T (``kkt_sparse``); dense Bunch-Kaufman when
+        it cannot be certified and the system is small enough (``DENSE_MAX``)."""
+        A = K if full else K[keep][:, keep]
+        D = sp.diags(sc)
+        A = (D @ A @ D).tocsc()
+        fac = kkt_sparse.ldl(A)
+        if fac is not None:
+            solve_a, piv = fac
+            if reuse:
+                st.ldl = (lambda rhs: sc * solve_a(sc * rhs), len(sc))
+            return kkt_sparse.inertia(piv)
+        if A.shape[0] > DENSE_MAX:
+            return None, 0.0
+        return _dense_inertia(st, A.toarray(), 1.0, sc, False)
 
-def _solve(K: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+
+DENSE_MAX = 3000  # largest KKT size for the dense inertia fallback of the sparse path
+
+
+def _dense_inertia(
+    st: State, K: np.ndarray, S: np.ndarray | float, sc: np.ndarray, reuse: bool
+) -> tuple[int | None, float]:
+    """Bunch-Kaufman LDL^T (LAPACK dsytrf) of ``K * S`` (S: congruence scaling outer(sc, sc))
+    and its inertia; ``reuse``: keep the factors for ``Solver.tangent`` at this state."""
+    lu, piv, info = lapack.dsytrf(K * S, lower=1)[:3]
+    if info < 0:
+        return None, 0.0
+    if reuse:
+
+        def solve(rhs: np.ndarray) -> np.ndarray:
+            x, info = lapack.dsytrs(lu, piv, sc * rhs, lower=1)
+            return sc * x if info == 0 else np.full(len(rhs), np.nan)
+
+        st.ldl = (solve, len(sc))
+    return _inertia(lu, piv)
+
+
+def _solve(K: Matrix, rhs: np.ndarray) -> np.ndarray:
     """LAPACK dgesv (least squares if singular); the argument checks of numpy.linalg.solve
-    cost more than the factorisation at these sizes."""
+    cost more than the factorisation at these sizes.  Sparse K: SuperLU."""
+    if sp.issparse(K):
+        return kkt_sparse.solve(K, rhs)
     _, _, x, info = lapack.dgesv(K, rhs)
     if info != 0 or not np.all(np.isfinite(x)):
         return np.linalg.lstsq(K, rhs, rcond=None)[0]
@@ -244,7 +292,7 @@ def follow(
                 pred.mu[d] = 0.0
             pred = set_t(pred, t + step)
             try:
-                new = solver.newton(pred, lam_free)
+                new = solver.newton(pred, lam_free, min_iter=1)
             except SolveError:
                 solver.memo = None
                 new = solver.newton(set_t(State(st.q, st.mu, st.lam), t + step), lam_free)
@@ -254,7 +302,9 @@ def follow(
                 raise SolveError(f"step cut {max_cuts} times near t = {t:.6g}: {err}") from None
             h = step / 2.0
             continue
-        solver.memo = ((wrt, lam_free), t, x, dx)
+        memo = solver.memo
+        hist = memo[1][-1:] if memo is not None and memo[0] == (wrt, lam_free) else []
+        solver.memo = ((wrt, lam_free), hist + [(t, x, dx)])
         its += new.iterations
         st, t = new, t + step
         if new.iterations <= 4:
@@ -266,20 +316,39 @@ def follow(
 def _predict(
     solver: Solver, kind: tuple, t: float, x: np.ndarray, dx: np.ndarray, t_new: float
 ) -> np.ndarray:
-    """Predictor: cubic Hermite through the previous and the current converged state and
-    their tangents (extrapolated to ``t_new``), else the tangent line.  The Hermite cubic is
-    dropped when it runs more than 3x further than the tangent line (a tangent blowing up
-    near a limit or bifurcation point)."""
+    """Predictor: Hermite polynomial through the last converged states and their tangents
+    (up to three states: quintic), extrapolated to ``t_new``, else the tangent line.  A
+    polynomial that runs more than 3x further than the tangent line (a tangent blowing up
+    near a limit or bifurcation point) is dropped for the next lower one."""
     line = x + (t_new - t) * dx
-    memo = getattr(solver, "memo", None)
-    if memo is None or memo[0] != kind or memo[1] == t or len(memo[2]) != len(x):
+    memo = solver.memo
+    if memo is None or memo[0] != kind:
         return line
-    _, t0, x0, dx0 = memo
-    H = t - t0
-    tau = (t_new - t0) / H
-    h00, h10 = 2 * tau**3 - 3 * tau**2 + 1, tau**3 - 2 * tau**2 + tau
-    h01, h11 = -2 * tau**3 + 3 * tau**2, tau**3 - tau**2
-    cubic = h00 * x0 + h10 * H * dx0 + h01 * x + h11 * H * dx
-    if np.linalg.norm(cubic - x) > 3.0 * np.linalg.norm(line - x):
-        return line
-    return cubic
+    hist = [h for h in memo[1] if h[0] != t and len(h[1]) == len(x)]
+    far = 3.0 * abs(t_new - t) * math.sqrt(float(dx @ dx))
+    for k in range(len(hist), 0, -1):
+        pts = hist[len(hist) - k :] + [(t, x, dx)]
+        a, b = _hermite_weights([p[0] for p in pts], t_new)
+        poly = a[0] * pts[0][1] + b[0] * pts[0][2]
+        for ai, bi, p in zip(a[1:], b[1:], pts[1:]):
+            poly += ai * p[1] + bi * p[2]
+        e = poly - x
+        if math.sqrt(float(e @ e)) <= far:
+            return poly
+    return line
+
+
+def _hermite_weights(ts: list[float], t: float) -> tuple[list[float], list[float]]:
+    """Weights of the values and slopes at the nodes ``ts`` in the Hermite interpolant
+    (degree 2k - 1) at ``t``: A_j = (1 - 2 (t - t_j) L_j'(t_j)) L_j(t)^2, B_j = (t - t_j)
+    L_j(t)^2 with L_j the Lagrange basis (plain floats: a handful of nodes)."""
+    a, b = [], []
+    for j, tj in enumerate(ts):
+        lj, dj = 1.0, 0.0
+        for m, tm in enumerate(ts):
+            if m != j:
+                lj *= (t - tm) / (tj - tm)
+                dj += 1.0 / (tj - tm)
+        a.append((1.0 - 2.0 * (t - tj) * dj) * lj * lj)
+        b.append((t - tj) * lj * lj)
+    return a, b
