@@ -196,12 +196,12 @@ class Solver:
         A = K if full else K[keep][:, keep]
         D = sp.diags(sc)
         A = (D @ A @ D).tocsc()
-        fac = kkt_sparse.ldl(A)
+        fac = kkt_sparse.ldl(A, self.nf)
         if fac is not None:
             solve_a, piv = fac
             if reuse:
                 st.ldl = (lambda rhs: sc * solve_a(sc * rhs), len(sc))
-            return kkt_sparse.inertia(piv)
+            return kkt_sparse.inertia(piv, solve_a, A)
         if A.shape[0] > DENSE_MAX:
             return None, 0.0
         return _dense_inertia(st, A.toarray(), 1.0, sc, False)
@@ -244,6 +244,10 @@ def _inertia(lu: np.ndarray, piv: np.ndarray) -> tuple[int | None, float]:
     factors (LAPACK dsytrf, lower; Sylvester's law of inertia), and the smallest |eigenvalue
     of D| relative to the largest; (None, pivot) when the matrix is numerically singular."""
     d = np.diag(lu)
+    if piv.min() > 0:  # 1x1 pivots only (the common case): the signs of the diagonal
+        mags = np.abs(d)
+        rel = float(mags.min() / max(mags.max(), 1e-300))
+        return (None, rel) if rel <= 1e-13 else (int(np.count_nonzero(d < 0)), rel)
     two = np.flatnonzero(piv < 0)  # 2x2 blocks: rows k, k+1 share a negative pivot index
     starts = two[::2]
     one = np.ones(len(d), bool)
