@@ -9,9 +9,13 @@ by Sylvester's law of inertia, ``A`` has as many negative eigenvalues as ``D = d
 negative entries.  SuperLU gives such a factorisation in its symmetric mode (diagonal pivots,
 natural column order on a matrix we permute ourselves) whenever it returns
 ``perm_r == perm_c``; that is checked on every factorisation.  Without pivoting for size the
-growth of the factors is not bounded a priori, so the factorisation is certified a
-posteriori: ``max |L U - P A P^T| <= BACKWARD max |A|`` -- the computed D is then exactly the
-inertia of a matrix that close to A, the guarantee a backward-stable dense LDL^T gives.
+growth of the factors is not bounded a priori, so the factorisation is certified a posteriori
+by Weyl's inequality: the computed factors are exact for ``P A P^T + E``, whose eigenvalues
+differ from those of ``P A P^T`` by at most ``||E||_2``; when ``||E||_2`` is below a tenth of
+the smallest |eigenvalue| (``||E||_2 <= sqrt(||E||_1 ||E||_inf)``; the smallest |eigenvalue|
+by inverse iteration with the factors), no eigenvalue can have changed sign and the count of
+negative pivots is the inertia of A.  Near-singularity is judged on that eigenvalue too (a
+tiny pivot can sit beside a huge one in a regular matrix when nothing pivots for size).
 
 The order matters for a KKT matrix: multipliers (and the axial forces of inextensible chained
 segments) have zero diagonals, which cannot be pivots until one of their neighbours has been
@@ -39,7 +43,8 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import reverse_cuthill_mckee
 from scipy.sparse.linalg import splu
 
-BACKWARD = 1e-10  # largest relative backward error of a certified LDL^T
+MARGIN = 0.1  # certified when ||E||_2 <= MARGIN * min |eigenvalue| (Weyl)
+SINGULAR = 1e-13  # min |eigenvalue| / ||A||_1 below which the matrix counts as singular
 LATE = 1e-3  # |a_ii| below LATE * max_j |a_ij|: a zero-diagonal unknown, ordered late
 
 
@@ -92,10 +97,10 @@ def _lift(A: sp.csc_matrix, nf: int) -> sp.csc_matrix:
     return (sp.identity(n, format="csc") + R).tocsc()
 
 
-def ldl(A: sp.csc_matrix, nf: int) -> tuple[Callable[[np.ndarray], np.ndarray], np.ndarray] | None:
+def ldl(A: sp.csc_matrix, nf: int) -> tuple[Callable, np.ndarray, float] | None:
     """Symmetric LDL^T of the KKT matrix ``A`` (``nf`` primal unknowns first; module doc):
-    (solve, pivots D of a congruent matrix), or None when SuperLU had to pivot off the
-    diagonal or the backward error is too large (inertia not certified)."""
+    (solve, pivots D of a congruent matrix, min |eigenvalue| / norm), or None when SuperLU had
+    to pivot off the diagonal or the backward error could change the inertia."""
     T = _lift(A, nf)
     A2 = (T.T @ A @ T).tocsc()
     perm = kkt_order(A2)
@@ -113,8 +118,11 @@ def ldl(A: sp.csc_matrix, nf: int) -> tuple[Callable[[np.ndarray], np.ndarray], 
         return None
     n = B.shape[0]
     P = sp.csc_matrix((np.ones(n), (lu.perm_r, np.arange(n))), shape=(n, n))
-    err = abs(P.T @ (lu.L @ lu.U) @ P - B).max()
-    if not err <= BACKWARD * abs(B).max():
+    E = abs(P.T @ (lu.L @ lu.U) @ P - B)
+    e2 = np.sqrt(float(E.sum(axis=0).max()) * float(E.sum(axis=1).max())) if E.nnz else 0.0
+    low = _min_eig(lu.solve, n)
+    rel = low / max(float(abs(B).sum(axis=0).max()), 1e-300)
+    if not e2 <= MARGIN * low:
         return None
 
     def solve_a(rhs: np.ndarray) -> np.ndarray:
@@ -123,30 +131,26 @@ def ldl(A: sp.csc_matrix, nf: int) -> tuple[Callable[[np.ndarray], np.ndarray], 
         y[perm] = lu.solve(b[perm])
         return T @ y
 
-    return solve_a, lu.U.diagonal()
+    return solve_a, lu.U.diagonal(), rel
 
 
-def inertia(
-    d: np.ndarray, solve_a: Callable[[np.ndarray], np.ndarray], A: sp.csc_matrix
-) -> tuple[int | None, float]:
-    """Negative pivots of D and the smallest |eigenvalue| of A relative to its norm, ((None,
-    rel) when A is numerically singular).  Without pivoting for size a tiny pivot may sit
-    beside a huge one in a regular matrix, so nearness to singularity is judged on A itself:
-    a few steps of inverse iteration (the factorisation's solve) estimate min |lambda|."""
-    n = A.shape[0]
-    if n == 0:
-        return 0, 1.0
+def _min_eig(solve: Callable[[np.ndarray], np.ndarray], n: int, steps: int = 4) -> float:
+    """Smallest |eigenvalue| of a symmetric matrix by inverse iteration (0 if singular)."""
     x = np.random.default_rng(0).standard_normal(n)
-    lam = np.inf
-    for _ in range(4):
+    low = np.inf
+    for _ in range(steps):
         x /= np.linalg.norm(x)
-        y = solve_a(x)
-        ny = float(np.linalg.norm(y))
-        if not np.isfinite(ny) or ny == 0.0:
-            return None, 0.0
-        lam = 1.0 / ny
-        x = y
-    rel = lam / max(float(abs(A).sum(axis=0).max()), 1e-300)
-    if rel <= 1e-13:
+        x = solve(x)
+        nx = float(np.linalg.norm(x))
+        if not np.isfinite(nx) or nx == 0.0:
+            return 0.0
+        low = 1.0 / nx
+    return low
+
+
+def inertia(d: np.ndarray, rel: float) -> tuple[int | None, float]:
+    """Negative pivots of D, and ``rel`` (smallest |eigenvalue| / norm): (None, rel) when
+    the matrix is numerically singular."""
+    if rel <= SINGULAR:
         return None, rel
     return int(np.count_nonzero(d < 0)), rel

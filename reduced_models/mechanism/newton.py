@@ -198,16 +198,16 @@ class Solver:
         A = (D @ A @ D).tocsc()
         fac = kkt_sparse.ldl(A, self.nf)
         if fac is not None:
-            solve_a, piv = fac
+            solve_a, piv, rel = fac
             if reuse:
                 st.ldl = (lambda rhs: sc * solve_a(sc * rhs), len(sc))
-            return kkt_sparse.inertia(piv, solve_a, A)
+            return kkt_sparse.inertia(piv, rel)
         if A.shape[0] > DENSE_MAX:
             return None, 0.0
         return _dense_inertia(st, A.toarray(), 1.0, sc, False)
 
 
-DENSE_MAX = 3000  # largest KKT size for the dense inertia fallback of the sparse path
+DENSE_MAX = 2000  # largest KKT size for the dense inertia fallback of the sparse path
 
 
 def _dense_inertia(
