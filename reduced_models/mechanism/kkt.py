@@ -11,8 +11,7 @@ residual, so it costs the member laws plus a fixed handful of numpy calls, whate
 of members.
 
 * dense (below ``SPARSE_FROM`` KKT unknowns): the flat (N + 1)^2 array, fixed unknowns landing
-  in a dump row/column that is sliced off; LAPACK on a few hundred unknowns beats any sparse
-  factorisation.
+  in a dump row/column that is sliced off; LAPACK beats SuperLU up to a few hundred unknowns.
 * sparse: the CSC data array of the pattern, built once per plan (``np.unique`` of the
   destinations, so duplicates are summed by the same bincount); ``kkt_sparse`` factorises it.
 """
@@ -27,8 +26,10 @@ import scipy.sparse as sp
 if TYPE_CHECKING:
     from reduced_models.mechanism.system import MechanismSystem
 
-#: KKT size (free unknowns + constraint rows) from which the sparse path is used: measured
-#: crossover of dgesv + dsytrf against SuperLU on cbcm-N chains (``reports.bench``)
+#: KKT size (free unknowns + constraint rows) from which the sparse path is used: measured on
+#: the 26-DOF guide (20-step load analysis, CPU, BLAS on one thread; ``reports.bench --mech``):
+#: cbcm-16 (258 unknowns) dense 44 ms / sparse 74 ms, cbcm-24 (386) 95 / 85, prb-fsm-96
+#: (402) 61 / 88, cbcm-32 (514) 197 / 125, prb-fsm-128 (530) 136 / 120
 SPARSE_FROM = 400
 
 
