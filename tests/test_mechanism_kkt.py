@@ -185,3 +185,24 @@ def test_certified_sparse_ldl_counts_the_negative_eigenvalues():
         b = rng.standard_normal(nf + m)
         np.testing.assert_allclose(K @ solve(b), b, atol=1e-8 * np.abs(b).max())
     assert certified >= 30  # the certificate is the rule, not the exception
+
+
+def test_dense_inertia_of_bunch_kaufman_factors_counts_the_negative_eigenvalues():
+    """``newton._inertia`` (1x1 and 2x2 pivots of LAPACK dsytrf) against eigvalsh."""
+    from scipy.linalg import lapack
+
+    from reduced_models.mechanism.newton import _inertia
+
+    rng = np.random.default_rng(9)
+    two = 0
+    for trial in range(40):
+        nf, m = int(rng.integers(4, 30)), int(rng.integers(0, 5))
+        K = _random_kkt(rng, nf, m, zeros=min(m, 3)).toarray() if m else None
+        if K is None:
+            A = rng.standard_normal((nf, nf))
+            K = A + A.T
+        lu, piv, info = lapack.dsytrf(K, lower=1)[:3]
+        two += int(np.any(piv < 0))
+        n_neg, rel = _inertia(lu, piv)
+        assert n_neg == int(np.count_nonzero(np.linalg.eigvalsh(K) < 0)), trial
+    assert two >= 10  # 2x2 pivots were exercised

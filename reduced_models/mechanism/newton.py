@@ -115,7 +115,7 @@ class Solver:
         for it in range(self.max_iter + 1):
             cur = State(q, mu, lam)
             R, K, res = self.kkt(cur, lam_free)
-            if not np.all(np.isfinite(R)):
+            if not np.isfinite(R).all():
                 raise SolveError("non-finite residual")
             if res <= self.tol and it >= min_iter:
                 return State(q, mu, lam, it, res, K, lam_free)
@@ -123,7 +123,7 @@ class Solver:
                 break
             prev = res
             dx = _solve(K, -R)
-            if not np.all(np.isfinite(dx)):
+            if not np.isfinite(dx).all():
                 raise SolveError("singular KKT matrix (mechanism at a singular configuration)")
             big = float(np.max(np.abs(dx[:nf]) * icap, initial=0.0))
             if big > 1.0:
@@ -149,7 +149,7 @@ class Solver:
             rhs[self.nf + self.driver_index()] = 1.0
         if st.ldl is not None and not lam_free and st.ldl[1] == len(rhs):
             x = st.ldl[0](rhs)  # the stability check factorised K at this state already
-            if np.all(np.isfinite(x)):
+            if np.isfinite(x).all():
                 return x
         return _solve(K, rhs)
 
@@ -234,7 +234,7 @@ def _solve(K: Matrix, rhs: np.ndarray) -> np.ndarray:
     if sp.issparse(K):
         return kkt_sparse.solve(K, rhs)
     _, _, x, info = lapack.dgesv(K, rhs)
-    if info != 0 or not np.all(np.isfinite(x)):
+    if info != 0 or not np.isfinite(x).all():
         return np.linalg.lstsq(K, rhs, rcond=None)[0]
     return x
 
@@ -244,20 +244,19 @@ def _inertia(lu: np.ndarray, piv: np.ndarray) -> tuple[int | None, float]:
     factors (LAPACK dsytrf, lower; Sylvester's law of inertia), and the smallest |eigenvalue
     of D| relative to the largest; (None, pivot) when the matrix is numerically singular."""
     d = np.diag(lu)
-    if piv.min() > 0:  # 1x1 pivots only (the common case): the signs of the diagonal
+    if piv.min() > 0:  # 1x1 pivots only: the signs of the diagonal
         mags = np.abs(d)
         rel = float(mags.min() / max(mags.max(), 1e-300))
         return (None, rel) if rel <= 1e-13 else (int(np.count_nonzero(d < 0)), rel)
-    two = np.flatnonzero(piv < 0)  # 2x2 blocks: rows k, k+1 share a negative pivot index
-    starts = two[::2]
-    one = np.ones(len(d), bool)
-    one[starts] = one[starts + 1] = False
+    # 2x2 blocks: rows k, k+1 share a negative pivot index; eigenvalues mean +- disc
+    starts = np.flatnonzero(piv < 0)[::2]
     a, c, b = d[starts], d[starts + 1], lu[starts + 1, starts]
-    det, tr = a * c - b * b, a + c
-    disc = np.sqrt(np.maximum((a - c) ** 2 / 4 + b * b, 0.0))
-    neg = int(np.count_nonzero(d[one] < 0) + np.count_nonzero(det < 0))
-    neg += 2 * int(np.count_nonzero((det >= 0) & (tr < 0)))
-    mags = np.abs(np.concatenate([d[one], tr / 2 - disc, tr / 2 + disc]))
+    det, half = a * c - b * b, 0.5 * (a + c)
+    big = np.abs(half) + np.sqrt(0.25 * (a - c) ** 2 + b * b)
+    mags = np.abs(d)
+    mags[starts], mags[starts + 1] = big, np.abs(det) / np.maximum(big, 1e-300)
+    neg = int(np.count_nonzero(d < 0)) - int(np.count_nonzero(a < 0) + np.count_nonzero(c < 0))
+    neg += int(np.count_nonzero(det < 0)) + 2 * int(np.count_nonzero((det >= 0) & (half < 0)))
     rel = float(mags.min() / max(mags.max(), 1e-300))
     if rel <= 1e-13:
         return None, rel
