@@ -50,11 +50,6 @@ class Assembly:
         self.loads_local = len(sysm.loads.dofs) > 0  # forces on rigid links (angle-dependent)
         self.linf = sysm.loads.lin[sysm.free]
 
-    @property
-    def sparse(self) -> bool:
-        """Does the current plan use the sparse path?"""
-        return self._sparse
-
     # -- plan ------------------------------------------------------------------------------------
     def _build(self, refs: list, load_col: int | None) -> None:
         """Destinations of every value array of an evaluation (module doc)."""

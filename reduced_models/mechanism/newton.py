@@ -13,6 +13,12 @@ Stability (``Step.stable``): the reduced Hessian ``Z^T W Z`` on the tangent spac
 constraints (driver held in energy analyses) is positive definite iff the KKT matrix has
 exactly ``m + n_p`` negative eigenvalues and none near zero (inertia additivity; n_p = number
 of axial multipliers of chained segments, each of which brings one negative eigenvalue).
+
+The KKT system comes from ``kkt.Assembly`` (one scatter per evaluation), dense below
+``kkt.SPARSE_FROM`` unknowns (LAPACK dgesv, Bunch-Kaufman dsytrf for the inertia), sparse
+above (SuperLU; the inertia from ``kkt_sparse``'s certified symmetric LDL^T).  Continuation
+predicts with the Hermite polynomial through the last three converged states and tangents
+and takes at least one Newton iteration from a prediction.
 """
 
 from __future__ import annotations
@@ -158,7 +164,7 @@ class Solver:
         s, f, nf = self.s, self.f, self.nf
         K = st.K if st.K is not None and not st.lam_free else self.kkt(st)[1]
         d = self.driver_index()
-        key = (K.shape[0], hold_driver)
+        key = (K.shape[0], hold_driver, sp.issparse(K))
         if self._stab_key != key:  # congruence scaling (keeps the inertia) and kept rows
             keep = np.ones(K.shape[0], bool)
             if d is not None and not hold_driver:
@@ -167,7 +173,8 @@ class Solver:
             cs = cs if d is None or hold_driver else np.delete(cs, d)
             sc = np.concatenate([1.0 / np.sqrt(s.rscale[f]), 1.0 / np.sqrt(cs)])
             n_p = sum(len(ch.w) for ch in s.chains)
-            self._stab = (np.flatnonzero(keep), np.outer(sc, sc), bool(np.all(keep)), sc, n_p)
+            S = None if sp.issparse(K) else np.outer(sc, sc)  # dense: elementwise scaling
+            self._stab = (np.flatnonzero(keep), S, bool(np.all(keep)), sc, n_p)
             self._stab_key = key
         keep, S, full, sc, n_p = self._stab
         m = len(keep) - nf
