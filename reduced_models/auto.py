@@ -73,11 +73,12 @@ class AutoFidelity:
     max_n : largest N tried; beyond it the solution is returned with ``target_reached``
         False in ``extras['fidelity']`` and the message says so.  Default: 512 on a single
         beam; ``MECHANISM_MAX_N`` per member inside the mechanism assembler.  Its KKT goes
-        sparse above ``mechanism.kkt.SPARSE_FROM`` unknowns (prb-fsm-512 on Lee's frame:
-        19 s and 184 MB, dense 59 s and 1.8 GB), but no catalog scene gains from N > 64:
-        lee-frame's prb-fsm estimate stays near 0.5 up to N = 256 (18 s), and cbcm-N on the
-        shallow arch stops converging at N = 130 (residual floor 4.6e-10); a larger
-        ``max_n`` option is the user's choice.
+        sparse above ``mechanism.kkt.SPARSE_FROM`` unknowns, so large N is affordable
+        (prb-fsm-512 on Lee's frame: 3.9 s CPU and 150 MB, dense 25 s and 1.8 GB), but no
+        catalog scene gains from N > 64: lee-frame's prb-fsm estimate stays near 0.5 up to
+        N = 256 (0.5 s -> 2.1 s), and cbcm-N on the shallow arch stops converging at N = 130
+        (residual floor 4.6e-10, dense or sparse); a larger ``max_n`` option is the user's
+        choice.
     """
 
     family = ""
