@@ -249,25 +249,49 @@ def _solve(K: Matrix, rhs: np.ndarray) -> np.ndarray:
 def _inertia(lu: np.ndarray, piv: np.ndarray) -> tuple[int | None, float]:
     """Number of negative eigenvalues of a symmetric matrix from its Bunch-Kaufman LDL^T
     factors (LAPACK dsytrf, lower; Sylvester's law of inertia), and the smallest |eigenvalue
-    of D| relative to the largest; (None, pivot) when the matrix is numerically singular."""
-    d = np.diag(lu)
-    if piv.min() > 0:  # 1x1 pivots only: the signs of the diagonal
+    of D| relative to the largest; (None, pivot) when the matrix is numerically singular.
+    2x2 blocks: rows k, k+1 share a negative pivot index; eigenvalues mean +- disc."""
+    if len(piv) <= SMALL:
+        neg, lo, hi = _inertia_small(np.diag(lu).tolist(), np.diag(lu, -1).tolist(), piv)
+    else:
+        d = np.diag(lu)
+        starts = np.flatnonzero(piv < 0)[::2]
+        a, c, b = d[starts], d[starts + 1], lu[starts + 1, starts]
+        det, half = a * c - b * b, 0.5 * (a + c)
+        big = np.abs(half) + np.sqrt(0.25 * (a - c) ** 2 + b * b)
         mags = np.abs(d)
-        rel = float(mags.min() / max(mags.max(), 1e-300))
-        return (None, rel) if rel <= 1e-13 else (int(np.count_nonzero(d < 0)), rel)
-    # 2x2 blocks: rows k, k+1 share a negative pivot index; eigenvalues mean +- disc
-    starts = np.flatnonzero(piv < 0)[::2]
-    a, c, b = d[starts], d[starts + 1], lu[starts + 1, starts]
-    det, half = a * c - b * b, 0.5 * (a + c)
-    big = np.abs(half) + np.sqrt(0.25 * (a - c) ** 2 + b * b)
-    mags = np.abs(d)
-    mags[starts], mags[starts + 1] = big, np.abs(det) / np.maximum(big, 1e-300)
-    neg = int(np.count_nonzero(d < 0)) - int(np.count_nonzero(a < 0) + np.count_nonzero(c < 0))
-    neg += int(np.count_nonzero(det < 0)) + 2 * int(np.count_nonzero((det >= 0) & (half < 0)))
-    rel = float(mags.min() / max(mags.max(), 1e-300))
+        mags[starts], mags[starts + 1] = big, np.abs(det) / np.maximum(big, 1e-300)
+        neg = int(np.count_nonzero(d < 0)) - int(np.count_nonzero(a < 0))
+        neg += int(np.count_nonzero(det < 0)) - int(np.count_nonzero(c < 0))
+        neg += 2 * int(np.count_nonzero((det >= 0) & (half < 0)))
+        lo, hi = float(mags.min()), float(mags.max())
+    rel = lo / max(hi, 1e-300)
     if rel <= 1e-13:
         return None, rel
     return neg, rel
+
+
+SMALL = 128  # pivots counted with plain floats up to this size (fewer calls than numpy)
+
+
+def _inertia_small(d: list, sub: list, piv: np.ndarray) -> tuple[int, float, float]:
+    """(negative eigenvalues, min |eigenvalue|, max |eigenvalue|) of the block-diagonal D."""
+    p = piv.tolist()
+    neg, lo, hi, k = 0, math.inf, 0.0, 0
+    while k < len(d):
+        if p[k] < 0:
+            a, c, b = d[k], d[k + 1], sub[k]
+            det, half = a * c - b * b, 0.5 * (a + c)
+            big = abs(half) + math.sqrt(0.25 * (a - c) ** 2 + b * b)
+            neg += 1 if det < 0 else (2 if half < 0 else 0)
+            lo, hi = min(lo, abs(det) / big if big else 0.0), max(hi, big)
+            k += 2
+        else:
+            v = d[k]
+            neg += v < 0
+            lo, hi = min(lo, abs(v)), max(hi, abs(v))
+            k += 1
+    return neg, lo, hi
 
 
 def follow(
