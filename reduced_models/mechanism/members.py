@@ -63,6 +63,8 @@ class ChainTerm:
         self.sfac = np.asarray(sfac, float)  # E t / 2 per segment (NaN: thickness unknown)
         self.w = self.EI / self.h  # energy scale EI/h per segment
         self.ih = 1.0 / self.h
+        # one axial compliance for all segments (the usual case): one law block per call
+        self._k1 = float(self.k[0]) if self.k.size and np.all(self.k == self.k[0]) else None
         self._last: tuple | None = None  # (q, coords) of the last evaluation
         self._gpq = np.hstack([law.G.T, law.P.T, law.Q.T])
 
@@ -140,8 +142,8 @@ class ChainTerm:
         return self.dofs, g, H
 
     def _block(self, ux: np.ndarray, y: np.ndarray, a: np.ndarray, p: np.ndarray) -> np.ndarray:
-        if self.k.size and np.all(self.k == self.k[0]):
-            return self.law.block(ux, y, a, p, float(self.k[0]))
+        if self._k1 is not None:
+            return self.law.block(ux, y, a, p, self._k1)
         out = np.empty((ux.size, 4, 5))
         for kk in np.unique(self.k):
             i = np.flatnonzero(self.k == kk)

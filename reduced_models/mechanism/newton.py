@@ -101,7 +101,7 @@ class Solver:
             mu[d] = 0.0
             col = self.nf + d
         R, K = self.asm.evaluate(st.q, st.lam, mu, col)
-        return R, K, float(np.max(np.abs(R * self.asm.isc), initial=0.0))
+        return R, K, float(np.abs(R * self.asm.isc).max()) if len(R) else 0.0
 
     def newton(self, st: State, lam_free: bool = False, min_iter: int = 0) -> State:
         """Newton from ``st`` (not modified); raises SolveError when it does not converge.
@@ -131,7 +131,7 @@ class Solver:
             dx = _solve(K, -R)
             if not np.isfinite(dx).all():
                 raise SolveError("singular KKT matrix (mechanism at a singular configuration)")
-            big = float(np.max(np.abs(dx[:nf]) * icap, initial=0.0))
+            big = float((np.abs(dx[:nf]) * icap).max()) if nf else 0.0
             if big > 1.0:
                 dx /= big
             q = q.copy()
