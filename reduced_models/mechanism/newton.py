@@ -16,9 +16,7 @@ of axial multipliers of chained segments, each of which brings one negative eige
 
 The KKT system comes from ``kkt.Assembly`` (one scatter per evaluation), dense below
 ``kkt.SPARSE_FROM`` unknowns (LAPACK dgesv, Bunch-Kaufman dsytrf for the inertia), sparse
-above (SuperLU; the inertia from ``kkt_sparse``'s certified symmetric LDL^T).  Continuation
-predicts with the Hermite polynomial through the last three converged states and tangents
-and takes at least one Newton iteration from a prediction.
+above (SuperLU; the inertia from ``kkt_sparse``'s certified symmetric LDL^T).
 """
 
 from __future__ import annotations
@@ -82,7 +80,7 @@ class Solver:
         self.sparse = sparse
         self._stab_key: tuple | None = None
         self._cap: np.ndarray | None = None
-        self.memo: tuple | None = None  # (path kind, [(t, x, dx), ...]) for the predictor
+        self.memo: tuple | None = None  # last (path kind, t, x, dx) for the Hermite predictor
 
     def driver_index(self) -> int | None:
         """Row of the driver in the stacked constraint vector (None without a driver)."""
@@ -103,11 +101,8 @@ class Solver:
         R, K = self.asm.evaluate(st.q, st.lam, mu, col)
         return R, K, float(np.abs(R * self.asm.isc).max()) if len(R) else 0.0
 
-    def newton(self, st: State, lam_free: bool = False, min_iter: int = 0) -> State:
-        """Newton from ``st`` (not modified); raises SolveError when it does not converge.
-        ``min_iter``: iterations taken even when ``st`` already meets the tolerance (a
-        predicted state: one more iteration makes the accepted state quadratically better
-        than the tolerance instead of just inside it)."""
+    def newton(self, st: State, lam_free: bool = False) -> State:
+        """Newton from ``st`` (not modified); raises SolveError when it does not converge."""
         q, mu, lam = st.q.copy(), st.mu.copy(), st.lam
         s, f, nf = self.s, self.f, self.nf
         d = self.driver_index()
@@ -123,7 +118,7 @@ class Solver:
             R, K, res = self.kkt(cur, lam_free)
             if not np.isfinite(R).all():
                 raise SolveError("non-finite residual")
-            if res <= self.tol and it >= min_iter:
+            if res <= self.tol:
                 return State(q, mu, lam, it, res, K, lam_free)
             if it == self.max_iter or (it > 8 and res > 1e3 * prev):
                 break
@@ -326,7 +321,7 @@ def follow(
                 pred.mu[d] = 0.0
             pred = set_t(pred, t + step)
             try:
-                new = solver.newton(pred, lam_free, min_iter=1)
+                new = solver.newton(pred, lam_free)
             except SolveError:
                 solver.memo = None
                 new = solver.newton(set_t(State(st.q, st.mu, st.lam), t + step), lam_free)
@@ -336,9 +331,7 @@ def follow(
                 raise SolveError(f"step cut {max_cuts} times near t = {t:.6g}: {err}") from None
             h = step / 2.0
             continue
-        memo = solver.memo
-        hist = memo[1][-1:] if memo is not None and memo[0] == (wrt, lam_free) else []
-        solver.memo = ((wrt, lam_free), hist + [(t, x, dx)])
+        solver.memo = ((wrt, lam_free), t, x, dx)
         its += new.iterations
         st, t = new, t + step
         if new.iterations <= 4:
@@ -350,39 +343,20 @@ def follow(
 def _predict(
     solver: Solver, kind: tuple, t: float, x: np.ndarray, dx: np.ndarray, t_new: float
 ) -> np.ndarray:
-    """Predictor: Hermite polynomial through the last converged states and their tangents
-    (up to three states: quintic), extrapolated to ``t_new``, else the tangent line.  A
-    polynomial that runs more than 3x further than the tangent line (a tangent blowing up
-    near a limit or bifurcation point) is dropped for the next lower one."""
+    """Predictor: cubic Hermite through the previous and the current converged state and
+    their tangents (extrapolated to ``t_new``), else the tangent line.  The Hermite cubic is
+    dropped when it runs more than 3x further than the tangent line (a tangent blowing up
+    near a limit or bifurcation point)."""
     line = x + (t_new - t) * dx
-    memo = solver.memo
-    if memo is None or memo[0] != kind:
+    memo = getattr(solver, "memo", None)
+    if memo is None or memo[0] != kind or memo[1] == t or len(memo[2]) != len(x):
         return line
-    hist = [h for h in memo[1] if h[0] != t and len(h[1]) == len(x)]
-    far = 3.0 * abs(t_new - t) * math.sqrt(float(dx @ dx))
-    for k in range(len(hist), 0, -1):
-        pts = hist[len(hist) - k :] + [(t, x, dx)]
-        a, b = _hermite_weights([p[0] for p in pts], t_new)
-        poly = a[0] * pts[0][1] + b[0] * pts[0][2]
-        for ai, bi, p in zip(a[1:], b[1:], pts[1:]):
-            poly += ai * p[1] + bi * p[2]
-        e = poly - x
-        if math.sqrt(float(e @ e)) <= far:
-            return poly
-    return line
-
-
-def _hermite_weights(ts: list[float], t: float) -> tuple[list[float], list[float]]:
-    """Weights of the values and slopes at the nodes ``ts`` in the Hermite interpolant
-    (degree 2k - 1) at ``t``: A_j = (1 - 2 (t - t_j) L_j'(t_j)) L_j(t)^2, B_j = (t - t_j)
-    L_j(t)^2 with L_j the Lagrange basis (plain floats: a handful of nodes)."""
-    a, b = [], []
-    for j, tj in enumerate(ts):
-        lj, dj = 1.0, 0.0
-        for m, tm in enumerate(ts):
-            if m != j:
-                lj *= (t - tm) / (tj - tm)
-                dj += 1.0 / (tj - tm)
-        a.append((1.0 - 2.0 * (t - tj) * dj) * lj * lj)
-        b.append((t - tj) * lj * lj)
-    return a, b
+    _, t0, x0, dx0 = memo
+    H = t - t0
+    tau = (t_new - t0) / H
+    h00, h10 = 2 * tau**3 - 3 * tau**2 + 1, tau**3 - 2 * tau**2 + tau
+    h01, h11 = -2 * tau**3 + 3 * tau**2, tau**3 - tau**2
+    cubic = h00 * x0 + h10 * H * dx0 + h01 * x + h11 * H * dx
+    if np.linalg.norm(cubic - x) > 3.0 * np.linalg.norm(line - x):
+        return line
+    return cubic
