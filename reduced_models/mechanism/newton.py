@@ -357,6 +357,7 @@ def _predict(
     h00, h10 = 2 * tau**3 - 3 * tau**2 + 1, tau**3 - 2 * tau**2 + tau
     h01, h11 = -2 * tau**3 + 3 * tau**2, tau**3 - tau**2
     cubic = h00 * x0 + h10 * H * dx0 + h01 * x + h11 * H * dx
-    if np.linalg.norm(cubic - x) > 3.0 * np.linalg.norm(line - x):
+    a, b = cubic - x, line - x  # norms as numpy's 2-norm computes them: sqrt(v . v)
+    if math.sqrt(float(a @ a)) > 3.0 * math.sqrt(float(b @ b)):
         return line
     return cubic
