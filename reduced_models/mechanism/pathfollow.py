@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from reduced_models.mechanism.kkt import bordered_solve
 from reduced_models.mechanism.newton import SolveError, State
 
 # a corrector whose secant leaves the tangent by more than acos(JUMP_COS), or that needs more
@@ -95,13 +96,10 @@ class ArcLength:
                 return State(st.q, st.mu, st.lam, it, res, K, False)
             if it == sv.max_iter:
                 break
-            n = K.shape[0]
-            B = np.zeros((n + 1, n + 1))
-            B[:n, :n] = K
-            B[:n, n][: self.nf] = s.reduced_load(st.q)
-            B[n, :] = a
+            col = np.zeros(K.shape[0])
+            col[: self.nf] = s.reduced_load(st.q)
             try:
-                dz = np.linalg.solve(B, -np.concatenate([R, [extra]]))
+                dz = bordered_solve(K, col, a, -np.concatenate([R, [extra]]))
             except np.linalg.LinAlgError:
                 break
             if not np.all(np.isfinite(dz)):
