@@ -74,9 +74,12 @@ class _Run:
         self.sys, self.o = system, o
         self.L = float(system.length_scale())
         self.w = ev.dof_weights(system, self.L)
-        M = system.mass()
         n = system.ndof
-        _, K0 = system.residual_and_tangent(np.zeros(n), 0.0)
+        modal = getattr(system, "modal_pair", None)  # (K0, M) of the free vibration, if not
+        if modal is not None:  # the system's own (a servo's bordered, singular-mass one)
+            K0, M = modal()
+        else:
+            M, (_, K0) = system.mass(), system.residual_and_tangent(np.zeros(n), 0.0)
         a0, a1, self.w1, self.damping_note = ev.rayleigh(sp.csr_matrix(K0), M, o.zeta)
         if o.damping == "mass":
             a0, a1, self.damping_note = 2 * o.zeta * self.w1, 0.0, "mass-proportional"
@@ -299,6 +302,21 @@ class _Run:
         return {**out, "verdict": verdict or "undecided"}
 
 
+def _reach(run: _Run, lam: float) -> tuple[ev.State, dict]:
+    """Ramp the load factor to ``lam`` (over ``ramp_periods`` T1) and hold until settled."""
+    if run.s.lam != lam or run.s.t == 0.0 and lam != 0.0:
+        la, t0, Tr = run.s.lam, run.s.t, run.o.ramp_periods * run.T1
+        run.advance(t0 + Tr, ev.ramp_path(la, lam, t0, Tr))
+    return run.hold(lam)
+
+
+def _stability(run: _Run, s: ev.State, chk: dict, want: bool, scene: Scene | None) -> tuple:
+    """Tangent test and (if ``want``) impulse probe of the settled state ``s``: (eig, probe)."""
+    eig, mode = ev.tangent_test(chk["K"], chk["G"], run.M)
+    pr = run.probe(s, eig, mode, scene) if want else {"stable": None, "verdict": "skipped"}
+    return eig, pr
+
+
 def replay_system(
     system: object,
     factors: np.ndarray,
@@ -306,6 +324,8 @@ def replay_system(
     scene: Scene | None = None,
     case: str = "",
     options: ReplayOptions | None = None,
+    stability: Callable = _stability,
+    reach: Callable = _reach,
 ) -> Solution:
     """Replay ``system`` through the load ``factors`` (the heart of the ``replay`` model).
 
@@ -315,6 +335,10 @@ def replay_system(
     factors : (nsteps,) reported load factors, starting with the initial one.
     scene : the scene (node coordinates for boom events and nodal probes), optional.
     case : case name for the Solution; options : ReplayOptions (defaults if None).
+    stability : ``(run, state, static_check, want_probe, scene) -> (eigenvalue, probe dict)``
+        at each settled state (a servo replay tests the load-controlled system instead).
+    reach : ``(run, factor) -> (settled state, static_check)``: how a report point is
+        reached (default: ramp and hold; a servo replay aims its coordinate by secant).
 
     Returns
     -------
@@ -336,14 +360,9 @@ def replay_system(
         it0, h = run.integ.newton_iterations, run.hist
         mark = (len(h.t), run.W, h.strain[-1], run.D - run.D_impact, prev_q)
         try:
-            if k > 0 or lam != 0.0:
-                la, t0, Tr = run.s.lam, run.s.t, o.ramp_periods * run.T1
-                path = ev.ramp_path(la, lam, t0, Tr)
-                run.advance(t0 + Tr, path)
-            s, chk = run.hold(lam)
-            eig, mode = ev.tangent_test(chk["K"], chk["G"], run.M)
+            s, chk = reach(run, float(lam))
             want = o.probe == "all" or (o.probe == "last" and k == len(factors) - 1)
-            pr = run.probe(s, eig, mode, scene) if want else {"stable": None, "verdict": "skipped"}
+            eig, pr = stability(run, s, chk, want, scene)
         except (ev.ReplayError, RuntimeError, ValueError, np.linalg.LinAlgError) as exc:
             status, message = "failed", f"factor {lam:.6g}: {exc}"
             break
@@ -358,7 +377,7 @@ def replay_system(
             "probe_stable": math.nan if pr["stable"] is None else float(pr["stable"]),
             "probe_peak": pr.get("peak", math.nan),
         }
-        st = system.step(s.q, float(lam), run.integ.newton_iterations - it0, pr["stable"])
+        st = system.step(s.q, s.lam, run.integ.newton_iterations - it0, pr["stable"])
         st = replace(st, info={**dict(st.info), **info}, stable=pr["stable"])
         if k > 0:
             jp = run.jump(mark, prev_step, st)
@@ -373,9 +392,13 @@ def replay_system(
         for key in ("t", "factor", "kinetic", "strain", "dissipated", "external_work")
     }
     out_of = getattr(system, "outputs", None)  # FE systems: outputs without shapes (cheaper)
-    outs = [
-        out_of(h.q[i]) if out_of else system.step(h.q[i], h.factor[i], 0, None).outputs for i in idx
-    ]
+    if getattr(system, "outputs_need_factor", False):  # a prescribed coordinate: q alone is not
+        outs = [out_of(h.q[i], h.factor[i]) for i in idx]  # the state
+    else:
+        outs = [
+            out_of(h.q[i]) if out_of else system.step(h.q[i], h.factor[i], 0, None).outputs
+            for i in idx
+        ]
     for key in outs[0] if outs else ():
         history[key] = [float(d.get(key, math.nan)) for d in outs]
     fi = ev.downsample(len(h.t), o.frames)
@@ -410,6 +433,14 @@ _REFERENCES = (
     "Deployable six-bar thesis (seeds/001), Ch. 5: MSC/ADAMS replay, 1 N impulse probes, "
     "BISTOP boom stop and its chatter",
 )
+
+
+_DECLINED = {  # analyses with nothing to replay, and why
+    "kinematics": "a linkage without flexible members has no elastic state to settle "
+    "(its rigid-body motion is the kinetostatic solver's)",
+    "synthesis": "the replay replays a given scene, it does not design one (the synthesised "
+    "scene is re-solved by fem-auto in the report)",
+}
 
 
 class Replay:
@@ -488,8 +519,15 @@ class Replay:
             from fem_reference.replay_driver import applies  # driver moved as a motion
 
             return applies(scene)
-        if scene.analysis.kind not in ("load", "deploy") and self.factors is None:
-            return f"{scene.analysis.kind} analyses: the replay only ramps a load factor"
+        kind = scene.analysis.kind
+        if kind in ("distance", "path") and self.factors is None:
+            from fem_reference.replay_servo import applies  # a servo holds the coordinate
+
+            return applies(scene)
+        if kind in _DECLINED and self.factors is None:
+            return f"{kind} analyses: {_DECLINED[kind]}"
+        if kind not in ("load", "deploy") and self.factors is None:
+            return f"{kind} analyses: the replay only ramps a load factor"
         try:
             build(scene, 1)
         except (ModelError, KeyError) as err:
@@ -509,6 +547,10 @@ class Replay:
             from fem_reference.replay_driver import solve_energy
 
             return solve_energy(scene, self.n_elements, self.options)
+        if scene.analysis.kind in ("distance", "path") and self.factors is None:
+            from fem_reference.replay_servo import solve_checked
+
+            return solve_checked(scene, self.n_elements, self.options)
         system = build(scene, self.n_elements)
         lams = load_factors(scene) if self.factors is None else self.factors
         sol = replay_system(system, lams, scene=scene, case=scene.name, options=self.options)

@@ -248,7 +248,9 @@ class GenAlpha:
         self.newton_iterations = 0
         self.factorizations = 0
         self.bw = getattr(system, "bandwidth", None)  # half-bandwidth of the FE matrices
+        self.alg = getattr(system, "algebraic", None)  # DOF indices without inertia
         self._Mb = band_mass(self)  # not None: ``step`` works in band storage
+        self._C0 = None  # mass damping a0 M, once asked for
         try:
             self._Msolve = factor(self.M)
         except RuntimeError:  # singular mass (massless DOFs): no consistent start accel.
@@ -291,7 +293,9 @@ class GenAlpha:
         """C = a0 M + a1 K for a step starting at ``s`` (K: current tangent or initial K0)."""
         K = self.K0 if self.K0 is not None else s.K
         if self.a1 == 0.0 or K is None:
-            return self.a0 * self.M
+            if self._C0 is None:  # constant: built once (the energy books ask every step)
+                self._C0 = self.a0 * self.M
+            return self._C0
         return combine([(self.a0, self.M), (self.a1, K)])
 
     def start(self, t: float, lam: float, q: np.ndarray, v: np.ndarray) -> State:
@@ -376,6 +380,8 @@ class GenAlpha:
             return None
         v = vh + acc * (cv / cq)
         a = (1 - af) / (1 - am) * acc + astar
+        if self.alg is not None:  # algebraic unknowns (a servo's load factor): no inertia
+            v[self.alg] = acc[self.alg] = a[self.alg] = 0.0
         # external force at the converged state for the work integral (actuators included)
         fe_new = lam * np.asarray(self.sys.external(q), dtype=float)
         for p in self.pairs:

@@ -1,0 +1,337 @@
+"""Replay of ``distance`` and ``path`` analyses: a servo holds a coordinate, the load follows.
+
+A load-controlled replay cannot reach the states of a distance sweep that lie on the falling
+branch of a snap-through (DAS-2D Ex. 3: every target between the limit point at 3.9 mm and the
+load minimum at 13 mm), and bracketing the load factor on settled states finds only the
+stable ones.  So the replay does what a displacement-controlled test rig does: the target
+coordinate (the driver of a ``distance`` analysis, the ``stop_output`` of a ``path``) is
+moved slowly as a prescribed motion -- ramped between report points and held until settled,
+as loads are ramped -- and a servo sets the load factor of the scene's loads so that the
+coordinate needs no other force to follow.  The load factor is an algebraic unknown of the
+equations of motion (no inertia), bordering the FE tangent::
+
+    M' qdd + C' qd + r(q, lam) = 0     (all rows; q_i = prescribed, lam in slot i)
+
+``ServoSystem`` puts ``lam * ell`` in the slot of the prescribed DOF ``i`` (ell: the start
+compliance max|w K0^-1 f|, so the slot is a length and the settling tolerance bounds the
+load factor's error by ``settle_tol * L / ell``): the tangent is K with column i replaced by
+``-f / ell`` (still banded when the loads sit within the band of DOF i), M' is M with column i
+zeroed (the prescribed DOF's inertia is neglected, as in ``replay_driver``).  A settled state
+is then exactly a static equilibrium with the coordinate at its target: the static distance
+answer.  Its stability is judged as the FE judges a distance step -- under load control, the
+servo off: tangent test of the full system and an impulse probe of a load-controlled replay
+at the settled load factor.  A path whose stop coordinate snaps back (turns around) cannot be
+held by a servo on it: the replay fails there with that reason.  A ``path`` without a stop
+output is replayed under load control to ``factor_end`` (snaps are jumps).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import replace
+from types import SimpleNamespace
+
+import numpy as np
+import scipy.sparse as sp
+
+from cases.schema import Scene
+from fem_reference import replay_events as ev
+from fem_reference.assembly import build
+from fem_reference.driver_post import post_process
+from reduced_models.base import Solution, Step, not_applicable
+
+#: a report point's target coordinate is landed to this multiple of the settling tolerance
+AIM_SETTLE = 10.0
+
+
+class ServoSystem:
+    """A ``DiscreteSystem`` whose DOF ``i`` follows the parameter ``p`` (its ``lam``) while
+    slot ``i`` of its unknowns holds ``lam_load * ell``."""
+
+    outputs_need_factor = True  # the prescribed coordinate is not in u
+
+    def __init__(self, full: object, i: int) -> None:
+        self.full, self.i = full, int(i)
+        n = self.ndof = full.ndof
+        self.n_elements = full.n_elements
+        self.algebraic = np.array([self.i])
+        self.is_rotation = np.array(full.is_rotation, dtype=bool)
+        self.is_rotation[self.i] = False  # slot i is a length (lam * ell)
+        self._p = 0.0
+        M = sp.csr_matrix(full.mass())
+        self._M_full = M
+        self._M = (M @ sp.diags(np.where(np.arange(n) == self.i, 0.0, 1.0))).tocsr()
+        self._M.eliminate_zeros()
+        z = np.zeros(n)
+        self.f = np.asarray(full.external(z), dtype=float)
+        self.ell = self._compliance()
+        self._follow = bool(getattr(full.fast, "follow", False))
+        rows = np.flatnonzero(self.f)
+        bw = full.fast.scatter.bw
+        inside = bw is not None and (rows.size == 0 or np.abs(rows - self.i).max() <= bw)
+        self.bandwidth = full.bandwidth if inside else None
+
+    def _compliance(self) -> float:
+        """max |w K0^-1 f| at the start (length per unit load factor), L if K0 is singular;
+        sets ``f_compliance`` = K0^-1 f (zeros if singular)."""
+        L = float(self.full.length_scale())
+        self.f_compliance = np.zeros(self.ndof)
+        try:
+            x = self.full.factor(self.full.evaluate(np.zeros(self.ndof), 0.0)).solve(self.f)
+        except RuntimeError:
+            return L
+        if not np.all(np.isfinite(x)):
+            return L
+        self.f_compliance = x
+        w = np.where(np.asarray(self.full.is_rotation, dtype=bool), L, 1.0)
+        ell = float(np.max(np.abs(w * x), initial=0.0))
+        return ell if ell > 0.0 else L
+
+    # -- state maps ------------------------------------------------------------------------
+    def full_state(self, u: np.ndarray, p: float) -> tuple[np.ndarray, float]:
+        """(q of the FE system, load factor) of servo state ``u`` at parameter ``p``."""
+        q = np.array(u, dtype=float)
+        q[self.i] = p
+        return q, float(u[self.i]) / self.ell
+
+    def _f(self, q: np.ndarray) -> np.ndarray:
+        return np.asarray(self.full.external(q), dtype=float) if self._follow else self.f
+
+    # -- fast path (band storage) ----------------------------------------------------------
+    def evaluate(self, u: np.ndarray, p: float) -> SimpleNamespace:
+        self._p = p
+        q, lam = self.full_state(u, p)
+        e = self.full.evaluate(q, lam)
+        return SimpleNamespace(r=e.r, ev=e, q=q)
+
+    def tangent_band(self, e: SimpleNamespace) -> np.ndarray:
+        """K with column i replaced by -f / ell, ``dgbtrf`` band storage (Fortran)."""
+        ab = self.full.tangent_band(e.ev)
+        bw, i = self.bandwidth, self.i
+        j = np.arange(max(0, i - bw), min(self.ndof, i + bw + 1))
+        ab[:, i] = 0.0
+        ab[2 * bw + j - i, i] = -self._f(e.q)[j] / self.ell
+        return ab
+
+    def tangent_csr(self, e: SimpleNamespace) -> sp.csr_matrix:
+        K = self.full.tangent_csr(e.ev).tocsc()
+        col = sp.csc_matrix(-self._f(e.q)[:, None] / self.ell)
+        return sp.hstack([K[:, : self.i], col, K[:, self.i + 1 :]]).tocsr()
+
+    # -- DiscreteSystem protocol -----------------------------------------------------------
+    def residual(self, u: np.ndarray, p: float) -> np.ndarray:
+        return self.evaluate(u, p).r
+
+    def residual_and_tangent(self, u: np.ndarray, p: float) -> tuple:
+        e = self.evaluate(u, p)
+        return e.r, self.tangent_csr(e)
+
+    def external(self, u: np.ndarray) -> np.ndarray:
+        return np.zeros(self.ndof)  # the servo's work is not booked (see replay_driver)
+
+    def mass(self) -> sp.csr_matrix:
+        return self._M
+
+    def modal_pair(self) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+        """Tangent and mass at the start with the coordinate held (slot i removed)."""
+        keep = np.delete(np.arange(self.ndof), self.i)
+        _, K = self.full.residual_and_tangent(np.zeros(self.ndof), 0.0)
+        K = sp.csr_matrix(K)
+        return K[keep][:, keep], self._M_full[keep][:, keep]
+
+    def strain_energy(self, u: np.ndarray) -> float:
+        return float(self.full.strain_energy(self.full_state(u, self._p)[0]))
+
+    def outputs(self, u: np.ndarray, p: float | None = None) -> dict[str, float]:
+        return self.full.outputs(self.full_state(u, self._p if p is None else p)[0])
+
+    def length_scale(self) -> float:
+        return float(self.full.length_scale())
+
+    def step(self, u: np.ndarray, p: float, iterations: int, stable: bool | None) -> Step:
+        q, lam = self.full_state(u, p)
+        return replace(self.full.step(q, lam, iterations, stable), factor=lam)
+
+
+def _probe_under_load(servo: ServoSystem, options: object, scene: Scene) -> object:
+    """The ``stability`` hook of ``replay_system``: tangent test and impulse probe of the full
+    system at the settled load factor (servo off), as the FE tests a distance step."""
+    from fem_reference.replay import _Run
+
+    aux: list = []
+
+    def stab(run: object, s: ev.State, chk: dict, want: bool, sc: Scene | None) -> tuple:
+        q, lam = servo.full_state(s.q, s.lam)
+        if not aux:
+            aux.append(_Run(servo.full, scene, replace(options, settle_tol=1e-7)))
+            aux[0].deadline = run.deadline  # one wall-clock budget for both
+        a = aux[0]
+        _, K = servo.full.residual_and_tangent(q, lam)
+        eig, mode = ev.tangent_test(sp.csr_matrix(K), np.zeros((0, servo.ndof)), a.M)
+        if not want:
+            return eig, {"stable": None, "verdict": "skipped"}
+        return eig, a.probe(a.integ.start(s.t, lam, q, np.zeros(servo.ndof)), eig, mode, sc)
+
+    return stab
+
+
+def servo_dof(full: object, func: tuple[int, float, float]) -> int:
+    """The DOF the servo holds: the loads' own DOF when they act on exactly one (then the
+    servo is a rigid test machine on the load point, a conservative control whose stable
+    states are those of the energy restricted to that DOF, as in the static displacement
+    control), else the target coordinate's DOF."""
+    nz = np.flatnonzero(full.external(np.zeros(full.ndof)))
+    return int(nz[0]) if nz.size == 1 else int(func[0])
+
+
+class _Aim:
+    """The ``reach`` hook of ``replay_system``: settle with the target coordinate ``off + c
+    q[j]`` at the report value, moving the servo DOF ``i`` (secant on settled states when
+    i != j; the first guess from the last two settled states, or the start compliance)."""
+
+    def __init__(self, servo: ServoSystem, func: tuple[int, float, float], tol: float) -> None:
+        self.sv, (self.j, self.c, self.off) = servo, func
+        self.tol, self.seen = tol, [(0.0, 0.0)]  # (target value, servo parameter) settled
+        x = servo.f_compliance
+        self.slope0 = x[servo.i] / (self.c * x[self.j]) if x[self.j] != 0.0 else 1.0 / self.c
+
+    def value(self, run: object, s: ev.State) -> float:
+        return self.off + self.c * (self.sv.full_state(s.q, s.lam)[0][self.j])
+
+    def settle(self, run: object, p: float) -> tuple[ev.State, dict]:
+        from fem_reference.replay import _reach
+
+        return _reach(run, p)
+
+    def __call__(self, run: object, T: float) -> tuple[ev.State, dict]:
+        if self.sv.i == self.j:
+            return self.settle(run, (T - self.off) / self.c)
+        (T1, p1), (T0, p0) = self.seen[-1], self.seen[-2] if len(self.seen) > 1 else (0.0, 0.0)
+        slope = (p1 - p0) / (T1 - T0) if len(self.seen) > 1 and T1 != T0 else self.slope0
+        p, pts = p1 + slope * (T - T1), []
+        for _ in range(12):
+            s, chk = self.settle(run, p)
+            y = self.value(run, s)
+            if abs(y - T) <= self.tol:
+                self.seen.append((y, p))
+                return s, chk
+            pts.append((y, p))
+            if len(pts) > 1 and pts[-1][0] != pts[-2][0]:
+                slope = (pts[-1][1] - pts[-2][1]) / (pts[-1][0] - pts[-2][0])
+            p = p + slope * (T - y)
+        raise ev.ReplayError(f"the servo did not bring the target to {T:.6g} (last {y:.6g})")
+
+
+def target(scene: Scene, full: object) -> tuple[tuple[int, float, float], np.ndarray] | str:
+    """The servo's coordinate ``(i, c, off)`` and its report values, or why there is none."""
+    a = scene.analysis
+    if a.kind == "distance":
+        func = full.driver_functional()
+        values = np.linspace(a.driver.start, a.driver.stop, a.steps + 1)
+        what = "the driver coordinate"
+    else:
+        try:
+            func = full.output_functional(a.stop_output)
+        except KeyError:
+            return f"stop output {a.stop_output!r} is not a node coordinate"
+        values = np.linspace(func[2], a.stop_value, a.steps + 1)
+        what = f"the stop output {a.stop_output}"
+    if func[0] < 0 or func[1] == 0.0:
+        return f"{what} is fixed by a support: a servo cannot move it"
+    if not np.any(full.external(np.zeros(full.ndof))):
+        return "no load scaled by the load factor: nothing for the servo to set"
+    return func, values
+
+
+def applies(scene: Scene) -> str | None:
+    """None if a distance/path analysis of ``scene`` can be replayed, else why not."""
+    a = scene.analysis
+    if a.kind == "path" and a.stop_output is None:
+        return None  # load control to factor_end
+    try:
+        full = build(scene, 1)
+    except Exception as err:  # noqa: BLE001 - any build failure is a reason, not a crash
+        return f"not representable: {err}"
+    got = target(scene, full)
+    return got if isinstance(got, str) else None
+
+
+def solve(scene: Scene, n_elements: int, options: object) -> Solution:
+    """Replay the distance or path analysis of ``scene`` (module doc)."""
+    from fem_reference.replay import replay_system
+
+    a = scene.analysis
+    full = build(scene, n_elements)
+    if a.kind == "path" and a.stop_output is None:
+        lams = np.linspace(0.0, a.factor_end, a.steps + 1)
+        return replay_system(full, lams, scene=scene, case=scene.name, options=options)
+    got = target(scene, full)
+    if isinstance(got, str):
+        return not_applicable(scene, "replay", got)
+    func, values = got
+    i = servo_dof(full, func)
+    system = ServoSystem(full, i)
+    # mass damping (C = a0 M' keeps the servo slot free of inertia); the jump test weighs
+    # dissipation against booked work, which misses the servo's: no jumps are assessed
+    options = replace(options, damping="mass", jump_dissipation=math.inf)
+    stab = _probe_under_load(system, options, scene)
+    # the target is landed to what settling resolves: AIM_SETTLE x the settling tolerance
+    aim = _Aim(system, func, AIM_SETTLE * options.settle_tol * full.length_scale() * abs(func[1]))
+    sol = replay_system(
+        system, values, scene=scene, case=scene.name, options=options, stability=stab, reach=aim
+    )
+    extras = dict(sol.extras)
+    fr = dict(extras.get("frames", {}))
+    if "q" in fr and len(fr["q"]):  # frames in FE coordinates (the animation rebuilds the FE)
+        fr["q"] = np.array(fr["q"], dtype=float)
+        fr["q"][:, i] = np.asarray(fr["factor"])
+        extras["frames"] = fr
+    extras["settle"] = {**extras.get("settle", {}), "energy_balance_error": math.nan}
+    extras["settle"]["note"] = "servo-held coordinate: the servo's work is not booked"
+    extras["jumps"], extras["jumps_note"] = [], "not assessed under a servo-held coordinate"
+    extras["servo"] = {"dof": i, "compliance_ell": system.ell}
+    steps, msg = sol.steps, sol.message
+    if a.kind == "path" and math.isfinite(a.factor_end) and steps:
+        sgn = 1.0 if a.factor_end > 0 else -1.0
+        cut = next((k for k, st in enumerate(steps) if sgn * st.factor > abs(a.factor_end)), None)
+        if cut is not None:
+            steps = steps[:cut]
+            msg += f"; path cut where the factor passes factor_end = {a.factor_end:g}"
+    if sol.status == "converged":
+        res = max(st.info["residual"] for st in steps)
+        msg = f"settled {len(steps)} servo-held states; max residual {res:.2e}" + (
+            msg[msg.find("; path cut") :] if "; path cut" in msg else ""
+        )
+    return post_process(scene, Solution(sol.case, sol.model, sol.status, msg, steps, extras))
+
+
+def factor_mesh_error(scene: Scene, n: int) -> float | None:
+    """Richardson estimate of the n-element error of the last load factor (static FE on n and
+    n // 2 elements), None if either fails."""
+    from fem_reference.models import FEM
+
+    if n < 2:
+        return None
+    a = scene.analysis
+    if a.kind == "distance":
+        a = dataclasses.replace(a, steps=max(1, min(a.steps, 4)))
+    sc = dataclasses.replace(scene, analysis=a)
+    runs = [FEM(m, stability=False, bifurcation=False).solve(sc) for m in (n // 2, n)]
+    if any(r.status != "converged" or not r.steps for r in runs):
+        return None
+    return abs(runs[1].steps[-1].factor - runs[0].steps[-1].factor) / 3.0
+
+
+def solve_checked(scene: Scene, n: int, options: object) -> Solution:
+    """``solve`` with its mesh error against fem-auto stated (as load replays do)."""
+    sol = solve(scene, n, options)
+    if sol.status != "converged" or scene.analysis.kind != "distance" and not sol.steps:
+        return sol
+    err = factor_mesh_error(scene, n)
+    if err is None:
+        return sol
+    scale = max(abs(st.factor) for st in sol.steps) or 1.0
+    msg = f"{sol.message}; mesh error of the factor vs fem-auto ~{err / scale:.1e} (n = {n})"
+    return replace(sol, message=msg, extras={**sol.extras, "mesh_error_factor": err})
+
