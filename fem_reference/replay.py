@@ -338,7 +338,7 @@ def replay_system(
     stability : ``(run, state, static_check, want_probe, scene) -> (eigenvalue, probe dict)``
         at each settled state (a servo replay tests the load-controlled system instead).
     reach : ``(run, factor) -> (settled state, static_check)``: how a report point is
-        reached (default: ramp and hold; a servo replay aims its coordinate by secant).
+        reached (default: ramp and hold; a servo replay aims its coordinate).
 
     Returns
     -------

@@ -1,16 +1,16 @@
 """Replay of ``distance`` and ``path`` analyses: a servo holds a coordinate, the load follows.
 
 A load-controlled replay cannot reach the states of a distance sweep that lie on the falling
-branch of a snap-through (DAS-2D Ex. 3: every target between the limit point at 3.9 mm and the
-load minimum at 13 mm), and bracketing the load factor on settled states finds only the
-stable ones.  So the replay does what a displacement-controlled test rig does: the target
-coordinate (the driver of a ``distance`` analysis, the ``stop_output`` of a ``path``) is
-moved slowly as a prescribed motion -- ramped between report points and held until settled,
-as loads are ramped -- and a servo sets the load factor of the scene's loads so that the
-coordinate needs no other force to follow.  The load factor is an algebraic unknown of the
-equations of motion (no inertia), bordering the FE tangent::
+branch of a snap-through (DAS-2D Ex. 3: every target between the limit point and the load
+minimum), and bracketing the load factor on settled states finds only the stable ones.  So
+the replay does what a displacement-controlled test rig does: the target coordinate (the
+driver of a ``distance`` analysis, the ``stop_output`` of a ``path``) is moved slowly as a
+prescribed motion -- ramped between report points and held until settled, as loads are
+ramped -- and a servo sets the load factor of the scene's loads so that the coordinate needs
+no other force to follow.  The load factor is an algebraic unknown of the equations of motion
+(no inertia), bordering the FE tangent::
 
-    M' qdd + C' qd + r(q, lam) = 0     (all rows; q_i = prescribed, lam in slot i)
+    M' qdd + C' qd + r(q, lam) = 0     (all rows; q_i prescribed, lam in slot i)
 
 ``ServoSystem`` puts ``lam * ell`` in the slot of the prescribed DOF ``i`` (ell: the start
 compliance max|w K0^-1 f|, so the slot is a length and the settling tolerance bounds the
@@ -18,11 +18,14 @@ load factor's error by ``settle_tol * L / ell``): the tangent is K with column i
 ``-f / ell`` (still banded when the loads sit within the band of DOF i), M' is M with column i
 zeroed (the prescribed DOF's inertia is neglected, as in ``replay_driver``).  A settled state
 is then exactly a static equilibrium with the coordinate at its target: the static distance
-answer.  Its stability is judged as the FE judges a distance step -- under load control, the
-servo off: tangent test of the full system and an impulse probe of a load-controlled replay
-at the settled load factor.  A path whose stop coordinate snaps back (turns around) cannot be
-held by a servo on it: the replay fails there with that reason.  A ``path`` without a stop
-output is replayed under load control to ``factor_end`` (snaps are jumps).
+answer.  When the loads act on DOF i alone the servo is a rigid test machine on the load
+point (a conservative control); otherwise it is a feedback that may pick another branch at a
+bifurcation than a static path traced by continuity would (the equilibria are the same set).
+The stability of a settled state is judged as the FE judges a distance step -- under load
+control, the servo off: tangent test of the full system and an impulse probe of a
+load-controlled replay at the settled load factor.  A path whose stop coordinate turns back
+cannot be held by a servo on it: the replay fails there with that reason.  A ``path``
+without a stop output is replayed under load control to ``factor_end`` (snaps are jumps).
 """
 
 from __future__ import annotations
@@ -73,17 +76,14 @@ class ServoSystem:
         self.bandwidth = full.bandwidth if inside else None
 
     def _compliance(self) -> float:
-        """max |w K0^-1 f| at the start (length per unit load factor), L if K0 is singular;
-        sets ``f_compliance`` = K0^-1 f (zeros if singular)."""
+        """max |w K0^-1 f| at the start (length per unit load factor), L if K0 is singular."""
         L = float(self.full.length_scale())
-        self.f_compliance = np.zeros(self.ndof)
         try:
             x = self.full.factor(self.full.evaluate(np.zeros(self.ndof), 0.0)).solve(self.f)
         except RuntimeError:
             return L
         if not np.all(np.isfinite(x)):
             return L
-        self.f_compliance = x
         w = np.where(np.asarray(self.full.is_rotation, dtype=bool), L, 1.0)
         ell = float(np.max(np.abs(w * x), initial=0.0))
         return ell if ell > 0.0 else L
@@ -176,50 +176,57 @@ def _probe_under_load(servo: ServoSystem, options: object, scene: Scene) -> obje
     return stab
 
 
-def servo_dof(full: object, func: tuple[int, float, float]) -> int:
-    """The DOF the servo holds: the loads' own DOF when they act on exactly one (then the
-    servo is a rigid test machine on the load point, a conservative control whose stable
-    states are those of the energy restricted to that DOF, as in the static displacement
-    control), else the target coordinate's DOF."""
+def servo_dof(full: object, j: int) -> int:
+    """The DOF the servo holds: the loads' own DOF when they act on exactly one (a rigid test
+    machine on the load point; a servo on a DOF the loads do not act on is an ill-posed
+    index-3 problem when they are far apart), else the target DOF ``j``."""
     nz = np.flatnonzero(full.external(np.zeros(full.ndof)))
-    return int(nz[0]) if nz.size == 1 else int(func[0])
+    return int(nz[0]) if nz.size == 1 else int(j)
 
 
 class _Aim:
     """The ``reach`` hook of ``replay_system``: settle with the target coordinate ``off + c
-    q[j]`` at the report value, moving the servo DOF ``i`` (secant on settled states when
-    i != j; the first guess from the last two settled states, or the start compliance)."""
+    q[j]`` at the report value T, moving the servo DOF ``i``.  For i != j: secant on settled
+    states, each move at most twice the last settled increment (unit slope for the first),
+    Illinois regula falsi once T is bracketed."""
+
+    MAX_SETTLES = 30
 
     def __init__(self, servo: ServoSystem, func: tuple[int, float, float], tol: float) -> None:
         self.sv, (self.j, self.c, self.off) = servo, func
-        self.tol, self.seen = tol, [(0.0, 0.0)]  # (target value, servo parameter) settled
-        x = servo.f_compliance
-        self.slope0 = x[servo.i] / (self.c * x[self.j]) if x[self.j] != 0.0 else 1.0 / self.c
-
-    def value(self, run: object, s: ev.State) -> float:
-        return self.off + self.c * (self.sv.full_state(s.q, s.lam)[0][self.j])
-
-    def settle(self, run: object, p: float) -> tuple[ev.State, dict]:
-        from fem_reference.replay import _reach
-
-        return _reach(run, p)
+        self.tol, self.seen = tol, [(0.0, 0.0)]  # settled (target value - off, servo DOF)
 
     def __call__(self, run: object, T: float) -> tuple[ev.State, dict]:
+        from fem_reference.replay import _reach
+
+        T = (T - self.off) / self.c  # in the units of q[j]
         if self.sv.i == self.j:
-            return self.settle(run, (T - self.off) / self.c)
-        (T1, p1), (T0, p0) = self.seen[-1], self.seen[-2] if len(self.seen) > 1 else (0.0, 0.0)
-        slope = (p1 - p0) / (T1 - T0) if len(self.seen) > 1 and T1 != T0 else self.slope0
-        p, pts = p1 + slope * (T - T1), []
-        for _ in range(12):
-            s, chk = self.settle(run, p)
-            y = self.value(run, s)
-            if abs(y - T) <= self.tol:
-                self.seen.append((y, p))
+            return _reach(run, T)
+        y1, p1 = self.seen[-1]
+        y0, p0 = self.seen[-2] if len(self.seen) > 1 else (y1, p1)
+        slope = (p1 - p0) / (y1 - y0) if y1 != y0 else 1.0
+        cap = 2.0 * (abs(p1 - p0) or abs(T - y1))
+        ends: dict[bool, tuple[float, float]] = {}  # bracket: side (y > T) -> (y - T, p)
+        p, y, last = p1, y1, None
+        for _ in range(self.MAX_SETTLES):
+            if len(ends) == 2:  # Illinois regula falsi inside the bracket
+                (g0, q0), (g1, q1) = ends[False], ends[True]
+                p_new = q1 - g1 * (q1 - q0) / (g1 - g0)
+            else:
+                p_new = p + float(np.clip(slope * (T - y), -cap, cap))
+            s, chk = _reach(run, p_new)
+            y_new = float(self.sv.full_state(s.q, s.lam)[0][self.j])
+            if abs(y_new - T) <= self.tol:
+                if (y_new, p_new) != self.seen[-1]:
+                    self.seen.append((y_new, p_new))
                 return s, chk
-            pts.append((y, p))
-            if len(pts) > 1 and pts[-1][0] != pts[-2][0]:
-                slope = (pts[-1][1] - pts[-2][1]) / (pts[-1][0] - pts[-2][0])
-            p = p + slope * (T - y)
+            if y_new != y:
+                slope = (p_new - p) / (y_new - y)
+            side = y_new > T
+            if last == side and (not side) in ends:  # same side twice: halve the other's g
+                g, q = ends[not side]
+                ends[not side] = (0.5 * g, q)
+            ends[side], last, p, y = (y_new - T, p_new), side, p_new, y_new
         raise ev.ReplayError(f"the servo did not bring the target to {T:.6g} (last {y:.6g})")
 
 
@@ -270,14 +277,14 @@ def solve(scene: Scene, n_elements: int, options: object) -> Solution:
     if isinstance(got, str):
         return not_applicable(scene, "replay", got)
     func, values = got
-    i = servo_dof(full, func)
-    system = ServoSystem(full, i)
+    system = ServoSystem(full, servo_dof(full, func[0]))
+    i = system.i
     # mass damping (C = a0 M' keeps the servo slot free of inertia); the jump test weighs
     # dissipation against booked work, which misses the servo's: no jumps are assessed
     options = replace(options, damping="mass", jump_dissipation=math.inf)
     stab = _probe_under_load(system, options, scene)
     # the target is landed to what settling resolves: AIM_SETTLE x the settling tolerance
-    aim = _Aim(system, func, AIM_SETTLE * options.settle_tol * full.length_scale() * abs(func[1]))
+    aim = _Aim(system, func, AIM_SETTLE * options.settle_tol * full.length_scale())
     sol = replay_system(
         system, values, scene=scene, case=scene.name, options=options, stability=stab, reach=aim
     )
@@ -334,4 +341,3 @@ def solve_checked(scene: Scene, n: int, options: object) -> Solution:
     scale = max(abs(st.factor) for st in sol.steps) or 1.0
     msg = f"{sol.message}; mesh error of the factor vs fem-auto ~{err / scale:.1e} (n = {n})"
     return replace(sol, message=msg, extras={**sol.extras, "mesh_error_factor": err})
-
