@@ -67,6 +67,9 @@ class ReplayOptions:
     locks: tuple[ev.LengthLock, ...] = ()
 
 
+SOFT_AFTER = 20.0  # T1 of holding after which a soft mode gets its own critical damping
+
+
 class _Run:
     """Mutable replay of one system: the current state, the energy books and the history."""
 
@@ -75,11 +78,14 @@ class _Run:
         self.L = float(system.length_scale())
         self.w = ev.dof_weights(system, self.L)
         n = system.ndof
+        alg = getattr(system, "algebraic", None)
+        Mfull, self.point_masses = ev.point_masses(system.mass(), self.w, alg)
         modal = getattr(system, "modal_pair", None)  # (K0, M) of the free vibration, if not
         if modal is not None:  # the system's own (a servo's bordered, singular-mass one)
             K0, M = modal()
+            M = ev.point_masses(M, self.w if alg is None else np.delete(self.w, alg))[0]
         else:
-            M, (_, K0) = system.mass(), system.residual_and_tangent(np.zeros(n), 0.0)
+            M, (_, K0) = Mfull, system.residual_and_tangent(np.zeros(n), 0.0)
         a0, a1, self.w1, self.damping_note = ev.rayleigh(sp.csr_matrix(K0), M, o.zeta)
         if o.damping == "mass":
             a0, a1, self.damping_note = 2 * o.zeta * self.w1, 0.0, "mass-proportional"
@@ -87,7 +93,14 @@ class _Run:
         pairs = ev.resolve_locks(system, scene, o.locks)
         damp = (a0, a1, K0 if o.damping == "initial" else None)
         self.integ = ev.GenAlpha(
-            system, damp, pairs, self.w, self.L, rho_inf=o.rho_inf, newton_tol=1e-2 * o.settle_tol
+            system,
+            damp,
+            pairs,
+            self.w,
+            self.L,
+            rho_inf=o.rho_inf,
+            newton_tol=1e-2 * o.settle_tol,
+            mass=Mfull,
         )
         self.integ.act_ramp = o.ramp_periods * self.T1  # the boom pushes ramp in, like loads
         self.M = self.integ.M
@@ -197,7 +210,16 @@ class _Run:
         if chk is not None:
             return self.s, chk
         t_end = self.s.t + self.o.max_hold * self.T1
-        s, chk = self.advance(t_end, lambda t: lam, until=self.static_check)
+        t_soft = min(t_end, self.s.t + SOFT_AFTER * self.T1)
+        s, chk = self.advance(t_soft, lambda t: lam, until=self.static_check)
+        a0 = self.integ.a0
+        if chk is None and self.integ.a1 == 0.0:  # a soft mode creeps, overdamped at a0:
+            w = ev.soft_frequency(self.sys, self.integ, s)  # damp it critically instead
+            if w is not None and 2.0 * self.o.zeta * w < a0:
+                self.integ.a0, self.integ._C0 = 2.0 * self.o.zeta * w, None
+        if chk is None:
+            s, chk = self.advance(t_end, lambda t: lam, until=self.static_check)
+        self.integ.a0, self.integ._C0 = a0, None
         if chk is None:
             raise ev.ReplayError(f"did not settle at factor {lam:.6g} within {self.o.max_hold} T1")
         return s, chk
@@ -407,6 +429,8 @@ def replay_system(
     frames["n_elements"] = getattr(system, "n_elements", None)
     settle = dict(T1=run.T1, omega1=run.w1, damping=run.damping_note, time_steps=len(h.t) - 1)
     settle["newton_iterations"] = run.integ.newton_iterations
+    settle["factorizations"] = run.integ.factorizations
+    settle["point_masses_added"] = run.point_masses
     settle["energy_balance_error"] = (W - U - T - D) / max(abs(W), abs(U), 1e-300)
     extras = dict(history=history, jumps=jumps, events=run.events, probes=probes)
     extras.update(frames=frames, settle=settle)

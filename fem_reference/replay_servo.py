@@ -135,9 +135,13 @@ class ServoSystem:
 
     def modal_pair(self) -> tuple[sp.csr_matrix, sp.csr_matrix]:
         """Tangent and mass at the start with the coordinate held (slot i removed)."""
+        return self.modal_pair_at(np.zeros(self.ndof), 0.0)
+
+    def modal_pair_at(self, u: np.ndarray, p: float) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+        """Tangent (load factor fixed) and mass at servo state ``u`` with the coordinate held."""
         keep = np.delete(np.arange(self.ndof), self.i)
-        _, K = self.full.residual_and_tangent(np.zeros(self.ndof), 0.0)
-        K = sp.csr_matrix(K)
+        q, lam = self.full_state(u, p)
+        K = sp.csr_matrix(self.full.residual_and_tangent(q, lam)[1])
         return K[keep][:, keep], self._M_full[keep][:, keep]
 
     def strain_energy(self, u: np.ndarray) -> float:
