@@ -18,9 +18,12 @@ load factor's error by ``settle_tol * L / ell``): the tangent is K with column i
 ``-f / ell`` (still banded when the loads sit within the band of DOF i), M' is M with column i
 zeroed (the prescribed DOF's inertia is neglected, as in ``replay_driver``).  A settled state
 is then exactly a static equilibrium with the coordinate at its target: the static distance
-answer.  When the loads act on DOF i alone the servo is a rigid test machine on the load
-point (a conservative control); otherwise it is a feedback that may pick another branch at a
-bifurcation than a static path traced by continuity would (the equilibria are the same set).
+answer.  The servo holds the loads' own DOF when they act on exactly one (a rigid test
+machine on the load point: a conservative control) and lands the target coordinate by
+secant / Illinois on settled states; a servo on a DOF far from the loads is an ill-posed
+index-3 problem (Lee's frame: Newton fails).  If the target jumps under the load point's
+servo (it snaps), the replay holds the target coordinate itself instead (a feedback that may
+pick another branch at a bifurcation; the equilibria are the same set) and says so.
 The stability of a settled state is judged as the FE judges a distance step -- under load
 control, the servo off: tangent test of the full system and an impulse probe of a
 load-controlled replay at the settled load factor.  A path whose stop coordinate turns back
@@ -44,8 +47,16 @@ from fem_reference.assembly import build
 from fem_reference.driver_post import post_process
 from reduced_models.base import Solution, Step, not_applicable
 
-#: a report point's target coordinate is landed to this multiple of the settling tolerance
-AIM_SETTLE = 10.0
+#: a report point's target coordinate is landed to this fraction of the sweep's range (the
+#: factor then differs from the one at the exact target by dlam/ds x 1e-5 x range, far below
+#: the mesh error the replay states), but no closer than 10 x what settling resolves
+AIM_RANGE, AIM_SETTLE = 1e-5, 10.0
+
+
+def aim_tolerance(values: np.ndarray, func: tuple, settle_tol: float, full: object) -> float:
+    """Landing tolerance of the target coordinate, in the units of its DOF."""
+    span = float(np.max(np.abs(np.asarray(values) - values[0]), initial=0.0)) / abs(func[1])
+    return max(AIM_RANGE * span, AIM_SETTLE * settle_tol * full.length_scale())
 
 
 class ServoSystem:
@@ -199,6 +210,7 @@ class _Aim:
     def __init__(self, servo: ServoSystem, func: tuple[int, float, float], tol: float) -> None:
         self.sv, (self.j, self.c, self.off) = servo, func
         self.tol, self.seen = tol, [(0.0, 0.0)]  # settled (target value - off, servo DOF)
+        self.jumped = False
 
     def __call__(self, run: object, T: float) -> tuple[ev.State, dict]:
         from fem_reference.replay import _reach
@@ -215,6 +227,12 @@ class _Aim:
         for _ in range(self.MAX_SETTLES):
             if len(ends) == 2:  # Illinois regula falsi inside the bracket
                 (g0, q0), (g1, q1) = ends[False], ends[True]
+                if abs(q1 - q0) <= 1e-9 * max(abs(q0), abs(q1), self.tol):
+                    self.jumped = True
+                    raise ev.ReplayError(
+                        f"the target coordinate jumps across {T:.6g} (from {g0 + T:.6g} to "
+                        f"{g1 + T:.6g}) at servo position {q0:.6g}: a snap under this servo"
+                    )
                 p_new = q1 - g1 * (q1 - q0) / (g1 - g0)
             else:
                 p_new = p + float(np.clip(slope * (T - y), -cap, cap))
@@ -231,6 +249,7 @@ class _Aim:
                 g, q = ends[not side]
                 ends[not side] = (0.5 * g, q)
             ends[side], last, p, y = (y_new - T, p_new), side, p_new, y_new
+        self.jumped = len(ends) == 2  # bracketed but not landed: a jump, or too slow
         raise ev.ReplayError(f"the servo did not bring the target to {T:.6g} (last {y:.6g})")
 
 
@@ -281,17 +300,18 @@ def solve(scene: Scene, n_elements: int, options: object) -> Solution:
     if isinstance(got, str):
         return not_applicable(scene, "replay", got)
     func, values = got
-    system = ServoSystem(full, servo_dof(full, func[0]))
-    i = system.i
     # mass damping (C = a0 M' keeps the servo slot free of inertia); the jump test weighs
     # dissipation against booked work, which misses the servo's: no jumps are assessed
     options = replace(options, damping="mass", jump_dissipation=math.inf)
-    stab = _probe_under_load(system, options, scene)
-    # the target is landed to what settling resolves: AIM_SETTLE x the settling tolerance
-    aim = _Aim(system, func, AIM_SETTLE * options.settle_tol * full.length_scale())
-    sol = replay_system(
-        system, values, scene=scene, case=scene.name, options=options, stability=stab, reach=aim
-    )
+    i = servo_dof(full, func[0])
+    sol, system = _run(scene, full, i, func, values, options)
+    note = ""
+    if sol.status == "failed" and sol.extras.get("servo_jump") and i != func[0]:
+        # the target jumps under the load point's servo (a snap of the target coordinate):
+        # hold the target coordinate itself instead
+        note = f"; servo on the target coordinate (on the load point: {sol.message})"
+        i = func[0]
+        sol, system = _run(scene, full, i, func, values, options)
     extras = dict(sol.extras)
     fr = dict(extras.get("frames", {}))
     if "q" in fr and len(fr["q"]):  # frames in FE coordinates (the animation rebuilds the FE)
@@ -302,7 +322,7 @@ def solve(scene: Scene, n_elements: int, options: object) -> Solution:
     extras["settle"]["note"] = "servo-held coordinate: the servo's work is not booked"
     extras["jumps"], extras["jumps_note"] = [], "not assessed under a servo-held coordinate"
     extras["servo"] = {"dof": i, "compliance_ell": system.ell}
-    steps, msg = sol.steps, sol.message
+    steps, msg = sol.steps, sol.message + note
     if a.kind == "path" and math.isfinite(a.factor_end) and steps:
         sgn = 1.0 if a.factor_end > 0 else -1.0
         cut = next((k for k, st in enumerate(steps) if sgn * st.factor > abs(a.factor_end)), None)
@@ -311,10 +331,26 @@ def solve(scene: Scene, n_elements: int, options: object) -> Solution:
             msg += f"; path cut where the factor passes factor_end = {a.factor_end:g}"
     if sol.status == "converged":
         res = max(st.info["residual"] for st in steps)
-        msg = f"settled {len(steps)} servo-held states; max residual {res:.2e}" + (
+        msg = f"settled {len(steps)} servo-held states; max residual {res:.2e}{note}" + (
             msg[msg.find("; path cut") :] if "; path cut" in msg else ""
         )
     return post_process(scene, Solution(sol.case, sol.model, sol.status, msg, steps, extras))
+
+
+def _run(scene: Scene, full: object, i: int, func: tuple, values: np.ndarray, options: object):
+    """``replay_system`` with the servo on DOF ``i`` aiming the target ``func`` at ``values``;
+    returns (solution, servo system); ``extras["servo_jump"]`` when the target jumped."""
+    from fem_reference.replay import replay_system
+
+    system = ServoSystem(full, i)
+    stab = _probe_under_load(system, options, scene)
+    aim = _Aim(system, func, aim_tolerance(values, func, options.settle_tol, full))
+    sol = replay_system(
+        system, values, scene=scene, case=scene.name, options=options, stability=stab, reach=aim
+    )
+    if aim.jumped:
+        sol = replace(sol, extras={**sol.extras, "servo_jump": True})
+    return sol, system
 
 
 def factor_mesh_error(scene: Scene, n: int) -> float | None:

@@ -12,8 +12,9 @@ in over 4 lowest periods T1 (C2 quintic ramp) and held until the motion has died
   per length and rotary inertia; shear stiffness 1e3 EA, so Euler-Bernoulli to 1e-3 of the
   deflection), root clamped by three ``CoordinateConstraint``, the same ramp in a
   ``loadVectorUserFunction``; ``SolveDynamic`` with its generalised-alpha (spectral radius
-  0.6, modified Newton, Eigen sparse LU or its default dense LU, whichever is faster; one
-  thread) over the same time span the replay
+  0.6, modified Newton, one thread; the fastest of Newton relative tolerance 1e-8 (its
+  default) .. 1e-5 and Eigen sparse / its default dense LU that still ends within 1e-6 of
+  the strict answer) over the same time span the replay
   needed, in the same number of equal steps as the replay took adaptive ones.  Damping:
   stiffness-proportional material damping (``bendingDamping`` = beta EI etc., beta = 2 / omega_1:
   critical on the lowest mode, as the replay's mass damping is; Exudyn's beams have no mass
@@ -56,9 +57,12 @@ def flexbench(n: int) -> tuple[float, dict]:
     return t, info
 
 
-def exudyn(n: int, T1: float, t_end: float, steps: int, dense: bool = False) -> tuple:
+def exudyn(
+    n: int, T1: float, t_end: float, steps: int, dense: bool = False, rtol: float = 1e-8
+) -> tuple:
     """CPU seconds of Exudyn's generalised-alpha over [0, t_end] in ``steps`` equal steps,
-    and the tip deflection at the end (sparse LU, or Exudyn's default dense one)."""
+    and the tip deflection at the end (sparse LU, or Exudyn's default dense one; Newton
+    relative tolerance ``rtol``, Exudyn's default 1e-8)."""
     import exudyn as exu
     from exudyn.itemInterface import (
         CoordinateConstraint,
@@ -116,6 +120,7 @@ def exudyn(n: int, T1: float, t_end: float, steps: int, dense: bool = False) -> 
     ti.endTime, ti.numberOfSteps, ti.verboseMode = t_end, steps, 0
     ti.generalizedAlpha.spectralRadius = 0.6
     ti.automaticStepSize = False
+    ti.newton.relativeTolerance = rtol
     ss.linearSolver.solverType = solver
     ss.linearSolver.reuseAnalyzedPattern = True
     ss.parallel.numberOfThreads = 1
@@ -128,6 +133,29 @@ def exudyn(n: int, T1: float, t_end: float, steps: int, dense: bool = False) -> 
     return t, float(mbs.GetNodeOutput(nodes[-1], exu.OutputVariableType.Displacement)[1])
 
 
+def best_exudyn(job: tuple, repeats: int) -> tuple[float, str, float]:
+    """Exudyn at its fastest setting that still ends on its strict answer (tip within 1e-6
+    relative of the rtol = 1e-8 run): Newton tolerance 1e-8 .. 1e-5, sparse or dense LU.
+    Returns (median CPU seconds, setting, tip)."""
+    import exudyn as exu
+
+    strict = exudyn(*job)[1]
+    best = (math.inf, "", math.nan)
+    for rtol in (1e-8, 1e-7, 1e-6, 1e-5):
+        for dense in (False, True):
+            try:
+                t, tip = exudyn(*job, dense=dense, rtol=rtol)
+            except exu.SolverError:
+                continue
+            if abs(tip - strict) > 1e-6 * abs(strict):
+                continue
+            if t < 3.0 * best[0]:  # a contender: time it properly
+                t = statistics.median(exudyn(*job, dense, rtol)[0] for _ in range(repeats))
+            if t < best[0]:
+                best = (t, f"rtol {rtol:g}, {'dense' if dense else 'sparse'} LU", tip)
+    return best
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--elements", type=int, nargs="+", default=[100])
@@ -136,23 +164,17 @@ def main(argv: list[str] | None = None) -> None:
     print(
         f"machine: {platform.processor() or platform.machine()}, python {platform.python_version()}"
     )
-    print("| N | span / T1 | steps | replay ms | Exudyn sparse ms | Exudyn dense ms | ratio |")
-    print("|---|---|---|---|---|---|---|")
+    print("| N | span / T1 | steps | replay ms | Exudyn gen-alpha ms (its best setting) | ratio |")
+    print("|---|---|---|---|---|---|")
     for n in args.elements:
         flexbench(n)  # warm-up
         _, info = flexbench(n)
         job = (n, info["T1"], info["t_end"], info["steps"])
-        exudyn(*job)
-        fb, sp_, de = [], [], []
-        for _ in range(args.repeats):
-            fb.append(flexbench(n)[0])
-            t, tip = exudyn(*job)
-            sp_.append(t)
-            de.append(exudyn(*job, dense=True)[0])
-        a, b, c = (statistics.median(x) for x in (fb, sp_, de))
+        ex, setting, tip = best_exudyn(job, args.repeats)
+        fb = statistics.median(flexbench(n)[0] for _ in range(args.repeats))
         print(
-            f"| {n} | {info['t_end'] / info['T1']:.0f} | {info['steps']} | {1e3 * a:.1f} "
-            f"| {1e3 * b:.1f} | {1e3 * c:.1f} | {a / min(b, c):.3f} |"
+            f"| {n} | {info['t_end'] / info['T1']:.0f} | {info['steps']} | {1e3 * fb:.1f} "
+            f"| {1e3 * ex:.1f} ({setting}) | {fb / ex:.2f} |"
         )
         print(f"  tip uy: replay {info['tip_uy']:.6f}, Exudyn {tip:.6f} (Reissner beam)")
 
