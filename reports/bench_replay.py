@@ -20,8 +20,9 @@ in over 4 lowest periods T1 (C2 quintic ramp) and held until the motion has died
   critical on the lowest mode, as the replay's mass damping is; Exudyn's beams have no mass
   damping).  Timed: ``Assemble`` + ``SolveDynamic`` (nodes and objects added before).
 
-Both are medians of ``--repeats`` interleaved CPU-time rounds after a warm-up.  The printed
-tip deflections show both runs ended at rest on the same static answer.
+Both are medians of ``--repeats`` CPU-time rounds after a warm-up.  Exudyn runs that fail or
+do not end within 1e-4 of the static tip are discarded; the printed tip deflections show
+both ended at rest on the same answer.
 
 Run (Exudyn is not a FlexBench dependency)::
 
@@ -133,21 +134,21 @@ def exudyn(
     return t, float(mbs.GetNodeOutput(nodes[-1], exu.OutputVariableType.Displacement)[1])
 
 
-def best_exudyn(job: tuple, repeats: int) -> tuple[float, str, float]:
-    """Exudyn at its fastest setting that still ends on its strict answer (tip within 1e-6
-    relative of the rtol = 1e-8 run): Newton tolerance 1e-8 .. 1e-5, sparse or dense LU.
-    Returns (median CPU seconds, setting, tip)."""
+def best_exudyn(job: tuple, repeats: int, tip_ref: float) -> tuple[float, str, float]:
+    """Exudyn at its fastest setting (Newton tolerance 1e-8 .. 1e-5, sparse or dense LU)
+    that ends at rest on the static answer: tip within 1e-4 of ``tip_ref`` (the replay's
+    settled tip, the static FE's to 1e-7 L; Exudyn's shear-deformable beam differs by ~2e-5).
+    Returns (median CPU seconds, setting, tip); (inf, "none converged", nan) if none does."""
     import exudyn as exu
 
-    strict = exudyn(*job)[1]
-    best = (math.inf, "", math.nan)
+    best = (math.inf, "none converged", math.nan)
     for rtol in (1e-8, 1e-7, 1e-6, 1e-5):
         for dense in (False, True):
             try:
                 t, tip = exudyn(*job, dense=dense, rtol=rtol)
             except exu.SolverError:
                 continue
-            if abs(tip - strict) > 1e-6 * abs(strict):
+            if not abs(tip - tip_ref) <= 1e-4 * abs(tip_ref):
                 continue
             if t < 3.0 * best[0]:  # a contender: time it properly
                 t = statistics.median(exudyn(*job, dense, rtol)[0] for _ in range(repeats))
@@ -170,7 +171,7 @@ def main(argv: list[str] | None = None) -> None:
         flexbench(n)  # warm-up
         _, info = flexbench(n)
         job = (n, info["T1"], info["t_end"], info["steps"])
-        ex, setting, tip = best_exudyn(job, args.repeats)
+        ex, setting, tip = best_exudyn(job, args.repeats, info["tip_uy"])
         fb = statistics.median(flexbench(n)[0] for _ in range(args.repeats))
         print(
             f"| {n} | {info['t_end'] / info['T1']:.0f} | {info['steps']} | {1e3 * fb:.1f} "
