@@ -201,9 +201,10 @@ def servo_dof(full: object, j: int) -> int:
 
 class _Aim:
     """The ``reach`` hook of ``replay_system``: settle with the target coordinate ``off + c
-    q[j]`` at the report value T, moving the servo DOF ``i``.  For i != j: secant on settled
-    states, each move at most twice the last settled increment (unit slope for the first),
-    Illinois regula falsi once T is bracketed."""
+    q[j]`` at the report value T, moving the servo DOF ``i``.  For i != j: the first guess is
+    the quadratic through the last three settled (target, servo) points, then secant, each
+    move at most twice the last settled increment (unit slope for the very first), Illinois
+    regula falsi once T is bracketed."""
 
     MAX_SETTLES = 30
 
@@ -234,6 +235,9 @@ class _Aim:
                         f"{g1 + T:.6g}) at servo position {q0:.6g}: a snap under this servo"
                     )
                 p_new = q1 - g1 * (q1 - q0) / (g1 - g0)
+            elif last is None and len(self.seen) > 2:  # first guess: quadratic through the
+                p_new = _lagrange(self.seen[-3:], T)  # last three settled points
+                p_new = p + float(np.clip(p_new - p, -cap, cap))
             else:
                 p_new = p + float(np.clip(slope * (T - y), -cap, cap))
             s, chk = _reach(run, p_new)
@@ -251,6 +255,18 @@ class _Aim:
             ends[side], last, p, y = (y_new - T, p_new), side, p_new, y_new
         self.jumped = len(ends) == 2  # bracketed but not landed: a jump, or too slow
         raise ev.ReplayError(f"the servo did not bring the target to {T:.6g} (last {y:.6g})")
+
+
+def _lagrange(pts: list[tuple[float, float]], y: float) -> float:
+    """p(y) of the quadratic through three (y, p) points (distinct y)."""
+    (y0, p0), (y1, p1), (y2, p2) = pts
+    if len({y0, y1, y2}) < 3:
+        return p2 + (p2 - p1) / (y2 - y1) * (y - y2) if y2 != y1 else p2
+    return (
+        p0 * (y - y1) * (y - y2) / ((y0 - y1) * (y0 - y2))
+        + p1 * (y - y0) * (y - y2) / ((y1 - y0) * (y1 - y2))
+        + p2 * (y - y0) * (y - y1) / ((y2 - y0) * (y2 - y1))
+    )
 
 
 def target(scene: Scene, full: object) -> tuple[tuple[int, float, float], np.ndarray] | str:
