@@ -9,12 +9,14 @@ Modelling choices (what the scene format means here)
 * Every flexible member is meshed on a scikit-fem ``MeshLine1`` in its arc-length coordinate
   with ``n_elements`` corotational elements; break points are inserted where loads act at a
   fraction along the member (segments get elements in proportion to their length).
-* Rigid members are *one stiff corotational element* per segment (not an exact constraint):
-  ``EI_r = rigid_factor * K_ref * L`` and ``EA_r = 12 EI_r / L^2`` where ``K_ref`` is the
-  largest rotational stiffness scale of the scene (flexible ``EI/L``, torsion-spring and
-  linear-spring stiffnesses).  With the default ``rigid_factor = 1e6`` the link compliance
-  perturbs outputs by ~1e-6 relative, far below the mesh error, and a stiff element keeps
-  large rigid rotations exact (corotational) without a nonlinear constraint.
+* Rigid members are exact constraints with ``exact_rigid`` (what ``fem-N``/``fem-auto`` use,
+  ``rigid.py``): never meshed, the link's two end rotations are one rotation DOF, each
+  segment keeps its chord rotated by it (Lagrange multipliers).  Otherwise (the replay, the
+  deploy analysis, option ``rigid_links = "stiff"``) they are *one stiff corotational element*
+  per segment: ``EI_r = rigid_factor * K_ref * L`` and ``EA_r = 12 EI_r / L^2`` where
+  ``K_ref`` is the largest rotational stiffness scale of the scene (flexible ``EI/L``,
+  torsion-spring and linear-spring stiffnesses); with the default ``rigid_factor = 1e6``
+  the link compliance perturbs outputs by ~1e-6 relative.
 * Welded member ends at a node share one rotation DOF; every pinned end has its own.
   Translations are always shared at a node.
 * Supports: ``clamp`` fixes x, y and the welded rotation; ``pin`` x, y; ``slider`` keeps the
@@ -43,6 +45,7 @@ from scipy.sparse.csgraph import reverse_cuthill_mckee
 from cases.arc import arc_points
 from cases.schema import Member, Scene
 from fem_reference import corotational as cr
+from fem_reference.dofs import number_dofs
 from fem_reference.femsystem import Evaluation, FEMSystem, MemberMesh, ModelError
 from fem_reference.scatter import BandScatter, Scatter
 
@@ -85,19 +88,25 @@ def _density(scene: Scene, m: Member) -> float:
 
 def build(
     scene: Scene,
-    n_elements: int,
+    n_elements: int | dict[str, int],
     *,
     rigid_factor: float = 1e6,
     driver_load: bool = False,
     check_only: bool = False,
+    exact_rigid: bool = False,
 ) -> FEMSystem | None:
     """Discretise ``scene`` with ``n_elements`` corotational elements per flexible member.
 
     Parameters
     ----------
     scene : the validated scene.
-    n_elements : elements per flexible member (>= 1); rigid members get one per segment.
-    rigid_factor : stiffness ratio of rigid links to the scene's stiffest flexible part.
+    n_elements : elements per flexible member (>= 1), or ``{member id: elements}`` for every
+        flexible member (per-member refinement); rigid members get one per segment.
+    rigid_factor : stiffness ratio of rigid links to the scene's stiffest flexible part
+        (stiff-element rigid links only).
+    exact_rigid : rigid links are exact constraints (``rigid.py``: one rotation DOF per link,
+        Lagrange multipliers), not stiff elements.  The static solvers use this; the replay
+        and the deploy analysis keep the stiff elements (they need a mass on every DOF).
     driver_load : energy analyses: the scene loads form the *constant* group (applied at
         ``system.const_factor``) and a unit force/torque at the driver coordinate is the
         lam-scaled load, so lam is the driver reaction.
@@ -108,7 +117,9 @@ def build(
     ------
     ModelError : the scene uses something this discretisation cannot represent.
     """
-    if n_elements < 1:
+    per = n_elements if isinstance(n_elements, dict) else {}
+    n_default = max(per.values(), default=1) if per else int(n_elements)
+    if n_default < 1 or any(v < 1 for v in per.values()):
         raise ModelError("n_elements must be >= 1")
     nodes = {n.id: i for i, n in enumerate(scene.nodes)}
     pts = [[n.x, n.y] for n in scene.nodes]
@@ -122,33 +133,24 @@ def build(
     kref += [abs(m.k or 0.0) * scene.member_length(m.id) ** 2 for m in springs_m]
     Kref = max(kref) if kref and max(kref) > 0 else 1.0
 
-    # -- rotation DOFs at scene nodes: one shared by welded ends, one per pinned end
-    weld_nodes = {m.a for m in beams_m if m.end_a == "weld"} | {
-        m.b for m in beams_m if m.end_b == "weld"
-    }
-    # per point: list of full DOF ids; numbering is per point (ux, uy, rotations...)
-    nfull = 0
-    trans, weld_rot, end_rot = [], {}, {}
-    for n in scene.nodes:
-        trans.append([nfull, nfull + 1])
-        nfull += 2
-        if n.id in weld_nodes:
-            weld_rot[n.id] = nfull
-            nfull += 1
-        for m in beams_m:
-            for end, nid, kind in (("a", m.a, m.end_a), ("b", m.b, m.end_b)):
-                if nid == n.id:
-                    if kind == "weld":
-                        end_rot[(m.id, end)] = weld_rot[n.id]
-                    else:
-                        end_rot[(m.id, end)] = nfull
-                        nfull += 1
+    trans, weld_rot, end_rot, nfull = number_dofs(scene, beams_m, exact_rigid)
     # -- mesh beam members (scikit-fem MeshLine1 in arc length)
     load_points: dict[tuple[str, float], tuple[int, int]] = {}
     members: list[MemberMesh] = []
     X21, L0, ka, kb, EI_e, edofs, mA, mR = [], [], [], [], [], [], [], []
     ne_total = 0
     rot_of_point: dict[int, int] = {}
+    # exact rigid links: constraint blocks [ua, va, ub, vb, theta, mu_x, mu_y] and chords; a
+    # segment whose ends one body already joins (a welded rigid loop) adds no constraint
+    con: list[list[int]] = []
+    con_X: list[np.ndarray] = []
+    link_parent: dict[tuple, tuple] = {}
+
+    def link_root(k: tuple) -> tuple:
+        while link_parent.get(k, k) != k:
+            k = link_parent[k]
+        return k
+
     mean_A = np.mean([m.A for m in flex if m.A is not None] or [1.0])
     for m in beams_m:
         a, b = scene.node(m.a), scene.node(m.b)
@@ -161,7 +163,8 @@ def build(
         )
         s = [0.0]
         for f0, f1 in zip(fr[:-1], fr[1:]):
-            k = 1 if m.kind == "rigid" else max(1, round(n_elements * (f1 - f0)))
+            n_m = per.get(m.id, n_default)
+            k = 1 if m.kind == "rigid" else max(1, round(n_m * (f1 - f0)))
             s.extend(np.linspace(f0 * L, f1 * L, k + 1)[1:].tolist())
         s = np.array(s)
         # nodes on the exact member line (straight or circular arc, ``cases.arc``); the
@@ -172,18 +175,30 @@ def build(
         xy[-1] = (b.x, b.y)
         dxy = np.diff(xy, axis=0)
         s_arc, s = s, np.concatenate([[0.0], np.cumsum(np.hypot(dxy[:, 0], dxy[:, 1]))])
-        mesh = cr.line_mesh(s)
+        exact = exact_rigid and m.kind == "rigid"
         p_ids = [nodes[m.a]]
         for si in xy[1:-1]:
             p_ids.append(len(pts))
             pts.append([float(si[0]), float(si[1])])
             trans.append([nfull, nfull + 1])
-            rot_of_point[p_ids[-1]] = nfull + 2
-            nfull += 3
+            # a point along an exact rigid link turns with the link (its body rotation)
+            rot_of_point[p_ids[-1]] = end_rot[(m.id, "a")] if exact else nfull + 2
+            nfull += 2 if exact else 3
         p_ids.append(nodes[m.b])
         p_ids = np.array(p_ids)
         for f in fr[1:-1]:
             load_points[(m.id, f)] = (int(p_ids[np.argmin(np.abs(s_arc - f * L))]), 0)
+        if exact:  # never meshed: one constraint per segment, unless already implied
+            for i, j in zip(p_ids[:-1], p_ids[1:]):
+                body = end_rot[(m.id, "a")]  # the link's rotation DOF names its body
+                if link_root((body, i)) != link_root((body, j)):
+                    link_parent[link_root((body, i))] = link_root((body, j))
+                    con.append([*trans[i], *trans[j], end_rot[(m.id, "a")], nfull, nfull + 1])
+                    con_X.append(np.subtract(pts[j], pts[i]))
+                    nfull += 2
+            members.append(MemberMesh(m.id, m.kind, p_ids, slice(ne_total, ne_total), s))
+            continue
+        mesh = cr.line_mesh(s)
         rots = [end_rot[(m.id, "a")]] + [rot_of_point[p] for p in p_ids[1:-1]]
         rots.append(end_rot[(m.id, "b")])
         if m.kind == "flexible":
@@ -382,15 +397,20 @@ def build(
         free[f] = k
         k += 1
     ndof = k
+    con_dofs = np.array(con, dtype=np.int64).reshape(-1, 7)
     is_rot_full = np.ones(nfull + 1, dtype=bool)
     is_rot_full[trans.ravel()] = False
+    is_mult_full = np.zeros(nfull + 1, dtype=bool)
+    is_mult_full[con_dofs[:, 5:].ravel()] = True
+    is_rot_full[is_mult_full] = False
 
-    # -- families: beams (6), springs (4), torsion (2), followers (3)
+    # -- families: beams (6), springs (4), torsion (2), followers (3), rigid links (7)
     fam = [
         beam_dofs,
         np.array(sd, dtype=np.int64).reshape(-1, 4),
         np.array(td, dtype=np.int64).reshape(-1, 2),
         np.array(fd, dtype=np.int64).reshape(-1, 3),
+        con_dofs,
     ]
     scatter = Scatter(free, coef, fam, ndof)
     # renumber free DOFs by reverse Cuthill-McKee: member chains become narrow bands, so the
@@ -407,6 +427,8 @@ def build(
     is_rotation = np.ones(ndof, dtype=bool)
     m_ = free >= 0
     is_rotation[free[m_][~is_rot_full[m_]]] = False
+    is_multiplier = np.zeros(ndof, dtype=bool)
+    is_multiplier[free[m_][is_mult_full[m_]]] = True
     Mb = np.zeros((ne_total, 6, 6))
     if ne_total:
         MA, MR = np.concatenate(mA), np.concatenate(mR)
@@ -418,6 +440,7 @@ def build(
         np.zeros((fam[1].shape[0], 4, 4)),
         np.zeros((fam[2].shape[0], 2, 2)),
         np.zeros((fam[3].shape[0], 3, 3)),
+        np.zeros((fam[4].shape[0], 7, 7)),
     )
 
     rs = np.where(is_rot_full, 1.0 / Lref, 1.0)  # moments -> force units
@@ -432,7 +455,7 @@ def build(
     out_rot = {o.name: node_rot(o.node) for o in scene.outputs}
     system = FEMSystem(
         scene=scene,
-        n_elements=n_elements,
+        n_elements=n_default,
         ndof=ndof,
         free=free,
         coef=coef,
@@ -457,12 +480,18 @@ def build(
         out_rot=out_rot,
         out_point=out_point,
         scatter=scatter,
-        weights=np.where(is_rotation, 1.0, 1.0 / Lref**2) / max(ndof, 1),
+        weights=np.where(is_multiplier, 0.0, np.where(is_rotation, 1.0, 1.0 / Lref**2))
+        / max(ndof, 1),
         is_rotation=is_rotation,
         mass_blocks=mass_blocks,
         Lref=float(Lref),
         fscale=fscale,
         bandwidth=bandwidth,
+        con_dofs=con_dofs,
+        con_X=np.array(con_X, dtype=float).reshape(-1, 2),
+        con_kappa=Kref / Lref**2,
+        is_multiplier=is_multiplier,
+        n_per_member={m.id: per.get(m.id, n_default) for m in flex},
         extra={
             "Kref": Kref,
             "end_rot": end_rot,

@@ -42,6 +42,7 @@ from scipy.optimize import brentq
 
 from fem_reference import static as S
 from fem_reference.banded import BAND_MAX, symmetric_upper_band
+from fem_reference.rigid import stability_view
 
 KIND_TOL = 1e-3
 SWITCH_AMPLITUDE = 1e-2
@@ -67,7 +68,8 @@ def lowest_mode(
     crossing -- the critical factor -- is found to round-off.  Pass one fixed ``S`` along a
     path so that the eigenvalue is a continuous function of the load factor.
     """
-    _, K = system.residual_and_tangent(u, lam)
+    with stability_view(system):  # exact rigid links: the augmented Lagrangian Hessian
+        _, K = system.residual_and_tangent(u, lam)
     Ks = (0.5 * (K + K.T)).tocsc()
     if scale is None:
         d = np.abs(Ks.diagonal())
@@ -110,7 +112,8 @@ class Watch:
         bw = getattr(self.sys, "bandwidth", None)
         if not hasattr(self.sys, "tangent_band") or bw is None or bw > BAND_MAX:
             return bool(self.stability(st)["stable"])
-        ab = self.sys.tangent_band(self.sys.evaluate(st.u, st.lam))
+        with stability_view(self.sys):
+            ab = self.sys.tangent_band(self.sys.evaluate(st.u, st.lam))
         d = np.abs(ab[2 * bw])
         up = symmetric_upper_band(ab, bw, 1.0 / np.sqrt(np.where(d > 0.0, d, 1.0)))
         self._fast = (st, bool(sla.lapack.dpbtrf(up, lower=0)[1] == 0))

@@ -28,6 +28,7 @@ import scipy.sparse.linalg as spla
 
 from cases.schema import Scene
 from fem_reference import corotational as cr
+from fem_reference import rigid
 from fem_reference.banded import BAND_MAX, BandedLU, SingularTangent
 from fem_reference.scatter import BandScatter, Scatter
 from reduced_models.base import Step
@@ -77,7 +78,9 @@ class FEMSystem:
     (1/Lref^2 for translations, 1 for rotations, divided by ndof: an RMS norm, so arc-length
     steps mean the same on every mesh), ``is_rotation`` (ndof,) bool,
     ``preload`` (scale of spring preloads, 1.0 = as specified), ``const_factor`` (load factor
-    of the ``constant`` load group, used by energy analyses).
+    of the ``constant`` load group, used by energy analyses), ``is_multiplier`` (ndof,) bool
+    (the Lagrange multipliers of exact rigid links, ``rigid.py``; weight 0 in the metric),
+    ``n_per_member`` {flexible member id: elements}.
     """
 
     scene: Scene
@@ -114,6 +117,12 @@ class FEMSystem:
     bandwidth: int = 0
     preload: float = 1.0
     const_factor: float = 0.0
+    con_dofs: np.ndarray = field(default_factory=lambda: np.zeros((0, 7), dtype=np.int64))
+    con_X: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    con_kappa: float = 1.0
+    is_multiplier: np.ndarray | None = None
+    n_per_member: dict = field(default_factory=dict)
+    stab_mode: bool = False  # tangents are the stability blocks (``rigid.stability_view``)
     extra: dict = field(default_factory=dict)
 
     # -- state helpers ---------------------------------------------------------------------
@@ -168,6 +177,24 @@ class FEMSystem:
         K[:, :2, 2:] = K[:, 2:, :2] = -k2
         return f, K, e
 
+    def _constraints(self, d: np.ndarray, tangent: bool) -> np.ndarray:
+        """Rigid-link constraint blocks: residual (nc, 7) or tangent (nc, 7, 7); in
+        ``stab_mode`` the stability blocks (``rigid.py``)."""
+        dd = d[self.con_dofs]
+        if not tangent:
+            return rigid.forces(dd, self.con_X, self.con_kappa)
+        if self.stab_mode:
+            rho = rigid.RHO_FACTOR * self.con_kappa
+            return rigid.stability_blocks(dd, self.con_X, self.con_kappa, rho)
+        return rigid.tangent(dd, self.con_X, self.con_kappa)
+
+    def max_link_error(self, u: np.ndarray) -> float:
+        """Largest constraint violation |c| of the exact rigid links at state u (length)."""
+        if not self.con_dofs.shape[0]:
+            return 0.0
+        c = rigid.violation(self.full(u)[self.con_dofs], self.con_X)
+        return float(np.max(np.hypot(c[:, 0], c[:, 1])))
+
     def _torsion(self, d: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
         nt = self.tors_dofs.shape[0]
         if nt == 0:
@@ -211,14 +238,14 @@ class FEMSystem:
         fi = self.free[self.beam_dofs].T
         w = self.coef[self.beam_dofs].T
         ok = (fi >= 0) & (w != 0.0)
-        fams = [self.beam_dofs, self.spring_dofs, self.tors_dofs, self.fol_dofs]
+        fams = [self.beam_dofs, self.spring_dofs, self.tors_dofs, self.fol_dofs, self.con_dofs]
         bw = self.bandwidth if self.bandwidth <= BAND_MAX else None
         return SimpleNamespace(
             uidx=np.ascontiguousarray(np.where(ok, fi, n)),
             ucoef=None if np.all(w[ok] == 1.0) else np.where(ok, w, 0.0),
             scatter=BandScatter(self.free, self.coef, fams, n, bw),
             others=bool(self.spring_dofs.shape[0] or self.tors_dofs.shape[0])
-            or bool(self.fol_dofs.shape[0]),
+            or bool(self.fol_dofs.shape[0] or self.con_dofs.shape[0]),
             follow=bool(np.any(self.fol_group == 0)),
             dead=self._full_to_free(self.dead),
             dead_const=self._full_to_free(self.dead_const),
@@ -244,6 +271,8 @@ class FEMSystem:
                 blocks[2] = self._torsion(d)[0].T
             if self.fol_dofs.shape[0]:
                 blocks[3] = -self._load_blocks(d, lam)[0].T
+            if self.con_dofs.shape[0]:
+                blocks[4] = self._constraints(d, False).T
         r = fx.scatter.vector([blocks[i] for i in fx.scatter.active])
         r -= lam * fx.dead
         if self.const_factor != 0.0:
@@ -263,6 +292,9 @@ class FEMSystem:
             if self.fol_dofs.shape[0]:
                 Kl = self._load_blocks(ev.d, ev.lam)[1]
                 mats[3] = Kl.reshape(Kl.shape[0], 9).T
+            if self.con_dofs.shape[0]:
+                Kc = self._constraints(ev.d, True)
+                mats[4] = Kc.reshape(Kc.shape[0], 49).T
         return mats
 
     def tangent_band(self, ev: Evaluation) -> np.ndarray:
@@ -275,8 +307,8 @@ class FEMSystem:
     def tangent_csr(self, ev: Evaluation) -> sp.csr_matrix:
         """Tangent at the evaluated point as csr (ndof, ndof)."""
         mats = self._tangent_blocks(ev)
-        sizes = (6, 4, 2, 3)
-        fams = (self.beam_dofs, self.spring_dofs, self.tors_dofs, self.fol_dofs)
+        sizes = (6, 4, 2, 3, 7)
+        fams = (self.beam_dofs, self.spring_dofs, self.tors_dofs, self.fol_dofs, self.con_dofs)
         blocks = []
         for i, (k, f) in enumerate(zip(sizes, fams)):
             m = mats.get(i)

@@ -1,6 +1,10 @@
 """Checks that a converged FE state is one the model may stand behind.
 
-* *Rigid stays rigid*: rigid links are stiff corotational elements (``rigid_factor``, relative
+* *Rigid stays rigid*: by default rigid links are exact constraints (``rigid.py``) that
+  cannot stretch; a driver beyond the mechanism's reach leaves no equilibrium and the run
+  fails (``models.Runner.run`` names the reason).  A returned state whose links are off by
+  more than ``LINK_ERROR_MAX`` (relative to the scene's length) is refused.  With the option
+  ``rigid_links = "stiff"`` they are stiff corotational elements (``rigid_factor``, relative
   compliance ~1e-6); a link stretched by more than ``RIGID_STRETCH_MAX`` (relative) means the
   scene asks for the impossible -- a driver beyond the mechanism's reach, or loads that only
   the link's artificial axial compliance can carry -- and the run fails with that reason.
@@ -17,6 +21,7 @@ import numpy as np
 from fem_reference import corotational as cr
 
 RIGID_STRETCH_MAX = 1e-4  # 100x the stiff-link compliance of the default rigid_factor
+LINK_ERROR_MAX = 1e-9  # exact links: far above round-off, far below any output tolerance
 STRAIN_MAX = 0.2
 
 
@@ -36,6 +41,9 @@ def violation(system: object, u: np.ndarray) -> str | None:
     """None, or why state ``u`` is outside what the FE model represents."""
     if not hasattr(system, "beams") or not hasattr(system, "members"):
         return None
+    link = system.max_link_error(u) / system.length_scale()
+    if link > LINK_ERROR_MAX:
+        return f"rigid links off by {link:.2g} L (bound {LINK_ERROR_MAX:g}): not an equilibrium"
     for mid, (kind, e) in strains(system, u).items():
         if kind == "rigid" and e > RIGID_STRETCH_MAX:
             return (

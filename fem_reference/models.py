@@ -26,6 +26,7 @@ import numpy as np
 
 from cases.schema import Scene
 from fem_reference import static as S
+from fem_reference.adaptive import flexible_ids, relative_estimate, solve_per_member
 from fem_reference.assembly import FEMSystem, ModelError, build
 from fem_reference.bifurcation import Watch, is_conservative
 from fem_reference.driver_post import post_process
@@ -52,7 +53,8 @@ FEM_OPTIONS: dict[str, tuple] = {
     "arc_length": ("float", 1e-12, 1e3, (), "initial arc length (W-norm)"),
     "arc_length_max": ("float", 1e-12, 1e3, (), "largest arc length"),
     "stability": ("bool", None, None, (), "tangent stability test per step"),
-    "rigid_factor": ("float", 1e2, 1e12, (), "rigid link stiffness / member stiffness"),
+    "rigid_factor": ("float", 1e2, 1e12, (), "stiff rigid links: stiffness / member stiffness"),
+    "rigid_links": ("str", None, None, ("exact", "stiff"), "exact constraints or stiff elements"),
     "dense_max": ("int", 1, 100_000, (), "largest dense eigenproblem"),
     "limit_points": ("bool", None, None, (), "refine limit points of paths"),
     "bifurcation": ("bool", None, None, (), "detect bifurcations and switch branch"),
@@ -95,7 +97,11 @@ class Runner:
         self.o = o
         a = scene.analysis
         self.system = build(
-            scene, n, rigid_factor=float(o.get("rigid_factor", 1e6)), driver_load=a.kind == "energy"
+            scene,
+            n,
+            rigid_factor=float(o.get("rigid_factor", 1e6)),
+            driver_load=a.kind == "energy",
+            exact_rigid=o.get("rigid_links", "exact") == "exact",
         )
         if a.kind == "energy":
             self.system.const_factor = a.factor_end
@@ -174,6 +180,11 @@ class Runner:
             else:
                 return "not-applicable", f"analysis kind {kind!r} is not solved by fem"
         except S.SolveError as err:
+            if kind in ("distance", "energy") and self.system.con_dofs.shape[0]:
+                return "failed", (
+                    f"{err}; the rigid links (exact constraints) admit no equilibrium beyond "
+                    "this driver value: a driver beyond the mechanism's reach, or the links lock"
+                )
             return "failed", str(err)
         except (np.linalg.LinAlgError, FloatingPointError, ValueError) as err:
             return "failed", f"{type(err).__name__}: {err}"
@@ -334,10 +345,11 @@ class FEM:
         assumptions=(
             "Euler-Bernoulli beams: no shear deformation; linear elastic local law",
             "small strains, arbitrarily large rotations (corotational)",
-            "rigid links = one stiff element (relative compliance ~1e-6)",
+            "rigid links = exact constraints (rigid bodies, Lagrange multipliers; option "
+            "rigid_links = 'stiff': one stiff element, relative compliance ~1e-6, stretch "
+            "checked <= 1e-4 at every state)",
             "stability from the lowest eigenvalue of the symmetric tangent (conservative loads "
             "only; under follower loads the verdict is None)",
-            "rigid links = stiff elements whose stretch is checked (<= 1e-4) at every state",
         ),
         validity="any planar scene of the case format; discretisation error O(h^2) in "
         "displacements (use fem-auto for an error estimate)",
@@ -346,9 +358,10 @@ class FEM:
 
     OPTIONS = FEM_OPTIONS
 
-    def __init__(self, n: int = 32, **options: object):
-        self.n = int(n)
-        self.name = f"fem-{self.n}"
+    def __init__(self, n: int | dict[str, int] = 32, **options: object):
+        # a dict gives each flexible member its own count (``fem-auto``'s per-member meshes)
+        self.n = {k: int(v) for k, v in n.items()} if isinstance(n, dict) else int(n)
+        self.name = f"fem-{max(self.n.values(), default=1) if isinstance(n, dict) else self.n}"
         self.options = dict(options)
 
     def applies_to(self, scene: Scene) -> str | None:
@@ -358,7 +371,7 @@ class FEM:
         if getattr(self, "_checked", (None,))[0] is scene:  # scenes are frozen: same answer
             return self._checked[1]
         try:
-            build(scene, 1, check_only=True)
+            build(scene, 1, check_only=True, exact_rigid=True)
             reason = None
         except (ModelError, KeyError) as err:
             reason = f"not representable: {err}"
@@ -369,6 +382,20 @@ class FEM:
         """Run and return the runner (states kept) with status and message."""
         r = Runner(scene, self.n, self.options)
         status, message = r.run()
+        if (
+            status == "failed"
+            and "singular" in message
+            and r.system.con_dofs.shape[0]
+            and "rigid_links" not in self.options
+        ):  # redundant link constraints (over-constrained links): stiff links carry them
+            r = Runner(scene, self.n, {**self.options, "rigid_links": "stiff"})
+            status, message = r.run()
+            note = (
+                "exact rigid-link constraints singular (over-constrained links?): solved with "
+                "stiff links (compliance ~1e-6)"
+            )
+            message = f"{note}; {message}" if message else note
+            r.extras["rigid_links"] = "stiff"
         ignored = sorted(set(self.options) - set(_OPTION_KEYS) - {"sequence"})
         if ignored:
             r.extras["ignored_options"] = ignored
@@ -391,6 +418,9 @@ class FEMAuto:
     """``fem-auto``: mesh sequence + Richardson extrapolation with an error estimate.
 
     Options: ``sequence`` (element counts, default 8, 16, 32, 64) plus the ``fem-N`` options.
+    Scenes with two or more flexible members mesh each member as its own error estimate asks
+    (``adaptive.py``): the sequence gives the top member's counts; a ``target`` (relative
+    error: translations / L, rotations in rad) extends it while the estimate is above.
     ``extras['error_estimate'][key]`` = absolute error estimate at the last step;
     ``extras['observed_order'][key]`` = observed order at the last step.
     """
@@ -399,16 +429,28 @@ class FEMAuto:
         name="fem-auto",
         family="fem",
         summary="fem-N on a mesh sequence, Richardson-extrapolated with observed order and "
-        "error estimate per output",
-        assumptions=FEM.card.assumptions + ("asymptotic range: error ~ C h^p",),
+        "error estimate per output; several flexible members are meshed each as its own "
+        "error estimate asks",
+        assumptions=FEM.card.assumptions
+        + (
+            "asymptotic range: error ~ C h^p",
+            "per-member meshes: a member's error shows in its deflection from the chord of "
+            "its deformed ends (Richardson indicator from uniform N and 2N meshes)",
+        ),
         validity="as fem-N; the error estimate is meaningful when the observed order is near 2",
         references=_REFS,
     )
 
-    OPTIONS = {**FEM_OPTIONS, "sequence": ("ints", 1, 100_000, (), "element counts")}
+    OPTIONS = {
+        **FEM_OPTIONS,
+        "sequence": ("ints", 1, 100_000, (), "element counts"),
+        "target": ("float", 1e-14, 1e-1, (), "per-member meshes: relative error target"),
+    }
 
     def __init__(self, sequence: tuple[int, ...] | list[int] = (8, 16, 32, 64), **options):
         self.sequence = tuple(int(n) for n in sequence)
+        target = options.pop("target", None)
+        self.target = None if target is None else float(target)
         self.options = dict(options)
         self.name = "fem-auto"
 
@@ -427,11 +469,21 @@ class FEMAuto:
             return solve_deploy(scene, self.name, self.sequence[-1])
         from fem_reference.richardson import combine
 
+        if len(flexible_ids(scene)) >= 2:  # each member meshed as its error needs
+            sol = solve_per_member(scene, self.name, self.sequence, self.options, self.target)
+            return post_process(scene, sol)
         # stability is reported from the finest mesh only: skip the eigen-analysis elsewhere
         coarse = {**self.options, "stability": False}
         runs = [FEM(n, **coarse).runner(scene) for n in self.sequence[:-1]]
         runs.append(FEM(self.sequence[-1], **self.options).runner(scene))
-        return post_process(scene, combine(scene, self.name, self.sequence, runs))
+        sol = combine(scene, self.name, self.sequence, runs)
+        sol.extras["fidelity"] = {  # what the report shows for every *-auto model
+            "n": self.sequence[-1],
+            "sequence": list(self.sequence),
+            "estimate": relative_estimate(scene, sol),
+            "target": None,
+        }
+        return post_process(scene, sol)
 
 
 __all__ = ["DEFAULT_NAMES", "FEM", "FEMAuto", "MODELS", "Runner"]

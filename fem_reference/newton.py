@@ -22,6 +22,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from fem_reference.banded import SingularTangent, factor, vdot
 from fem_reference.system import DiscreteSystem
@@ -110,6 +111,25 @@ def tangent_lu(system: DiscreteSystem, u: np.ndarray, lam: float) -> object:
     return factor_at(o, o.evaluate(u, lam))
 
 
+def bordered_solve(
+    system: DiscreteSystem, ev: object, i: int, c: float, rhs_r: np.ndarray, rhs_g: float
+) -> tuple[np.ndarray, float]:
+    """``(du, dl)`` of ``K du - f dl = rhs_r``, ``c du_i = rhs_g``: the tangent bordered by
+    the load and a displacement constraint, factorised together (sparse LU).  For a
+    mechanism held only by its driver (rigid links without springs) ``K`` alone is singular
+    and the bordered system is not."""
+    K = system.tangent_csr(ev) if hasattr(system, "tangent_csr") else ev.K
+    n = K.shape[0]
+    f = np.asarray(system.external(ev.u), dtype=float).reshape(-1, 1)
+    row = sp.csr_matrix(([c], ([0], [i])), shape=(1, n))
+    A = sp.bmat([[K, sp.csr_matrix(-f)], [row, None]], format="csc")
+    try:
+        x = spla.splu(A).solve(np.append(rhs_r, rhs_g))
+    except RuntimeError as err:  # exactly singular
+        raise SolveError(f"singular bordered tangent ({err})") from None
+    return x[:n], float(x[n])
+
+
 def lu_of(system: DiscreteSystem, K: sp.csr_matrix) -> object:
     """Factorisation of a csr tangent of ``system`` (band when narrow); ``SolveError`` if
     singular."""
@@ -169,6 +189,9 @@ class Scaler:
             self._lim = np.where(
                 self.sys.is_rotation, 1.0 / opts.max_rot_step, 1.0 / (opts.max_trans_step * self.L)
             )
+            mult = getattr(self.sys, "is_multiplier", None)
+            if mult is not None:  # Lagrange multipliers (exact rigid links) are not damped
+                self._lim[mult] = 0.0
             self._lim_key = key
         return self._lim
 
@@ -233,9 +256,18 @@ def newton(
             return State(u, lam, 0, 0, rn, None)
         if it == opts.max_iter:
             break
-        lu = factor_at(o, ev, it)
-        du = lu.solve(-r)
-        if constraint is not None:
+        try:
+            lu = factor_at(o, ev, it)
+        except SolveError:
+            if constraint is None:
+                raise
+            lu = None  # singular alone, perhaps not with the constraint: factorised together
+        if lu is None:
+            du, dl = bordered_solve(system, ev, i, c, -r, -g)
+            lam = lam + dl
+        else:
+            du = lu.solve(-r)
+        if constraint is not None and lu is not None:
             dt = lu.solve(system.external(u))
             if abs(c * dt[i]) < 1e-300:
                 raise SolveError("displacement control: controlled DOF does not respond to load")

@@ -3,7 +3,8 @@ storage.
 
 A full DOF ``f`` maps to free DOF ``free[f]`` (-1: fixed) with coefficient ``coef[f]`` (sliders
 at an angle map two translations onto one free DOF).  A *family* is an (nb, k) array of full
-DOF ids, one row per block (beams k = 6, linear springs 4, torsion springs 2, follower loads 3).
+DOF ids, one row per block (beams k = 6, linear springs 4, torsion springs 2, follower loads 3,
+rigid-link constraints 7).
 Index maps are built once per system; every assembly is then one gather/multiply and one
 ``np.bincount``, with no Python loop over elements.
 

@@ -43,11 +43,14 @@ from fem_reference.newton import (
     Scaler,
     SolveError,
     State,
+    bordered_solve,
     converged,
     lu_of,
     newton,
+    ops,
     tangent_lu,
 )
+from fem_reference.rigid import stability_view
 from fem_reference.system import DiscreteSystem
 
 __all__ = [
@@ -167,14 +170,19 @@ def displacement_control(
         dv = sgn * min(h, abs(target - v))
         vt = target if abs(target - (v + dv)) < 1e-12 * (abs(target) + 1.0) else v + dv
         try:
-            lu = tangent_lu(system, u, lam)
-            t = lu.solve(system.external(u))
-            if abs(c * t[i]) > 1e-300:  # tangent predictor scaled to the requested increment
-                dl = (vt - v) / (c * t[i])
-                up, lp = u + dl * t, lam + dl
+            try:
+                lu = tangent_lu(system, u, lam)
+            except SolveError:  # held only by the driver: predictor from the bordered system
+                du, dl = bordered_solve(system, ops(system).evaluate(u, lam), i, c, 0 * u, vt - v)
+                up, lp = u + du, lam + dl
             else:
-                up, lp = u.copy(), lam
-                up[i] += (vt - v) / c
+                t = lu.solve(system.external(u))
+                if abs(c * t[i]) > 1e-300:  # tangent predictor scaled to the increment
+                    dl = (vt - v) / (c * t[i])
+                    up, lp = u + dl * t, lam + dl
+                else:
+                    up, lp = u.copy(), lam
+                    up[i] += (vt - v) / c
             new = newton(system, up, lp, opts, constraint=(i, c, vt - off))
         except SolveError as err:
             iters += err.iterations
@@ -248,6 +256,19 @@ def _inverse_iteration(lu: object, n: int, tol: float = 1e-10, max_it: int = 80)
 
 
 def stability(
+    system: DiscreteSystem,
+    u: np.ndarray,
+    lam: float,
+    dense_max: int = 60,
+    exclude: int | None = None,
+) -> dict:
+    """``_stability`` on the system's stability tangent (for exact rigid links the augmented
+    Lagrangian Hessian, ``rigid.stability_view``; otherwise the tangent itself)."""
+    with stability_view(system):
+        return _stability(system, u, lam, dense_max, exclude)
+
+
+def _stability(
     system: DiscreteSystem,
     u: np.ndarray,
     lam: float,

@@ -46,6 +46,7 @@ The shared Model-protocol layer (``ChainModel``: ``applies_to``/``solve``) lives
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -158,9 +159,11 @@ class SegmentLaw:
         self, ux: np.ndarray, y: np.ndarray, a: np.ndarray, p: np.ndarray, k: float
     ) -> np.ndarray:
         """Segment strain energy (N,) at the stationary axial force p (normalised EI/h)."""
-        w = np.stack([y, a], axis=1)
-        wGw = np.einsum("ni,ij,nj->n", w, self.G, w)
-        wQw = np.einsum("ni,ij,nj->n", w, self.Q, w)
+        (g00, g01), (g10, g11) = self.G.tolist()
+        (q00, q01), (q10, q11) = self.Q.tolist()
+        yy, ya, aa = y * y, y * a, a * a  # the quadratic forms written out (no einsum parsing)
+        wGw = g00 * yy + (g01 + g10) * ya + g11 * aa
+        wQw = q00 * yy + (q01 + q10) * ya + q11 * aa
         return 0.5 * wGw + 0.5 * p**2 * (k - wQw)
 
     def stiffness(self, p: np.ndarray) -> np.ndarray:
@@ -227,14 +230,6 @@ class ChainProblem:
         self.loads = np.asarray(loads, dtype=float)
         self.follower, self.guided = follower, guided
         self.n = NB * (N + 1)
-        self.gdof, self.bidx = _band_index(N)
-        # scatter map of the condensed (X, Y, phi) segment Hessians, upper band storage
-        rdof = 3 * np.arange(N)[:, None] + np.arange(6)[None, :]
-        r, cc = rdof[:, :, None], rdof[:, None, :]
-        # (N, 6, 6): ab[5 + i - j, j] for i <= j; lower-triangle entries go to a dump slot
-        self.ridx = np.where(r <= cc, (5 + r - cc) * 3 * (N + 1) + cc, 6 * 3 * (N + 1)).ravel()
-        self.rfixed = np.array([0, 1, 2] + ([3 * N + 2] if guided else []))
-        self._keep = np.array([0, 1, 2, 4, 5, 6])
         tip = NB * N
         self.tip = tip
         self.fixed = np.array([0, 1, 2, 3] + ([tip + 2] if guided else []))
@@ -250,6 +245,24 @@ class ChainProblem:
         self._coef = np.ones((N, 5))
         self._cache: tuple | None = None
         self._coords_cache: tuple | None = None
+
+    # scatter maps, built on first use (a one-segment chain on floats never needs them)
+    @functools.cached_property
+    def _scatter(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(gdof, bidx)``: ``_band_index(N)``."""
+        return _band_index(self.N)
+
+    @functools.cached_property
+    def _condensed(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(ridx, rfixed, keep)``: scatter map of the condensed (X, Y, phi) segment
+        Hessians (N, 6, 6) to upper band storage ab[5 + i - j, j] for i <= j (lower-triangle
+        entries go to a dump slot), the held rows, the kept local unknowns."""
+        N = self.N
+        rdof = 3 * np.arange(N)[:, None] + np.arange(6)[None, :]
+        r, cc = rdof[:, :, None], rdof[:, None, :]
+        ridx = np.where(r <= cc, (5 + r - cc) * 3 * (N + 1) + cc, 6 * 3 * (N + 1)).ravel()
+        rfixed = np.array([0, 1, 2] + ([3 * N + 2] if self.guided else []))
+        return ridx, rfixed, np.array([0, 1, 2, 4, 5, 6])
 
     def split(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Node states (..., N + 1, 3) and segment axial forces (..., N) from unknowns (..., n)."""
@@ -323,9 +336,10 @@ class ChainProblem:
         from reduced_models.linalg import Banded  # lazy: a chain law's import needs no scipy
 
         gloc, Hloc = self.local(x)
-        g = np.bincount(self.gdof, gloc.ravel(), minlength=self.n)
+        gdof, bidx = self._scatter
+        g = np.bincount(gdof, gloc.ravel(), minlength=self.n)
         nb = 2 * HALF_BAND + 1
-        ab = np.bincount(self.bidx, Hloc.ravel(), minlength=nb * self.n).reshape(nb, self.n)
+        ab = np.bincount(bidx, Hloc.ravel(), minlength=nb * self.n).reshape(nb, self.n)
         t = self.tip
         if self.follower:
             fX, fY, m = lam * self.loads
@@ -371,13 +385,13 @@ class ChainProblem:
 
         _, Hloc = self.local(x)
         Hpp = np.minimum(Hloc[:, 7, 7], -self.N * 1e-9)
-        keep = self._keep
+        ridx, rfixed, keep = self._condensed
         Hc = Hloc[:, keep, 7]
         Hr = Hloc[:, keep[:, None], keep] - Hc[:, :, None] * (Hc / Hpp[:, None])[:, None, :]
         nr = 3 * (self.N + 1)
-        ab = np.bincount(self.ridx, Hr.ravel(), minlength=6 * nr + 1)[: 6 * nr]
+        ab = np.bincount(ridx, Hr.ravel(), minlength=6 * nr + 1)[: 6 * nr]
         R = Banded(ab.reshape(6, nr), 0, 5)
-        R.fix(self.rfixed)
+        R.fix(rfixed)
         return lapack.dpbtrf(R.ab)[1] == 0
 
     def tip_loads(self, X: np.ndarray) -> np.ndarray:
@@ -389,12 +403,25 @@ class ChainProblem:
         """
         Xs = np.atleast_2d(X)
         nodes, p = self.split(Xs)
-        xi, eta, a, c, s = (v[:, 0] for v in local_coords(nodes[:, -2:], self.h))
-        B = self.law.block(xi - 1.0, eta, a, p[:, -1], self.k)
+        coords = (v[:, 0] for v in local_coords(nodes[:, -2:], self.h))
+        out = self.tip_loads_of(*coords, p[:, -1])
+        return out if np.ndim(X) == 2 else out[0]
+
+    def tip_loads_of(
+        self,
+        xi: np.ndarray,
+        eta: np.ndarray,
+        a: np.ndarray,
+        c: np.ndarray,
+        s: np.ndarray,
+        p: np.ndarray,
+    ) -> np.ndarray:
+        """``tip_loads`` (m, 3) from the last segment's ``local_coords`` (each (m,)) and axial
+        force p (m,), for a caller that has them already."""
+        B = self.law.block(xi - 1.0, eta, a, p, self.k)
         pl, fl, ml = B[:, 0, 4], B[:, 1, 4], B[:, 2, 4]
         N2 = self.N**2
-        out = np.column_stack([N2 * (c * pl - s * fl), N2 * (s * pl + c * fl), self.N * ml])
-        return out if np.ndim(X) == 2 else out[0]
+        return np.column_stack([N2 * (c * pl - s * fl), N2 * (s * pl + c * fl), self.N * ml])
 
 
 def chain_shape(nodes: np.ndarray, xl: np.ndarray, yl: np.ndarray, h: float) -> np.ndarray:

@@ -20,7 +20,6 @@ from reduced_models import single_beam
 from reduced_models.base import ModelCard, Solution, Step, load_factors, not_applicable
 from reduced_models.chain import ChainProblem, SegmentLaw, chain_shape, local_coords
 from reduced_models.chain_small import solve_single_segment
-from reduced_models.continuation import minimize_path
 from reduced_models.options import Option
 from reduced_models.path_result import PathResult
 
@@ -114,6 +113,8 @@ class ChainModel:
 
     def _path(self, prob: ChainProblem, factors: np.ndarray) -> PathResult:
         """The general continuation (banded, retraction, follower loads)."""
+        from reduced_models.continuation import minimize_path  # scipy: N > 1 or followers
+
         return minimize_path(
             prob.grad_hess,
             prob.x0,
@@ -166,39 +167,38 @@ class ChainModel:
         # every per-step quantity for all reported states at once: (m, N) segment arrays
         m = len(res.factors)
         nodes, p = prob.split(res.states)  # (m, N + 1, 3), (m, N)
-        xi, eta, a, _, _ = local_coords(nodes, prob.h)
+        xi, eta, a, c, s = local_coords(nodes, prob.h)
         ux = xi - 1.0
         flat = (ux.ravel(), eta.ravel(), a.ravel(), p.ravel(), k)
         energy = EI / L * N * self.law.energy(*flat).reshape(m, N).sum(axis=1)
-        loads = prob.tip_loads(res.states) * np.array([EI / L**2, EI / L**2, EI / L])
+        last = (xi[:, -1], eta[:, -1], a[:, -1], c[:, -1], s[:, -1], p[:, -1])
+        loads = prob.tip_loads_of(*last) * np.array([EI / L**2, EI / L**2, EI / L])
         ymax = np.abs(eta).max(axis=1, initial=0.0)
         flags = self.warning_flags(ux, eta, a, p, k)
         steps = []
         a_cfg = scene.analysis
+        stop = a_cfg.kind == "path" and a_cfg.stop_output and a_cfg.stop_value is not None
         v0 = None
-        for j in range(m):
-            lam = float(res.factors[j])
-            tip = nodes[j, -1]
-            outputs = single_beam.tip_outputs(scene, beam, tip[0] * L, tip[1] * L, tip[2])
-            steps.append(
-                Step(
-                    factor=lam,
-                    outputs=outputs,
-                    energy=float(energy[j]),
-                    iterations=int(res.iterations[j]),
-                    stable=res.stable[j],
-                    info={
-                        "tip.fx": float(loads[j, 0]),
-                        "tip.fy": float(loads[j, 1]),
-                        "tip.m": float(loads[j, 2]),
-                        "residual": float(res.residuals[j]),
-                        "cuts": float(res.cuts[j]),
-                        "max_segment_y": float(ymax[j]),
-                    },
-                )
-            )
+        outputs_of = single_beam.output_map(scene, beam)  # keys and frames looked up once
+        # plain floats from here (one conversion per array, not one per entry)
+        per_step = zip(
+            res.factors.tolist(),
+            (nodes[:, -1] * np.array([L, L, 1.0])).tolist(),
+            energy.tolist(),
+            res.iterations.tolist(),
+            res.stable,
+            loads.tolist(),
+            res.residuals.tolist(),
+            res.cuts.astype(float).tolist(),
+            ymax.tolist(),
+        )
+        for j, (lam, (tx, ty, tr), e, its, st, (lx, ly, lm), r, cuts, ym) in enumerate(per_step):
+            outputs = outputs_of(tx, ty, tr)
+            info = {"tip.fx": lx, "tip.fy": ly, "tip.m": lm, "residual": r, "cuts": cuts}
+            info["max_segment_y"] = ym
+            steps.append(Step(lam, outputs, e, its, st, info=info))
             # a "path" analysis stops once its stop output reaches the stop value
-            if a_cfg.kind == "path" and a_cfg.stop_output and a_cfg.stop_value is not None:
+            if stop:
                 v = outputs.get(a_cfg.stop_output)
                 v0 = v if v0 is None else v0
                 if (

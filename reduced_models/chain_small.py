@@ -9,14 +9,14 @@ The mixed Lagrangian of ``chain.SegmentLaw``
 
 has the gradient [p, (G + p P + p^2 Q) w, ux + 1/2 w.P.w - p (k - w.Q.w)] and a 4x4 Hessian
 written out below; stability is ``ChainProblem.stability``'s test for this case: p condensed
-(its pivot capped at -1e-9, as there) and the 3x3 (guided: 2x2) remainder positive definite.
+(its pivot capped at -1e-9, as there) and the 3x3 (guided: 2x2) remainder positive definite,
+which reduces to the transverse stiffness K = G + p P + p^2 Q being positive definite.
 A handful of floats per iteration instead of the band machinery of N segments: the path
 costs what its equations cost.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 
 import numpy as np
@@ -26,49 +26,32 @@ from reduced_models.path_result import PathResult
 from reduced_models.small_path import minimize_path_small
 
 
-def _pd(A: list) -> bool:
-    """Positive definiteness of a small symmetric matrix (Cholesky succeeds)."""
-    n = len(A)
-    L = [[0.0] * n for _ in range(n)]
-    for i in range(n):
-        for j in range(i + 1):
-            s = A[i][j] - sum(L[i][q] * L[j][q] for q in range(j))
-            if i == j:
-                if not s > 0.0:
-                    return False
-                L[i][i] = math.sqrt(s)
-            else:
-                L[i][j] = s / L[j][j]
-    return True
-
-
 def single_segment_functions(prob: ChainProblem) -> tuple:
     """``(grad_hess, load_gradient, stability)`` of a one-segment, dead-load chain."""
     G, P, Q = (np.asarray(M, dtype=float).tolist() for M in (prob.law.G, prob.law.P, prob.law.Q))
     k = prob.k
     fX, fY, m = (float(v) for v in prob.loads)
 
-    def terms(x: list) -> tuple:
-        X, Y, phi, p = x
-        w = (Y, phi)
-        Pw = [P[i][0] * Y + P[i][1] * phi for i in range(2)]
-        Qw = [Q[i][0] * Y + Q[i][1] * phi for i in range(2)]
-        wQw = Y * Qw[0] + phi * Qw[1]
-        K = [[G[i][j] + p * P[i][j] + p * p * Q[i][j] for j in range(2)] for i in range(2)]
-        Kw = [K[i][0] * Y + K[i][1] * phi for i in range(2)]
-        dp = X - 1.0 + 0.5 * (Y * Pw[0] + phi * Pw[1]) - p * (k - wQw)
-        cross = [Pw[i] + 2.0 * p * Qw[i] for i in range(2)]
-        return w, K, Kw, dp, cross, k - wQw
-
+    (g00, g01), (g10, g11) = G
+    (p00, p01), (p10, p11) = P
+    (q00, q01), (q10, q11) = Q
     guided = prob.guided
 
     def grad_hess(x: list, lam: float) -> tuple[list, Callable]:
-        _, K, Kw, dp, cross, D = terms(x)
-        g = [x[3] - lam * fX, Kw[0] - lam * fY, Kw[1] - lam * m, dp]
-        if guided:  # phi held: its equation is an identity row
-            g[2] = 0.0
-        (k00, k01), (k10, k11) = K
-        c0, c1 = cross
+        X, Y, phi, p = x
+        pw0, pw1 = p00 * Y + p01 * phi, p10 * Y + p11 * phi  # P w
+        qw0, qw1 = q00 * Y + q01 * phi, q10 * Y + q11 * phi  # Q w
+        D = k - (Y * qw0 + phi * qw1)
+        pp = p * p
+        k00, k01 = g00 + p * p00 + pp * q00, g01 + p * p01 + pp * q01  # K = G + pP + p^2 Q
+        k10, k11 = g10 + p * p10 + pp * q10, g11 + p * p11 + pp * q11
+        g = [
+            p - lam * fX,
+            k00 * Y + k01 * phi - lam * fY,
+            0.0 if guided else k10 * Y + k11 * phi - lam * m,  # guided: phi held (identity)
+            X - 1.0 + 0.5 * (Y * pw0 + phi * pw1) - p * D,
+        ]
+        c0, c1 = pw0 + 2.0 * p * qw0, pw1 + 2.0 * p * qw1  # c = P w + 2 p Q w
         det = k00 * k11 - k01 * k10
 
         def solve(b: list) -> list:
@@ -88,12 +71,15 @@ def single_segment_functions(prob: ChainProblem) -> tuple:
         return [-fX, -fY, -m, 0.0]
 
     def stability(x: list, lam: float) -> bool:
-        _, K, _, _, cross, D = terms(x)
-        hpp = min(-D, -1e-9)
-        c = [1.0, cross[0], cross[1]]
-        Hg = [[0.0, 0.0, 0.0], [0.0, K[0][0], K[0][1]], [0.0, K[1][0], K[1][1]]]
-        keep = (0, 1) if prob.guided else (0, 1, 2)
-        return _pd([[Hg[i][j] - c[i] * c[j] / hpp for j in keep] for i in keep])
+        # p condensed (pivot hpp = min(-D, -1e-9) < 0) leaves M = Hg - c c^T / hpp in (X, Y,
+        # phi) with M_XX = -1/hpp > 0; the Schur complement of M_XX is K itself (the c c^T
+        # terms cancel), so by Sylvester's criterion M is positive definite iff K is
+        p = x[3]
+        k00 = g00 + p * p00 + p * p * q00
+        if guided:
+            return k00 > 0.0
+        k01, k11 = g01 + p * p01 + p * p * q01, g11 + p * p11 + p * p * q11
+        return k00 > 0.0 and k00 * k11 - k01 * k01 > 0.0
 
     return grad_hess, load_gradient, stability
 

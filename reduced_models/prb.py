@@ -96,7 +96,16 @@ class PRBModel:
         return beam
 
     def _prepare(self, scene: Scene) -> tuple[Cantilever, tuple] | str:
-        """The cantilever and its ``setup``, or the reason this model declines the scene."""
+        """The cantilever and its ``setup``, or the reason this model declines the scene
+        (kept for the last scene: ``applies_to`` and ``solve`` ask for the same one)."""
+        last = self.__dict__.get("_ready")
+        if last is not None and last[0] is scene:
+            return last[1]
+        ready = self._prepare_new(scene)
+        self._ready = (scene, ready)
+        return ready
+
+    def _prepare_new(self, scene: Scene) -> tuple[Cantilever, tuple] | str:
         beam = self._beam(scene)
         if isinstance(beam, str):
             return beam

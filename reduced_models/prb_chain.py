@@ -30,6 +30,7 @@ import numpy as np
 
 from cases.schema import Scene
 from reduced_models.path_result import PathResult
+from reduced_models.scalar_path import minimize_path_scalar
 from reduced_models.single_beam import Cantilever
 from reduced_models.small_path import MAX_N, minimize_path_small
 
@@ -320,22 +321,49 @@ class PRBChain:
         last = nj - 1
         cos, sin = math.cos, math.sin
 
+        lo, hi = [0.0, *ko], [*ko, 0.0]  # row p: coefficients of psi_{p-1} and psi_{p+1}
+        rows = list(zip(kd, lo, hi, a, b))
+
+        seen: list = [None, None]  # the last point and its unit-load terms Im w
+
         def gh(x: list, lam: float) -> tuple[list, list, list]:
-            g, d = [0.0] * nj, [0.0] * nj
-            for p in range(nj):
-                c, s = cos(x[p]), sin(x[p])
-                g[p] = kd[p] * x[p] + lam * (a[p] * s + b[p] * c)
-                d[p] = kd[p] + lam * (a[p] * c - b[p] * s)
-            for p in range(last):
-                g[p] += ko[p] * x[p + 1]
-                g[p + 1] += ko[p] * x[p]
+            g, d, gw = [], [], []
+            for xi, xl, xh, (k, cl, ch, ap, bp) in zip(x, [0.0, *x], [*x[1:], 0.0], rows):
+                c, s = cos(xi), sin(xi)
+                w = ap * s + bp * c
+                gw.append(w)
+                g.append(k * xi + cl * xl + ch * xh + lam * w)
+                d.append(k + lam * (ap * c - bp * s))
             g[last] -= lam * m1
+            seen[0], seen[1] = x, gw
             return g, d, ko[:]
 
         def lg(x: list, lam: float) -> list:
-            gw = [a[p] * sin(x[p]) + b[p] * cos(x[p]) for p in range(nj)]
+            # called at the state just accepted: its terms were computed by gh
+            gw = (
+                seen[1][:]
+                if seen[0] is x
+                else [a[p] * sin(x[p]) + b[p] * cos(x[p]) for p in range(nj)]
+            )
             gw[last] -= m1
             return gw
+
+        return gh, lg
+
+    def path_functions_scalar(self, f1: np.ndarray) -> tuple:
+        """``path_functions_small`` of a one-joint inextensible chain on scalars
+        (``scalar_path``): g = K psi + lam (a sin psi + b cos psi - m1), h = dg/dpsi,
+        ``load_gradient`` = a sin psi + b cos psi - m1, with a + i b = F1 Lp."""
+        w = complex(f1[0], -f1[1]) * float(self.Lp[0])
+        a, b, k, m1 = w.real, w.imag, float(self._kd[0]), float(f1[2])
+        cos, sin = math.cos, math.sin
+
+        def gh(x: float, lam: float) -> tuple[float, float]:
+            c, s = cos(x), sin(x)
+            return k * x + lam * (a * s + b * c - m1), k + lam * (a * c - b * s)
+
+        def lg(x: float, lam: float) -> float:
+            return a * sin(x) + b * cos(x) - m1
 
         return gh, lg
 
@@ -366,6 +394,12 @@ def equilibrium_path(
     if guided:
         f1 = np.array([f1[0], f1[1], 0.0])
     fixed = [chain.nj - 1] if guided else None
+    gtol = RESIDUAL_TOL * chain.EI / chain.L
+    if chain.ne == 0 and chain.nj == 1 and not guided:  # one pivot angle: scalars
+        gh1, lg1 = chain.path_functions_scalar(f1)
+        return minimize_path_scalar(
+            gh1, 0.0, factors, xtol=xtol, gtol=gtol, load_gradient=lg1
+        )  # fmt: skip
     if chain.ne == 0 and chain.nj <= MAX_N:  # a few angles: plain floats
         gh, lg = chain.path_functions_small(f1)
         return minimize_path_small(
@@ -373,7 +407,7 @@ def equilibrium_path(
             [0.0] * chain.n,
             factors,
             xtol=xtol,
-            gtol=RESIDUAL_TOL * chain.EI / chain.L,
+            gtol=gtol,
             fixed=fixed or (),
             load_gradient=lg,
         )
@@ -386,7 +420,7 @@ def equilibrium_path(
         factors,
         scale=chain.scale,
         xtol=xtol,
-        gtol=RESIDUAL_TOL * chain.EI / chain.L,
+        gtol=gtol,
         fixed=fixed,
         load_gradient=lg,
         symmetric=True,

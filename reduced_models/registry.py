@@ -122,7 +122,7 @@ def build(name: str, target: str, n: int | None, options: dict | None = None) ->
     model = make_(n, **kwargs) if n is not None else make_(**kwargs)
     model.name = name
     if target.startswith(_SINGLE_BEAM):
-        from reduced_models.mechanism.model import routed
+        from reduced_models.routing import routed  # the assembler is imported on first use
 
         model = routed(model, name, options)
     return model

@@ -56,8 +56,21 @@ class Cantilever:
         return np.asarray(xy) @ R.T + np.asarray(self.origin)
 
 
+# the last scene asked about and its answer: a model's router, ``applies_to`` and ``solve``
+# all ask for the same (immutable) scene, and a 1-DOF solve costs little more than the asking
+_LAST: list = [None, None]
+
+
 def cantilever_of(scene: Scene) -> Cantilever | str:
     """The single-beam problem of ``scene``, or a one-line reason it is not one."""
+    if _LAST[0] is scene:
+        return _LAST[1]
+    beam = _cantilever_of(scene)
+    _LAST[0], _LAST[1] = scene, beam
+    return beam
+
+
+def _cantilever_of(scene: Scene) -> Cantilever | str:
     flex = [m for m in scene.members if m.kind == "flexible"]
     if len(scene.members) != 1 or len(flex) != 1:
         return "not a single flexible member (mechanism scenes need the mechanism assembler)"

@@ -10,10 +10,10 @@ absolute link angles is tridiagonal: ``L D L^T`` (its pivots give positive defin
 costs O(n); an indefinite one is solved by pivoted LU.  ``continuation`` stays the general
 solver (banded, sparse, unsymmetric, retractions, step caps).
 
-Convergence is judged as there: the scaled Newton update ``max |dx_i / scale_i| <= xtol``
-and ``max |g(x_k)| <= gtol``; in addition the residual at the accepted state ``x_k + dx_k``
-is evaluated (cheap here) and must also be below ``gtol``, so the reported residual is that
-of the reported state.
+Convergence is judged as there, on the state returned: the iterate x_k is accepted when its
+own scaled Newton correction ``max |dx_i / scale_i| <= xtol`` and its residual
+``max |g(x_k)| <= gtol``; its factorisation then gives the path tangent and (pivots of
+``L D L^T``) its stability, with no extra evaluation.
 
 Functions handed in: ``grad_hess(x, lam) -> (g, d, e)`` with ``x``, ``g`` and the Hessian's
 diagonal ``d`` lists of n floats and its off-diagonal ``e`` a list of n - 1, or
@@ -38,34 +38,58 @@ from reduced_models.path_result import PathResult, limit_note
 MAX_N = 24  # above, numpy's banded solves beat Python loops
 
 
-def _ldl(d: list, e: list, n: int) -> list | None:
-    """Pivots D of H = L D L^T for the symmetric tridiagonal H = tridiag(e, d, e), with the
-    multipliers: ``[(D_0, l_0), ...]``; None if a pivot is not positive (H not positive
+def _ldl(d: list, e: list, n: int) -> tuple[list, list] | None:
+    """H = L D L^T for the symmetric tridiagonal H = tridiag(e, d, e): pivots D (n) and
+    multipliers l (n + 1, l_0 = l_n = 0); None if a pivot is not positive (H not positive
     definite: the caller switches to pivoted LU)."""
-    piv = []
-    prev_D, prev_e = 1.0, 0.0
-    for i in range(n):
-        li = prev_e / prev_D
-        Di = d[i] - li * prev_e
-        if not Di > 0.0:
+    D, m = [0.0] * n, [0.0] * (n + 1)
+    Dp = d[0]
+    if not Dp > 0.0:
+        return None
+    D[0] = Dp
+    for i in range(1, n):
+        li = e[i - 1] / Dp
+        Dp = d[i] - li * e[i - 1]
+        if not Dp > 0.0:
             return None
-        piv.append((Di, li))
-        prev_D, prev_e = Di, (e[i] if i < n - 1 else 0.0)
-    return piv
+        D[i], m[i] = Dp, li
+    return D, m
 
 
-def _ldl_solve(piv: list, b: Sequence[float], n: int) -> list:
+def _ldl_factor_solve(d: list, e: list, b: list, n: int) -> tuple[tuple, list] | None:
+    """``_ldl`` and ``_ldl_solve`` of b in one pass (the Newton loop's common case)."""
+    D, m, y = [0.0] * n, [0.0] * (n + 1), [0.0] * n
+    Dp = d[0]
+    if not Dp > 0.0:
+        return None
+    D[0] = Dp
+    acc = y[0] = b[0]
+    for i in range(1, n):
+        ei = e[i - 1]
+        li = ei / Dp
+        Dp = d[i] - li * ei
+        if not Dp > 0.0:
+            return None
+        D[i], m[i] = Dp, li
+        acc = y[i] = b[i] - li * acc
+    acc = 0.0
+    for i in range(n - 1, -1, -1):
+        acc = y[i] = y[i] / D[i] - m[i + 1] * acc
+    return (D, m), y
+
+
+def _ldl_solve(fac: tuple, b: Sequence[float], n: int) -> list:
+    D, m = fac
     y = [0.0] * n
     acc = 0.0
     for i in range(n):
-        acc = b[i] - piv[i][1] * acc
+        acc = b[i] - m[i] * acc
         y[i] = acc
-    x = [0.0] * n
     acc = 0.0
     for i in range(n - 1, -1, -1):
-        acc = y[i] / piv[i][0] - (piv[i + 1][1] * acc if i < n - 1 else 0.0)
-        x[i] = acc
-    return x
+        acc = y[i] / D[i] - m[i + 1] * acc
+        y[i] = acc
+    return y
 
 
 def _lu(H: list, n: int) -> tuple[list, list] | None:
@@ -129,11 +153,18 @@ class _Newton:
         self.inv_scale, self.xtol, self.gtol, self.max_iter = inv_scale, xtol, gtol, max_iter
         self.cap, self.stability = cap, stability
         self.unit = all(w == 1.0 for w in inv_scale)  # unit scales: no products per update
+        # (g, d, e) from grad_hess, unit scales, no damping, pd stability: ``solve_tri``
+        # (known after the first evaluation)
+        self.plain = self.unit and cap is None and stability is None
+        self.tri = False
+        self.fn = False  # a closed-form solve from grad_hess, nothing fixed: ``solve_fn``
 
     def evaluate(self, x: list, lam: float) -> tuple[list, tuple]:
         """Residual and Hessian: ``(d, e)`` tridiagonal or a dense list of rows."""
         g, *H = self.gh(x, lam)
         n = self.n
+        if not self.fixed:
+            return g, (tuple(H) if len(H) == 2 else H[0])
         if len(H) == 2:  # tridiagonal (d, e)
             d, e = H
             for i in self.fixed:
@@ -153,13 +184,9 @@ class _Newton:
             A[i][i] = 1.0
         return g, A
 
-    def residual(self, x: list, lam: float) -> float:
-        g = self.evaluate(x, lam)[0]
-        return max(map(abs, g)) if math.isfinite(sum(g)) else math.nan
-
     def factor(self, H: tuple | list) -> tuple[tuple, bool | None]:
         """Factor and positive definiteness (None for a dense, possibly indefinite H)."""
-        if isinstance(H, tuple):
+        if type(H) is tuple:
             return _factor(*H, self.n)
         if callable(H):
             return ("fn", H), None
@@ -168,31 +195,109 @@ class _Newton:
             raise ZeroDivisionError("singular matrix")
         return ("lu", fac), None
 
-    def solve(self, x: list, lam: float) -> tuple[tuple | None, int, str]:
-        """((x_new, res, stable, x_eval, factor) or None, iterations, reason)."""
-        n, inv, xtol, gtol, cap = self.n, self.inv_scale, self.xtol, self.gtol, self.cap
+    def factor_solve(self, H: tuple | list, b: list) -> tuple[tuple, bool | None, list]:
+        """``factor`` and the solution of H s = b (fused for a positive definite
+        tridiagonal H)."""
+        if type(H) is tuple:
+            fs = _ldl_factor_solve(H[0], H[1], b, self.n)
+            if fs is not None:
+                return ("ldl", fs[0]), True, fs[1]
+        factor, pd = self.factor(H)
+        return factor, pd, _solve(factor, b, self.n)
+
+    def solve_tri(self, x: list, lam: float) -> tuple[tuple | None, int, str]:
+        """``solve`` for the plain tridiagonal case: no dispatch per iteration."""
+        gh, n, xtol, gtol, isfinite = self.gh, self.n, self.xtol, self.gtol, math.isfinite
+        fixed, last = self.fixed, self.n - 1
         prev_res = math.inf
         for it in range(1, self.max_iter + 1):
-            g, H = self.evaluate(x, lam)
+            g, d, e = gh(x, lam)
+            for i in fixed:  # identity equations (as ``evaluate``)
+                g[i], d[i] = 0.0, 1.0
+                if i:
+                    e[i - 1] = 0.0
+                if i < last:
+                    e[i] = 0.0
+            res = max(map(abs, g))
+            if not isfinite(res + sum(g)):
+                return None, it, "non-finite residual"
+            fs = _ldl_factor_solve(d, e, g, n)
+            if fs is None:  # indefinite: pivoted LU for this iterate
+                return self.solve(x, lam, it - 1)
+            sol = fs[1]
+            size = max(map(abs, sol))
+            if not isfinite(size):
+                return None, it, "singular tangent"
+            if size <= xtol:
+                if gtol is None or res <= gtol:
+                    return (x, res, True, x, ("ldl", fs[0])), it, ""
+                if res > 0.5 * prev_res:
+                    return None, it, f"residual {res:.3g} stalls above gtol {gtol:.3g}"
+            elif size > 1e6:
+                return None, it, "Newton diverged"
+            prev_res = res
+            x = [a - b for a, b in zip(x, sol)]
+        return None, self.max_iter, f"no convergence in {self.max_iter} its"
+
+    def solve_fn(self, x: list, lam: float) -> tuple[tuple | None, int, str]:
+        """``solve`` for a closed-form tangent solve with nothing fixed: no dispatch."""
+        gh, xtol, gtol, cap, inv = self.gh, self.xtol, self.gtol, self.cap, self.inv_scale
+        unit, isfinite = self.unit, math.isfinite
+        prev_res = math.inf
+        for it in range(1, self.max_iter + 1):
+            g, tangent_solve = gh(x, lam)
+            res = max(map(abs, g))
+            if not isfinite(res + sum(g)):
+                return None, it, "non-finite residual"
+            try:
+                sol = tangent_solve(g)
+            except ZeroDivisionError as exc:
+                return None, it, f"singular tangent ({exc})"
+            size = max(map(abs, sol)) if unit else max([abs(s * w) for s, w in zip(sol, inv)])
+            if not isfinite(size):
+                return None, it, "singular tangent"
+            if size <= xtol:
+                if gtol is None or res <= gtol:
+                    st = None if self.stability is None else self.stability(x, lam)
+                    return (x, res, st, x, ("fn", tangent_solve)), it, ""
+                if res > 0.5 * prev_res:
+                    return None, it, f"residual {res:.3g} stalls above gtol {gtol:.3g}"
+            elif size > 1e6:
+                return None, it, "Newton diverged"
+            elif cap is not None:  # damping: the update shortened as a whole
+                over = max([abs(s) * c for s, c in zip(sol, cap)])
+                if over > 1.0:
+                    sol = [s / over for s in sol]
+            prev_res = res
+            x = [a - b for a, b in zip(x, sol)]
+        return None, self.max_iter, f"no convergence in {self.max_iter} its"
+
+    def solve(self, x: list, lam: float, done: int = 0) -> tuple[tuple | None, int, str]:
+        """((x, res, stable, x, factor) or None, iterations, reason): as
+        ``continuation._Solver.newton``, the accepted state is the evaluated iterate x_k
+        whose own correction and residual are small (no extra evaluation)."""
+        inv, xtol, gtol, cap = self.inv_scale, self.xtol, self.gtol, self.cap
+        evaluate, factor_solve = self.evaluate, self.factor_solve
+        prev_res = math.inf
+        for it in range(1 + done, self.max_iter + 1):
+            g, H = evaluate(x, lam)
+            self.tri = self.plain and type(H) is tuple
+            self.fn = not self.fixed and callable(H)
             res = max(map(abs, g))
             if not math.isfinite(res + sum(g)):
                 return None, it, "non-finite residual"
             try:
-                factor, pd = self.factor(H)
-                sol = _solve(factor, g, n)
+                factor, pd, sol = factor_solve(H, g)
             except ZeroDivisionError as exc:
                 return None, it, f"singular tangent ({exc})"
             size = max(map(abs, sol)) if self.unit else max(abs(s * w) for s, w in zip(sol, inv))
             if not math.isfinite(size):
                 return None, it, "singular tangent"
             if size <= xtol:
-                x_new = [a - b for a, b in zip(x, sol)]
                 if gtol is None or res <= gtol:
-                    res_new = self.residual(x_new, lam)  # the accepted state's own residual
-                    if gtol is None or res_new <= gtol:
-                        st = pd if self.stability is None else self.stability(x, lam)
-                        return (x_new, res_new, st, x, factor), it, ""
-                elif res > 0.5 * prev_res:
+                    st = pd if self.stability is None else self.stability(x, lam)
+                    return (x, res, st, x, factor), it, ""
+                if res > 0.5 * prev_res:
                     return None, it, f"residual {res:.3g} stalls above gtol {gtol:.3g}"
             elif size > 1e6:
                 return None, it, "Newton diverged"
@@ -255,6 +360,12 @@ def minimize_path_small(
     if max_step is not None:  # 1 / (scale * max_step): |dx_i| * cap_i <= 1 per update
         cap = [w / float(m) for w, m in zip(inv, max_step)]
     newton = _Newton(grad_hess, n, fixed, inv, xtol, gtol, max_iter, cap, stability)
+
+    def solve(x: list, lam: float) -> tuple[tuple | None, int, str]:
+        if newton.tri:
+            return newton.solve_tri(x, lam)
+        return newton.solve_fn(x, lam) if newton.fn else newton.solve(x, lam)
+
     out_f, out_x, out_it, out_cut, out_res, out_stab = [], [], [], [], [], []
 
     def result(ok: bool, reason: str) -> PathResult:
@@ -284,12 +395,12 @@ def minimize_path_small(
         for i in fixed:
             dg[i] = 0.0
         t = [-v for v in _solve(c[4], dg, n)]
-        return t if math.isfinite(sum(v * v for v in t)) else None
+        return t if math.isfinite(sum(t)) else None  # a sum is finite iff every entry is
 
     factors = [float(f) for f in factors]
     if not factors:
         return result(True, "")
-    conv, its, why = newton.solve(x, factors[0])
+    conv, its, why = solve(x, factors[0])
     if conv is None:
         return result(False, f"no equilibrium at factor {factors[0]:.6g}: {why}")
     record(conv, factors[0], its, 0)
@@ -309,10 +420,10 @@ def minimize_path_small(
             x_cur = cur[0]
             s = lam_try - lam_cur
             pred = _predict(x_cur, x_prev, t_cur, t_prev, s, lam_cur, lam_prev, inv)
-            conv, its, why = newton.solve(pred if pred is not None else x_cur, lam_try)
+            conv, its, why = solve(pred if pred is not None else x_cur, lam_try)
             its_total += its
             if conv is None and pred is not None:
-                conv, its, why = newton.solve(x_cur, lam_try)
+                conv, its, why = solve(x_cur, lam_try)
                 its_total += its
             can_cut = 0.5 * abs(s) >= abs(span) * 0.5**max_cuts
             if conv is not None and can_cut:
@@ -321,7 +432,10 @@ def minimize_path_small(
                     conv, why = None, "the step left the stable branch"
                 elif x_prev is not None and lam_cur != lam_prev:
                     back = sum(
-                        (a - b) * (b - c) * w * w for a, b, c, w in zip(conv[0], x_cur, x_prev, inv)
+                        [
+                            (a - b) * (b - c) * w * w
+                            for a, b, c, w in zip(conv[0], x_cur, x_prev, inv)
+                        ]
                     )
                     if back < 0:
                         conv, why = None, "the path turned back (branch jump)"
@@ -361,26 +475,25 @@ def _predict(
 ) -> list | None:
     """Start of the next Newton solve: cubic Hermite, tangent line or secant (as
     ``continuation.minimize_path``); None: from the current state."""
-    dpred = None
-    if x_prev is not None and lam_cur != lam_prev:
-        h = lam_cur - lam_prev
-        back_step = [p - c for p, c in zip(x_prev, x_cur)]
-        dpred = [b * (-s / h) for b in back_step]
-    if t_cur is not None:
-        if dpred is None:
-            dpred = [t * s for t in t_cur]
-        else:
-            u = s / h
-            c2 = u * u
-            c3 = c2 + c2 * u if t_prev is not None else 0.0
-            a1, a2 = s + h * (c2 + c3), c2 + 2.0 * c3
-            poly = [t * a1 + b * a2 for t, b in zip(t_cur, back_step)]
-            if t_prev is not None:
-                poly = [p + t * (h * c3) for p, t in zip(poly, t_prev)]
-            a = sum((p * w) ** 2 for p, w in zip(poly, inv))
-            b = sum((d * w) ** 2 for d, w in zip(dpred, inv))
-            if a <= 9.0 * b:
-                dpred = poly
-    if dpred is None:
-        return None
-    return [c + d for c, d in zip(x_cur, dpred)]
+    if x_prev is None or lam_cur == lam_prev:
+        return None if t_cur is None else [c + t * s for c, t in zip(x_cur, t_cur)]
+    h = lam_cur - lam_prev
+    r = -s / h
+    if t_cur is None:
+        return [c + (p - c) * r for c, p in zip(x_cur, x_prev)]
+    u = s / h
+    c2 = u * u
+    c3 = c2 + c2 * u if t_prev is not None else 0.0
+    a1, a2, a3 = s + h * (c2 + c3), c2 + 2.0 * c3, h * c3
+    # one pass: the Hermite point, the secant point and their scaled squared lengths
+    poly, secant, size_p, size_s = [], [], 0.0, 0.0
+    for c, p, t, q, w in zip(x_cur, x_prev, t_cur, t_prev or t_cur, inv):
+        b = p - c
+        d = t * a1 + b * a2 + q * a3  # a3 = 0 without t_prev
+        poly.append(c + d)
+        secant.append(c + b * r)
+        size_p += (d * w) ** 2
+        size_s += (b * w) ** 2
+    # the polynomial runs more than 3 times further than the secant (scaled 2-norms): keep
+    # the secant (a tangent blowing up next to a bifurcation or limit point)
+    return poly if size_p <= 9.0 * r * r * size_s else secant

@@ -37,7 +37,7 @@ from pathlib import Path
 from typing import Any
 
 from reduced_models.base import Solution
-from reports import api
+from reports import api, timing
 from reports.compare import DEFAULT_ABS_TOL, DEFAULT_REL_FACTOR
 from reports.timing import DEFAULT_TIME_LIMIT, QUICK_TIME_LIMIT  # not the runner: lazy
 
@@ -200,11 +200,13 @@ def cmd_solve(args: argparse.Namespace) -> int:
         text = f"cannot build model: {type(exc).__name__}: {exc}".splitlines()[0]
         sol, wall = Solution(scene.name, args.model, "failed", text), 0.0
     else:
+        _one_blas_thread()
         t0 = time.perf_counter()
         memory = None if args.memory_limit == 0 else args.memory_limit
         try:
             with limits.guard(args.time_limit, memory):
-                sol = limits.explain(api.run_model(model, scene), memory)
+                # post=False: shapes and stress are not printed (and cost their imports)
+                sol = limits.explain(api.run_model(model, scene, post=False), memory)
         except limits.LimitExceeded as exc:
             sol = Solution(scene.name, args.model, "failed", str(exc))
         wall = time.perf_counter() - t0
@@ -219,6 +221,16 @@ def cmd_solve(args: argparse.Namespace) -> int:
             vals = [s.factor, *(s.outputs.get(k, math.nan) for k in keys), s.energy]
             print("  ".join(f"{v:12.6g}" for v in vals) + f"  {s.iterations:12d}")
     return 0
+
+
+def _one_blas_thread() -> None:
+    """One BLAS thread for a solve, as in the runner's workers: the FE's banded factorisations
+    are far below threading's break-even, and threaded OpenBLAS on a busy machine cost 80x
+    (fem-64 on the double parallelogram: 4 s against 0.05 s).  Loaded pools are pinned now;
+    the variables cover a BLAS imported during the solve (scipy ships its own OpenBLAS)."""
+    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(var, "1")
+    timing.pin_blas()
 
 
 def cmd_recommend(args: argparse.Namespace) -> int:
@@ -510,21 +522,22 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv
     argv = [a for a in argv if a != "--debug"]
-    user_errors = _user_errors()
     _CONTEXT.clear()
     try:
         if argv and argv[0] == "fit-prb":
             return cmd_fit_prb(argv[1:])
         args = build_parser().parse_args(argv)
         return int(args.func(args))
-    except user_errors as exc:
-        return _fail(str(exc))
     except BrokenPipeError:  # `flexbench cases | head`
         return 0
     except KeyboardInterrupt:  # `run` says more itself; elsewhere nothing is left half-done
         print(f"{PROG}: interrupted", file=sys.stderr)
         return 130
     except Exception as exc:  # a bug of ours: one line (the traceback with --debug), exit 3
+        # the user-error classes are looked up only now: their modules (the run journal and
+        # its store) cost a solve of a reduced model more than the solve itself
+        if isinstance(exc, _user_errors()):
+            return _fail(str(exc))
         return _internal(exc, debug)
 
 

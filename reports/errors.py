@@ -172,6 +172,21 @@ def path_errors(
     return out
 
 
+def abscissa_output(meta: Mapping) -> str | None:
+    """The output a path is aligned on when its load factor is not monotonic: the
+    ``stop_output`` of a path analysis, or for a ``distance`` analysis (the load factor is the
+    answer, the driver the abscissa) the named output of the driven node along the driver."""
+    a = meta.get("analysis") or {}
+    if a.get("stop_output"):
+        return a["stop_output"]
+    drv = a.get("driver") or {}
+    if a.get("kind") == "distance" and drv.get("kind") == "displacement":
+        for o in meta.get("outputs") or ():
+            if o.get("node") == drv.get("node") and drv.get("direction") in ("x", "y"):
+                return f"{o['name']}.u{drv['direction']}"
+    return None
+
+
 def _value_at(steps: Sequence[Mapping], key: str, at: float | None, complete: bool):
     """(value, note) of ``key`` at factor ``at`` (None: end of a complete path)."""
     if not steps:
@@ -288,9 +303,7 @@ def attach_errors(meta: Mapping, records: Sequence[dict]) -> dict[str, Any]:
         rec["errors"] = None
         rec["summary_error"], rec["summary_basis"] = None, None
         if ref is not None and rec["steps"] and not rec["is_reference"]:
-            rec["errors"] = path_errors(
-                rec["steps"], ref["steps"], length, (meta.get("analysis") or {}).get("stop_output")
-            )
+            rec["errors"] = path_errors(rec["steps"], ref["steps"], length, abscissa_output(meta))
             if rec["errors"]["summary"] is not None and rec["errors"]["n_points"] >= 2:
                 rec["summary_error"], rec["summary_basis"] = rec["errors"]["summary"], "path"
         if rec["summary_error"] is None and not rec["is_reference"]:

@@ -10,7 +10,10 @@ a fixed model such as ``prb-3r`` is a ladder of one), cheapest first:
 * a ladder ends at its first qualifying member (a larger N costs more) or when a model
   declines the scene;
 * once a model qualifies at cost c, every ladder whose bound is at least c is dropped: none of
-  its members can be cheaper (early exit).
+  its members can be cheaper (early exit);
+* a self-refining ``family-auto`` (target: the smallest tolerance) joins once its family's
+  N0, 2 N0, 4 N0 members are measured, with their summed cost as its bound
+  (``auto_candidates``).
 
 *Qualifies* means: the model converged over the whole path (it reaches the reference's last
 load factor) and, for every judged output, the largest error along the path (the path error of
@@ -53,8 +56,8 @@ LADDER_N: dict[str, tuple[int, ...]] = {
     "fem-N": (2, 4, 8, 16, 32, 64, 128),
 }
 DEFAULT_N = (1, 2, 4, 8, 16, 32)  # a parametrised family registered by another package
-# never candidates: baselines, the dynamic reference, and self-refining models (the ladder
-# does their refinement explicitly)
+# never candidates: baselines and the dynamic reference (``*-auto`` join through
+# ``auto_candidates``, not as ladders of their own)
 EXCLUDED = ("elastica-bvp", "replay")
 # a-priori unknowns of fixed models (tie-break only; measured cost decides)
 RANK = {"prb-short": 1, "prb-1r": 1, "bcm": 3, "prb-2r": 2, "prb-3r": 3, "prb-2rpr": 3}
@@ -181,6 +184,15 @@ def ladders(scene: Scene, reference: str | None) -> list[list[str]]:
     return out
 
 
+def _options(name: str, scene: Scene, tol: Tolerance) -> dict:
+    """The case's options for ``name``; ``*-auto`` gets the smallest tolerance as its target."""
+    opts = dict(scene.model_options(name))
+    if name.endswith("-auto"):
+        vals = [t for t in (tol.default, *tol.per_output.values()) if t is not None]
+        opts.setdefault("target", min(vals))
+    return opts
+
+
 def _rank(name: str) -> int:
     m = re.fullmatch(r"(.+)-(\d+)", name)
     if name in RANK:
@@ -204,7 +216,7 @@ def judge(
     from reports import store  # lazy: ``import reports`` (the CLI) does not need sqlite
 
     steps, _, _ = store.steps_json(sol)
-    stop = (meta.get("analysis") or {}).get("stop_output")
+    stop = errors.abscissa_output(meta)
     pe = errors.path_errors(steps, ref_steps, meta["length_scale"], stop)
     cand.errors = {k: v for k, v in pe["per_output"].items() if v is not None}
     judged = []
@@ -338,14 +350,20 @@ def recommend(
     for c in cands:
         c.ratio_to_reference = c.cpu_s / ref_cpu if c.cpu_s and ref_cpu else None
     best, reason = _verdict(cands, tol, cost)
+    rigid_only = not any(m.kind == "flexible" for m in scene.members)
+    best_cpu = next((c.cpu_s for c in cands if c.model == best), None)
     if (
-        best is None
-        and ref_name == "kinetostatic"
-        and not any(c.status != "not-applicable" for c in cands)
+        ref_name == "kinetostatic"
+        and rigid_only
+        and (best is None or best_cpu is None or cost(ref_name, ref_cpu) <= cost(best, best_cpu))
     ):
-        # no compliant member: rigid-body kinematics with springs is exact, not an approximation
+        # no compliant member: rigid-body kinematics with springs is exact, not an approximation,
+        # so it is the pick unless another exact-within-tolerance model is measured cheaper
         best = ref_name
-        reason = "no compliant member: kinetostatic (rigid links, springs) is exact here; " + reason
+        reason = (
+            "no compliant member: kinetostatic (rigid links, springs) is exact here and no "
+            "measured model is cheaper; runner-up: " + reason
+        )
         exact = Candidate(ref_name, ref_sol.status, "exact for rigid links and springs")
         exact.worst_error, exact.cpu_s, exact.ratio_to_reference = 0.0, ref_cpu, 1.0
         exact.qualifies = True
@@ -371,11 +389,23 @@ def _walk(
     repeats: int = 5,
 ) -> tuple[list[Candidate], list[str]]:
     """Run ladders cheapest-bound first with early exit; returns (tried, never run)."""
+    ladder_list = [list(lad) for lad in ladder_list]
+    autos = auto_candidates(scene, ladder_list, tol)
     heap = [(0.0, _rank(lad[0]), i, 0) for i, lad in enumerate(ladder_list)]
     heapq.heapify(heap)
     best = math.inf
     tried: list[Candidate] = []
-    while heap:
+    costs: dict[str, float | None] = {}  # measured cost of every model run (None: declined)
+    while True:
+        for name, needs in list(autos.items()):  # *-auto: bound = its first solves' costs
+            if all(n in costs for n in needs):
+                del autos[name]
+                if all(costs[n] is not None for n in needs):
+                    ladder_list.append([name])
+                    bound = sum(costs[n] for n in needs)
+                    heapq.heappush(heap, (bound, _rank(name), len(ladder_list) - 1, 0))
+        if not heap:
+            break
         bound, _, i, j = heapq.heappop(heap)
         if bound >= best * (1.0 + TIE) and not brute_force:
             heapq.heappush(heap, (bound, 0, i, j))
@@ -384,26 +414,57 @@ def _walk(
         cand = Candidate(name, "failed", rank=_rank(name))
         tried.append(cand)
         try:
-            model = api.make_model(name, scene)
+            model = api.make_model(name, scene, _options(name, scene, tol))
         except ValueError as exc:
             cand.message = str(exc)
             continue
         why = model.applies_to(scene)
         if why:
             cand.status, cand.message = "not-applicable", str(why)
+            costs[name] = None
             continue  # a larger N declines for the same reason
         sol, cpu = timed(lambda m=model: api.run_model(m, scene, post=False), max_runs=repeats)
-        cand.status, cand.cpu_s = sol.status, cpu
-        cand.message = sol.message
+        cand.status, cand.message = sol.status, sol.message
+        if sol.status == "not-applicable":  # declined inside solve: no cost, no larger N
+            costs[name] = None
+            continue
+        cand.cpu_s = cpu
         if sol.steps:
             judge(cand, sol, ref_steps, meta, tol, uncertainty)
-        c = cost(name, cpu)
+        c = costs[name] = cost(name, cpu)
         if cand.qualifies:
             best = min(best, c)
         elif j + 1 < len(ladder_list[i]):
             heapq.heappush(heap, (c, _rank(ladder_list[i][j + 1]), i, j + 1))
     skipped = [f"{ladder_list[i][j]}+" for _, _, i, j in sorted(heap)]
-    return tried, skipped
+    return tried, skipped + sorted(autos)
+
+
+def auto_candidates(
+    scene: Scene, ladder_list: list[list[str]], tol: Tolerance | str | float
+) -> dict[str, list[str]]:
+    """``family-auto`` -> the ladder members it solves first (N0, 2 N0, 4 N0), for every
+    parametrised family on the ladders with a registered ``-auto`` model.
+
+    An auto model is run with its error target at the smallest tolerance (unless the case sets
+    one) once those three are measured: its cost is at least theirs (it solves them), so that
+    sum is its bound; when one of them qualified or declined first it cannot be cheaper (or
+    declines too) and is never run.
+    """
+    out, tol = {}, parse_tolerance(tol)
+    on_ladders = {m for lad in ladder_list for m in lad}
+    for key in api.model_names():
+        if not key.endswith("-auto") or f"{key[:-5]}-N" not in LADDER_N:
+            continue
+        try:
+            model = api.make_model(key, scene, _options(key, scene, tol))
+        except ValueError:
+            continue
+        start = int(getattr(model, "start", 1))
+        needs = [f"{key[:-5]}-{start * k}" for k in (1, 2, 4)]
+        if all(n in on_ladders for n in needs):
+            out[key] = needs
+    return out
 
 
 def _verdict(

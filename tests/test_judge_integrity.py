@@ -17,7 +17,13 @@ def test_driver_beyond_the_reach_of_rigid_links_fails_with_the_reason():
     """DAS-2D Ex. 5 slider pushed to 150 mm while crank + coupler reach 147.3 mm."""
     sol = reports.solve(cases.load(str(TRAPS / "driver-beyond-reach.toml")), "fem-8")
     assert sol.status == "failed"
-    assert "rigid link" in sol.message and "stretched" in sol.message
+    assert "rigid links" in sol.message and "reach" in sol.message
+    # it fails where the links run out of reach (147.3 - 140.0 = 7.29 mm), not before
+    assert sol.steps[-1].outputs["slider.ux"] >= 7.0
+    trap = cases.load(str(TRAPS / "driver-beyond-reach.toml"))
+    stiff = reports.solve(trap, "fem-8", options={"rigid_links": "stiff"})
+    assert stiff.status == "failed"
+    assert "rigid link" in stiff.message and "stretched" in stiff.message
 
 
 def test_the_catalog_slider_crank_keeps_its_links_rigid():

@@ -10,7 +10,9 @@ answers: ``python -m tests.test_speed_regression --write``.  Entries updated by 
 (judge), intended changes of answers only: the FE's stability watch moved the sampled
 column-postbuckling fem-N runs from the unstable complementary branch (uy = -0.003 at
 1.33 Pcr) onto the stable post-buckled one (uy = 0.739); follower loads get no static
-stability verdict (None).
+stability verdict (None).  Issue 14: the FE's rigid links are exact constraints, no longer
+stiff elements; on scenes with rigid links fem-N answers moved by the old links' compliance
+(~1e-6 of the scene's stiffness, up to 8e-6 mm on DAS-2D Ex. 2) and are compared at 1e-5.
 """
 
 from __future__ import annotations
@@ -141,6 +143,8 @@ def test_same_answers_as_before(case: str, model: str) -> None:
     assert now["status"] == before["status"]
     assert now["n_steps"] == before["n_steps"]
     tol = tolerance(model)
+    if model.startswith("fem") and any(m.kind == "rigid" for m in cases.load(case).members):
+        tol = max(tol, 1e-5)  # exact rigid links since issue 14 (module docstring)
     # PRB stress is now recovered from the PRB's own forces (not the elastica): not compared
     own_stress = model.startswith("prb")
     for s, b in zip(now["steps"], before["steps"]):

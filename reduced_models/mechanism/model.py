@@ -7,8 +7,8 @@
   end poses: the exact elastica is a boundary-value problem per member).
 * ``MechanismModel(name)`` puts that law into every flexible member; ``Kinetostatic`` solves
   scenes without flexible members; ``Mixed`` reads each member's ``model`` key.
-* ``routed`` gives a registered single-beam model the mechanism route: plain cantilever
-  scenes keep their specialised solver, every other scene goes through the assembler.
+* ``reduced_models.routing.routed`` gives a registered single-beam model the mechanism route
+  (plain cantilever scenes keep their specialised solver, every other scene comes here).
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ import numpy as np
 
 from cases.schema import Member, Scene
 from reduced_models import prb_tables as T
-from reduced_models.base import Model, ModelCard, Solution, not_applicable
+from reduced_models.base import ModelCard, Solution, not_applicable
 from reduced_models.bcm import BCM_LAW
 from reduced_models.linear import LINEAR_LAW
 from reduced_models.mechanism import analyses
@@ -28,7 +28,6 @@ from reduced_models.mechanism.builder import build
 from reduced_models.mechanism.inextensible import axial_only
 from reduced_models.mechanism.system import MechanismSystem, SceneError
 from reduced_models.prb_chain import check_matrix
-from reduced_models.single_beam import cantilever_of
 
 ANALYSES = ("load", "path", "distance", "energy", "kinematics", "synthesis", "deploy")
 _PRB_FIXED = {
@@ -316,67 +315,4 @@ def postprocess(scene: Scene, sol: Solution) -> Solution:
     return dataclasses.replace(sol, steps=steps, extras=extras)
 
 
-class Routed:
-    """Mixin put in front of a registered single-beam model's class (``routed``): plain
-    cantilever scenes keep the specialised solver, every other scene goes through the
-    assembler with the same model name.  ``isinstance`` and attributes are unchanged."""
-
-    _mech: MechanismModel
-
-    def _route(self, scene: Scene) -> tuple[str, str | None]:
-        if not isinstance(cantilever_of(scene), str):
-            return "inner", None
-        if len(scene.members) == 1:
-            inner_reason = super().applies_to(scene)
-            if inner_reason is None:
-                return "inner", None
-            mech_reason = self._mech.applies_to(scene)
-            if mech_reason is None:
-                return "mech", None
-            return "none", f"{inner_reason}; mechanism assembler: {mech_reason}"
-        return "mech", None
-
-    def applies_to(self, scene: Scene) -> str | None:
-        """None, or why neither the single-beam solver nor the assembler applies."""
-        where, reason = self._route(scene)
-        if where == "inner":
-            return super().applies_to(scene)
-        return reason if where == "none" else self._mech.applies_to(scene)
-
-    def solve(self, scene: Scene) -> Solution:
-        """Single-beam solver for cantilevers, the assembler for everything else."""
-        where, reason = self._route(scene)
-        if where == "inner":
-            return super().solve(scene)
-        if where == "none":
-            return not_applicable(scene, self.name, reason)
-        sol = self._mech.solve(scene)
-        return Solution(sol.case, self.name, sol.status, sol.message, sol.steps, sol.extras)
-
-    def postprocess(self, scene: Scene, sol: Solution) -> Solution:
-        """The single-beam model's post-processing for its own answers, the assembler's
-        (shapes and stress of the kept states) for the others."""
-        inner = getattr(super(), "postprocess", None)
-        if self._route(scene)[0] != "inner":
-            return postprocess(scene, sol)
-        if inner is None:
-            return sol
-        return inner(scene, sol)
-
-
-_ROUTED: dict[type, type] = {}
-
-
-def routed(model: Model, name: str, options: dict | None = None) -> Model:
-    """Give ``model`` (a registered single-beam model) the mechanism route (``Routed``)."""
-    cls = type(model)
-    sub = _ROUTED.get(cls)
-    if sub is None:
-        sub = type(cls.__name__, (Routed, cls), {"__module__": cls.__module__})
-        _ROUTED[cls] = sub
-    model.__class__ = sub
-    model._mech = MechanismModel(name, options)
-    return model
-
-
-__all__ = ["Kinetostatic", "MechanismModel", "Mixed", "Routed", "member_spec", "routed"]
+__all__ = ["Kinetostatic", "MechanismModel", "Mixed", "member_spec"]

@@ -248,6 +248,9 @@ def render_report(
     from reports.render import stability_maps  # deploy verdicts and sweep maps (issue 10)
 
     blocks += stability_maps.blocks(payload, out)
+    from reports.render import mech_atlas  # mechanism atlases saved by the teaching page
+
+    blocks = mech_atlas.insert_blocks(blocks, out)
     if (out / "teaching.html").is_file():  # written by `flexbench teach` (render/teaching.py)
         note = "Teaching page: model cards, validity atlases, which model to use per case"
         blocks.insert(2, ("links", note, [("teaching.html", "teaching.html")]))

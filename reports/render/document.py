@@ -152,8 +152,11 @@ def _model_rows(case: Mapping, recs: Sequence[Mapping]) -> tuple[list[str], list
         notes += r.get("warnings") or []
         fid = (r.get("extras") or {}).get("fidelity")
         if isinstance(fid, Mapping):  # *-auto models: the N they chose for their target
+            n = fid.get("n")
+            if isinstance(n, Mapping):  # fem-auto: elements per flexible member
+                n = ", ".join(f"{k} {v}" for k, v in n.items())
             notes.append(
-                f"chose N = {fid.get('n')} (tried {fid.get('sequence')}; estimate "
+                f"chose N = {n} (tried {fid.get('sequence')}; estimate "
                 f"{FP.fmt_err(fid.get('estimate'))}, target {FP.fmt_err(fid.get('target'))})"
             )
         if (r.get("grade") or {}).get("validity_warning"):

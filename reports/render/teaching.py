@@ -25,6 +25,7 @@ import numpy as np
 import cases
 from reports import api, atlas
 from reports.recommend import format_text, recommend
+from reports.render import mech_atlas
 
 FAMILIES = {
     "linear": ("Linear beam, single and chained", ("linear-1", "linear-8"), "linear-N"),
@@ -146,6 +147,8 @@ def build_data(
     workers: int = 2,
     progress: Callable[[str], None] | None = None,
     cost_ns: Sequence[int] = COST_N,
+    mech_cases: Sequence[str] = mech_atlas.TEACH_CASES,
+    mech_n_axis: int = 5,
 ) -> dict:
     """Everything the page shows (cards, atlases, costs, recommendations, shapes)."""
     t0 = time.perf_counter()
@@ -196,6 +199,7 @@ def build_data(
         "cost": cost_scaling(ns=cost_ns),
         "advice": advice,
         "shapes": shapes(shape_case),
+        "mech_atlas": mech_atlas.teaching_data(mech_cases, mech_n_axis, progress),
         "seconds": round(time.perf_counter() - t0, 1),
     }
 
@@ -207,6 +211,7 @@ def write_page(data: dict, path: str | Path) -> Path:
     page = _TEMPLATE.replace("__DATA__", payload).replace("__JS__", _JS)
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(page, encoding="utf-8")
+    mech_atlas.save(data.get("mech_atlas"), path.parent)  # the report shows them too
     return path
 
 
@@ -334,6 +339,33 @@ function profileChart(a) {
   return div;
 }
 
+function mechAtlases(root) {
+  // mechanism atlases (reports.atlas_mech): drawn by drawAtlas, re-coloured by the tolerance
+  const MA = Object.values(D.mech_atlas || {}); if (!MA.length) return;
+  root.append(el("h2", {}, "Mechanism validity atlases over the driver range"));
+  MA.forEach(A => {
+    root.append(el("h3", {}, A.case));
+    if (A.none) { root.append(el("p", {}, "No atlas: " + A.none)); return; }
+    const key = "mech:" + A.case, models = {};
+    Object.entries(A.models).forEach(([m, v]) => { models[m] = {error: v.error,
+      message: v.message, claims: A.claims.filter(c => c.model === m)}; });
+    D.atlas[key] = {angles: A.values, mags: A.drive, models: models};
+    root.append(el("p", {}, `x: ${A.drive_label} from ${A.drive[0]} to ` +
+      `${A.drive[A.drive.length - 1]}; y: ${A.axis_label} from ${A.values[0]} (bottom) to ` +
+      `${A.values[A.values.length - 1]} (why: ${A.axis_why}). ${A.wall_s} s for the atlas.`));
+    Object.keys(models).forEach(m => {
+      const div = el("div", {className: "atl"});
+      const cv = el("canvas", {width: 240, height: 140, className: "matlas"});
+      cv.dataset.fam = key; cv.dataset.model = m; div.append(el("b", {}, m), el("br"), cv);
+      models[m].claims.forEach(cl => div.append(el("div", {className: cl.verdict === "holds" ?
+        "ok" : "bad"}, `${cl.label}: ${cl.verdict} (${cl.failing}/${cl.points} states fail)`)));
+      if (models[m].message) div.append(el("div", {}, "declines/fails: " + models[m].message));
+      root.append(div);
+    });
+    root.append(el("img", {src: A.png, alt: `${A.case} atlas, 0.1/1/5 % contours`}));
+  });
+}
+
 function build() {
   const root = document.getElementById("root");
   D.families.forEach(F => {
@@ -353,6 +385,7 @@ function build() {
     root.append(el("h3", {}, `Cost scaling of ${fam}-N (${D.cost.case}, median CPU ms)`));
     const cc = costChart(fam); if (cc) root.append(cc);
   });
+  mechAtlases(root);
   root.append(el("h2", {}, "Which model should I use? (flexbench recommend, per catalog case)"));
   D.advice.forEach(a => {
     const verdict = a.recommended || "no model qualifies";
@@ -388,7 +421,7 @@ function drawShapes() {
 
 function redrawAtlases() {
   document.getElementById("tolv").textContent = pct(tol());
-  document.querySelectorAll("canvas.atlas").forEach(
+  document.querySelectorAll("canvas.atlas, canvas.matlas").forEach(
     cv => drawAtlas(cv, cv.dataset.fam, cv.dataset.model));
 }
 
@@ -403,6 +436,7 @@ function selftest() {
     out.tolerance_changes_atlas = cv.toDataURL() !== a0;
     out.load_changes_shapes = sh.toDataURL() !== s0;
     out.atlases = document.querySelectorAll("canvas.atlas").length;
+    out.mech_atlases = document.querySelectorAll("canvas.matlas").length;
   } catch (e) { errs.push(String(e)); }
   document.getElementById("selftest").textContent = JSON.stringify(out);
 }

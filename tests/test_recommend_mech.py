@@ -1,0 +1,126 @@
+"""``flexbench recommend`` on mechanism scenes: the pick is within the tolerance of ``fem-auto``
+(re-measured here, not by ``reports.errors``) on load, energy and distance analyses, and no
+cheaper qualifying candidate (ladders and ``*-auto``) is skipped (brute force).  Cost is the
+deterministic count of unknowns of ``test_recommend`` (timings are never asserted)."""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import numpy as np
+import pytest
+
+import cases
+import reports
+from reports.recommend import TIE, auto_candidates, ladders, recommend
+from tests.test_recommend import unknowns
+
+NODE = ("ux", "uy", "rot")
+
+
+def _solve(case: str, model: str, tol: float):
+    opts = {"target": tol} if model.endswith("-auto") else None
+    return reports.solve(cases.load(case), model, options=opts)
+
+
+@functools.cache
+def _reference(case: str):
+    return reports.solve(cases.load(case), "fem-auto")
+
+
+@functools.cache
+def _recommend(case: str, tol: float):
+    return recommend(cases.load(case), tol, cost=unknowns)
+
+
+def remeasured(case: str, model: str, tol: float) -> float:
+    """``_remeasured`` (the tolerance matters only as a ``*-auto`` model's target)."""
+    return _remeasured(case, model, tol if model.endswith("-auto") else None)
+
+
+@functools.cache
+def _remeasured(case: str, model: str, tol: float | None) -> float:
+    """Largest error against fem-auto over the whole path: node translations / L, rotations in
+    rad, the driven quantity (driver torque/force, or the load factor of a distance analysis)
+    over its largest reference magnitude; inf unless the model converged over the whole path.
+    Load and energy steps pair by factor, distance steps by order (one per driver value)."""
+    scene = cases.load(case)
+    ref, sol = _reference(case), _solve(case, model, tol)
+    if sol.status != "converged" or len(sol.steps) < len(ref.steps):
+        return math.inf
+    L = max(scene.member_length(m.id) for m in scene.members)
+    kind = scene.analysis.kind
+    driven = {"energy": ("driver.torque", "driver.force"), "distance": ("factor",)}.get(kind, ())
+
+    def value(step, key):
+        return step.factor if key == "factor" else step.outputs.get(key)
+
+    keys = [k for k in ref.steps[0].outputs if k.rsplit(".", 1)[-1] in NODE]
+    keys += [k for k in driven if value(ref.steps[0], k) is not None]
+    big = {k: max(abs(value(s, k)) for s in ref.steps) for k in keys}
+    worst = 0.0
+    for a, b in zip(sol.steps, ref.steps):
+        if kind != "distance":
+            assert a.factor == pytest.approx(b.factor)
+        for k in keys:
+            q = k.rsplit(".", 1)[-1]
+            scale = L if q in ("ux", "uy") else 1.0 if q == "rot" else big[k]
+            worst = max(worst, abs(value(a, k) - value(b, k)) / scale)
+    return worst
+
+
+@pytest.mark.parametrize(
+    "case, tol",
+    [
+        ("das2d-ex4-bistable-fourbar", 1e-2),  # energy: crank driven, torque judged
+        ("das2d-ex4-bistable-fourbar", 1e-3),
+        ("das2d-ex3-bistable-switch", 1e-2),  # distance: the load factor is the answer
+    ],
+)
+def test_pick_is_within_tolerance_of_fem_auto(case: str, tol: float):
+    rec = _recommend(case, tol)
+    assert rec.recommended, rec.reason
+    assert remeasured(case, rec.recommended, tol) <= tol, rec.reason
+
+
+@pytest.mark.parametrize("tol", [1e-2, 1e-3])
+def test_no_cheaper_qualifying_model_skipped(tol: float):
+    case = "parallelogram-axial-stiffening"
+    scene = cases.load(case)
+    rec = _recommend(case, tol)
+    assert rec.recommended, rec.reason
+    assert remeasured(case, rec.recommended, tol) <= tol
+    lad = ladders(scene, "fem-auto")
+    everyone = [m for rungs in lad for m in rungs] + list(auto_candidates(scene, lad, tol))
+    assert any(m.endswith("-auto") for m in everyone)
+    ok = {m: unknowns(m) for m in everyone if remeasured(case, m, tol) <= tol}
+    assert unknowns(rec.recommended) <= min(ok.values()) * (1 + TIE), (rec.recommended, ok)
+
+
+def test_no_qualifying_model_says_which_output_and_where():
+    """Ex. 3 at 1 %: no reduced model qualifies; the reason names the closest model, the
+    output and the load factor; fem-N still answers."""
+    rec = _recommend("das2d-ex3-bistable-switch", 1e-2)
+    assert rec.recommended.startswith("fem-")
+    assert "no reduced model qualifies: closest" in rec.reason and "factor" in rec.reason
+    judged = [c for c in rec.candidates if c.worst_error is not None]
+    assert len(judged) > 5 and all(np.isfinite(c.worst_error) for c in judged)
+
+
+def test_rigid_only_scene_declines_in_solve_without_cost():
+    """Models that decline inside solve (fem-N on a kinematics scene) end their ladder and
+    carry no cost."""
+    rec = recommend(cases.load("das2d-ex1-peaucellier"), "1%", cost=unknowns)
+    assert rec.recommended == "kinetostatic"
+    fem = [c for c in rec.candidates if c.model.startswith("fem-")]
+    assert len(fem) == 1 and fem[0].cpu_s is None and fem[0].status == "not-applicable"
+
+
+def test_rigid_scene_picks_exact_kinetostatic_over_a_costlier_model_within_tolerance():
+    """The thesis six-bar (rigid links, springs, booms): thesis-force-method and fem-N are
+    within 1 %, but kinetostatic is exact there and costs less, so it is the pick."""
+    rec = recommend(cases.load("thesis-sixbar-config4"), "1%", cost=unknowns)
+    assert rec.recommended == "kinetostatic"
+    others = [c for c in rec.candidates if c.qualifies and c.model != "kinetostatic"]
+    assert others, "the scene should have other models within tolerance to beat"
