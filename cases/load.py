@@ -661,13 +661,18 @@ class _Builder:
             return None
         if kind != "synthesis":
             raise self.fail(p, f"only a 'synthesis' analysis takes it (kind is {kind!r})")
-        s = self.keys(
-            t["synthesis"],
-            p,
-            ("goal", "members", "target", "output"),
-            ("goal", "members", "target"),
-        )
+        s = self.keys(t["synthesis"], p, ("goal", "members", "target", "output"), ("goal",))
         goal = self.str_(s, "goal", p, choices=SYNTHESIS_GOALS)
+        if goal == "bistable":  # a search, nothing to size
+            if driver is None:
+                raise self.fail("analysis.driver", "missing: a bistable search needs a driver")
+            for k in ("members", "target", "output"):
+                if k in s:
+                    raise self.fail(f"{p}.{k}", "a bistable search sizes nothing (no such key)")
+            return Synthesis(goal, (), math.nan)
+        for k in ("members", "target"):
+            if k not in s:
+                raise self.fail(f"{p}.{k}", "missing required key")
         mem = s["members"]
         if not isinstance(mem, list) or not mem or not all(isinstance(m, str) for m in mem):
             raise self.fail(f"{p}.members", "must be a non-empty array of member ids")

@@ -41,7 +41,7 @@ ANALYSIS_KINDS = (
     "synthesis",
     "deploy",
 )
-SYNTHESIS_GOALS = ("stiffness", "critical-load")
+SYNTHESIS_GOALS = ("stiffness", "critical-load", "bistable")
 #: per-member model names a case may assign (``[[members]] model = ...``; issue 9)
 MEMBER_MODEL = (
     r"^(elastica|bcm|prb-short|prb-1r|prb-2r|prb-3r|prb-2rpr|prb-custom"
@@ -210,7 +210,10 @@ class Synthesis:
       rad) at load factor ``factor_end`` of the load ramp;
     * ``goal = "critical-load"``: the largest driving force (torque) between the first stable
       position and the energy barrier of the ``energy`` sweep of ``analysis.driver`` equals
-      ``target`` in magnitude (the switching load of a bistable mechanism).
+      ``target`` in magnitude (the switching load of a bistable mechanism);
+    * ``goal = "bistable"``: no sizing (``members`` empty, ``target`` NaN): the driver's range
+      is searched for two stable equilibria with an unstable one between (both stable
+      positions, the barrier and the switching loads both ways, or why it is not bistable).
     """
 
     goal: str

@@ -1,6 +1,6 @@
 """Speed benchmark record: what each model costs, as ratios measured in one run (issue 12).
 
-``python -m reports.bench [--rounds 7] [--quick] [--suite] [--out FILE.md]`` prints (and
+``python -m reports.bench [--rounds 7] [--quick] [--suite] [--mech] [--out FILE.md]`` prints (and
 writes) a Markdown table.  Every figure is the median CPU time (``time.process_time``, BLAS
 pinned to one thread) of the *solve* of one (case, model) pair over ``--rounds`` rounds after
 one warm-up, the post-processing (shapes, stress) excluded, and is shown beside a ratio
@@ -348,6 +348,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--quick", action="store_true", help="fewer cases, no N = 4096 / 256")
     p.add_argument("--suite", action="store_true", help="also time the default matrix")
     p.add_argument("--out", help="also write the Markdown record to this file")
+    p.add_argument("--mech", action="store_true", help="only the mechanism rows (issue 9)")
     args = p.parse_args(argv)
     timing.pin_blas()
     api.make_model("fem-16")  # imports first: no import inside a timed call
@@ -356,6 +357,8 @@ def main(argv: list[str] | None = None) -> int:
     out = [f"# FlexBench speed record ({time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())})", ""]
     out += [f"Machine: {machine()}. CPU time, median of {rounds} rounds, BLAS on one thread.", ""]
     verdicts: list[str] = []
+    if args.mech:
+        return _mech_only(out, rounds, args.out)
     out += ["## Single-beam models, 20-step load path (CPU ms; ratio to the elastica)", ""]
     rows, v = single_beam_table(rounds, SINGLE_BEAM[:2] if args.quick else SINGLE_BEAM)
     out += rows + [""]
@@ -370,6 +373,9 @@ def main(argv: list[str] | None = None) -> int:
     out += rows + [""]
     verdicts += v
     out += ["## Replay (cantilever-tip-load)", ""] + replay_table(rounds) + [""]
+    rows, v = _mech_rows(rounds)
+    out += rows
+    verdicts += v
     (wall, cpu), (floor, floor_cpu) = cli_wall()
     why = (
         ""
@@ -393,6 +399,24 @@ def main(argv: list[str] | None = None) -> int:
     print(text)
     if args.out:
         with open(args.out, "w") as fh:
+            fh.write(text)
+    return 0
+
+
+def _mech_rows(rounds: int) -> tuple[list[str], list[str]]:
+    """The mechanism section (``reports.bench_mech``) and its verdicts."""
+    from reports.bench_mech import kkt_path_table, mechanism_table
+
+    rows, v = mechanism_table(rounds)
+    return ["## Mechanisms (issue 9)", ""] + rows + [""] + kkt_path_table(rounds) + [""], v
+
+
+def _mech_only(out: list[str], rounds: int, path: str | None) -> int:
+    rows, v = _mech_rows(rounds)
+    text = "\n".join(out + rows + ["## Targets", ""] + v + [""])
+    print(text)
+    if path:
+        with open(path, "w") as fh:
             fh.write(text)
     return 0
 

@@ -136,6 +136,7 @@ _JSON_EXTRAS = (
     "equilibria",
     "barrier",
     "synthesis",
+    "bistable",
     "mobility",
     "mobility_rank",
     "range",

@@ -63,6 +63,7 @@ def unknowns(name: str, cpu: float = 0.0) -> float:
     fixed = {"prb-short": 1, "prb-1r": 1.01, "prb-2r": 2, "prb-3r": 3, "bcm": 3.3}
     fixed |= {"kinetostatic": 0.5, "mixed": 3.4}  # mechanism assembler models (issue 9)
     fixed |= {"thesis-force-method": 0.6}  # the six-bar thesis's force method (issue 10)
+    fixed |= {"elastica": 27.0}  # in mechanisms: N + 3 = 27 collocation unknowns per member
     if name in fixed:
         return fixed[name]
     if name.startswith("prb-3r-"):

@@ -253,7 +253,9 @@ def test_front_page_pick_and_overall_plot_over_common_cases(small):
     }
     good = [m for m, e in err.items() if e <= FP.TOLERANCE]
     assert picks["cantilever-tip-load"] == min(good, key=time.get)
-    assert picks["bistable-toggle"].startswith("none")
+    # bistable-toggle: prb-3r and linear-1 miss the tolerance; since the elastica member law
+    # (issue 9) the elastica solves the mechanism and is the only model within it
+    assert picks["bistable-toggle"] == "elastica"
     models, common, _ = FP.common_set(data)
     drawn = json.loads((small.out_dir / "figures" / "overall-pareto.json").read_text())["points"]
     assert sorted(p["model"] for p in drawn) == sorted(models) and common

@@ -66,7 +66,8 @@ class Run:
         i = s.driver_dof
         base = float(s.q0[i]) if drv.kind == "displacement" else 0.0
         s.driver_row = s.linear.add([i], [1.0], base, "driver")
-        self.solver = Solver(s, self.solver.tol, self.solver.max_iter)
+        sv = self.solver
+        self.solver = Solver(s, sv.tol, sv.max_iter, sv.sparse)
         return s.driver_row, base, s.driver_scale
 
     def set_driver(self, row: int, base: float, scale: float) -> Callable:

@@ -15,6 +15,7 @@ from dataclasses import replace
 import numpy as np
 
 from cases.schema import Member, Scene
+from reduced_models.mechanism import elastica_member
 from reduced_models.mechanism.constraints import Closure
 from reduced_models.mechanism.members import (
     ChainTerm,
@@ -62,6 +63,8 @@ def build(scene: Scene, spec_of: Callable[[Member], tuple]) -> MechanismSystem:
         spec = spec_of(m)
         if spec[0] == "chain":
             _add_chain(sysm, m, spec, L, alpha, xa, xb, ra, rb, chain_rows)
+        elif spec[0] == "elastica":  # exact member law (mechanism/elastica_member.py)
+            elastica_member.add(sysm, m, L, alpha, xa, xb, ra, rb)
         elif _root_at_b(scene, m, spec[1]):  # the PRB root (rigid first link) at end b
             _add_prb(sysm, m, spec[1], L, alpha + math.pi, xb, xa, rb, ra, closure, joints)
         else:

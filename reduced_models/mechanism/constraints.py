@@ -72,19 +72,18 @@ class Closure:
 
     def _seg_eval(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         psi = self.alpha + q[self.ang]
-        ell = self.len + np.where(self.has_u, q[np.maximum(self.u, 0)], 0.0)
+        ell = (
+            self.len + np.where(self.has_u, q[np.maximum(self.u, 0)], 0.0)
+            if self.any_u
+            else self.len
+        )
         return np.cos(psi), np.sin(psi), ell
 
     def values(self, q: np.ndarray) -> np.ndarray:
         c, s, ell = self._seg(q)
-        C = len(self.ends)
-        sx = np.bincount(self.chain, ell * c, minlength=C)
-        sy = np.bincount(self.chain, ell * s, minlength=C)
-        xa, xb = self.ends[:, 0], self.ends[:, 1]
-        out = np.empty(self.m)
-        out[0::2] = q[xb] - q[xa] - sx
-        out[1::2] = q[xb + 1] - q[xa + 1] - sy
-        return out
+        # rows (x, y) of each chain: one bincount over the segments' (x, y) projections
+        proj = np.bincount(self._prow, np.concatenate([ell * c, ell * s]), minlength=self.m)
+        return q[self._ib] - q[self._ia] - proj
 
     def jacobian(self, q: np.ndarray) -> Triplets:
         c, s, ell = self._seg(q)
@@ -104,6 +103,9 @@ class Closure:
         )
         one = np.ones(C)
         self._ends_vals = np.concatenate([one, -one, one, -one])
+        self._ia = np.column_stack([xa, xa + 1]).ravel()  # (x, y) unknowns per row
+        self._ib = np.column_stack([xb, xb + 1]).ravel()
+        self._prow = np.concatenate([rs, rs + 1])  # row of each segment's x and y projection
 
     def curvature(self, q: np.ndarray, mu: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         c, s, ell = self._seg(q)

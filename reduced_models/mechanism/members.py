@@ -62,17 +62,27 @@ class ChainTerm:
         self.alpha = np.asarray(alpha, float)
         self.sfac = np.asarray(sfac, float)  # E t / 2 per segment (NaN: thickness unknown)
         self.w = self.EI / self.h  # energy scale EI/h per segment
+        self.ih = 1.0 / self.h
+        # one axial compliance for all segments (the usual case): one law block per call
+        self._k1 = float(self.k[0]) if self.k.size and np.all(self.k == self.k[0]) else None
+        self._last: tuple | None = None  # (q, coords) of the last evaluation
         self._gpq = np.hstack([law.G.T, law.P.T, law.Q.T])
 
     def coords(self, q: np.ndarray) -> tuple[np.ndarray, ...]:
-        """Segment-normalised ux, y, a, p and cos/sin of the root angle, each (S,)."""
+        """Segment-normalised ux, y, a, p and cos/sin of the root angle, each (S,); cached
+        for the state last seen (``local`` and ``strain`` at the accepted state)."""
+        hit = self._last
+        if hit is not None and hit[0] is q:
+            return hit[1]
         z = q[self.dofs]
         psi = self.alpha + z[:, 2]
         c, s = np.cos(psi), np.sin(psi)
         dX, dY = z[:, 3] - z[:, 0], z[:, 4] - z[:, 1]
-        ux = (c * dX + s * dY) / self.h - 1.0
-        y = (-s * dX + c * dY) / self.h
-        return ux, y, z[:, 5] - z[:, 2], z[:, 6], c, s
+        ux = (c * dX + s * dY) * self.ih - 1.0
+        y = (-s * dX + c * dY) * self.ih
+        out = ux, y, z[:, 5] - z[:, 2], z[:, 6], c, s
+        self._last = (q, out)
+        return out
 
     def _forms(self, y: np.ndarray, a: np.ndarray, p: np.ndarray) -> tuple:
         w = np.column_stack([y, a])
@@ -114,33 +124,26 @@ class ChainTerm:
         ux, y, a, p, c, s = self.coords(q)
         n = ux.size
         B = self._block(ux, y, a, p)  # (n, 4, 5): [d2l | dl]
+        B *= self.w[:, None, None]  # energy scale EI/h once, before the products
         Hl, gl = B[:, :, :4], B[:, :, 4]
-        ih = 1.0 / self.h
         coef = np.empty((n, 5))
-        coef[:, 0], coef[:, 1], coef[:, 2], coef[:, 3], coef[:, 4] = (
-            c * ih,
-            s * ih,
-            y,
-            ux + 1.0,
-            1.0,
-        )
+        np.multiply(c, self.ih, out=coef[:, 0])
+        np.multiply(s, self.ih, out=coef[:, 1])
+        coef[:, 2], coef[:, 3], coef[:, 4] = y, ux + 1.0, 1.0
         J = (coef @ _J7).reshape(n, 4, 7)
         JT = J.transpose(0, 2, 1)
         g = (JT @ gl[:, :, None])[:, :, 0]
         H = JT @ (Hl @ J)
-        gx, gy = gl[:, 0], gl[:, 1]
-        cr = np.empty((n, 6))
-        cr[:, 0], cr[:, 1], cr[:, 2] = gx * coef[:, 1], gy * coef[:, 0], gx * coef[:, 0]
-        cr[:, 3], cr[:, 4], cr[:, 5] = gy * coef[:, 1], gx * coef[:, 3], gy * y
-        r = cr @ _R7  # row/column phi0 of the curvature terms gx d2ux + gy d2y
+        # row/column phi0 of the curvature terms gx d2ux + gy d2y: bilinear in (gx, gy) and
+        # the coefficients, one product with a constant pattern
+        r = (gl[:, :2, None] * coef[:, None, :]).reshape(n, 10) @ _R10
         H[:, 2, :] += r
         H[:, :, 2] += r
-        sc = self.w[:, None]
-        return self.dofs, g * sc, H * sc[:, :, None]
+        return self.dofs, g, H
 
     def _block(self, ux: np.ndarray, y: np.ndarray, a: np.ndarray, p: np.ndarray) -> np.ndarray:
-        if self.k.size and np.all(self.k == self.k[0]):
-            return self.law.block(ux, y, a, p, float(self.k[0]))
+        if self._k1 is not None:
+            return self.law.block(ux, y, a, p, self._k1)
         out = np.empty((ux.size, 4, 5))
         for kk in np.unique(self.k):
             i = np.flatnonzero(self.k == kk)
@@ -159,14 +162,16 @@ _J7[4, 2, [2, 5]] = (-1.0, 1.0)  # a = phi1 - phi0
 _J7[4, 3, 6] = 1.0  # p
 _J7 = _J7.reshape(5, 28)
 # r = gx * (si, -ci, ., -si, ci) + gy * (ci, si, ., -ci, -si) - (gx xi + gy y) e_phi0 / 2:
-# the diagonal term is added twice (row and column), hence the halves
-_R7 = np.zeros((6, 7))
-_R7[0, [0, 3]] = (1.0, -1.0)  # gx si
-_R7[1, [0, 3]] = (1.0, -1.0)  # gy ci
-_R7[2, [1, 4]] = (-1.0, 1.0)  # gx ci
-_R7[3, [1, 4]] = (1.0, -1.0)  # gy si
-_R7[4, 2] = -0.5  # gx (ux + 1)
-_R7[5, 2] = -0.5  # gy y
+# the diagonal term is added twice (row and column), hence the halves.  Rows: (g index,
+# coefficient index) flattened as 5 g + a, g in (gx, gy), a in (c/h, s/h, y, ux + 1, 1)
+_R10 = np.zeros((2, 5, 7))
+_R10[0, 1, [0, 3]] = (1.0, -1.0)  # gx si
+_R10[1, 0, [0, 3]] = (1.0, -1.0)  # gy ci
+_R10[0, 0, [1, 4]] = (-1.0, 1.0)  # gx ci
+_R10[1, 1, [1, 4]] = (1.0, -1.0)  # gy si
+_R10[0, 3, 2] = -0.5  # gx (ux + 1)
+_R10[1, 2, 2] = -0.5  # gy y
+_R10 = _R10.reshape(10, 7)
 
 
 class JointTerm:

@@ -3,8 +3,8 @@
 
 * ``member_spec(name, options)`` -> the member law of a reduced model name (or the reason it
   has none): ``linear-N``/``bcm``/``cbcm-N`` -> chained segments; the PRB family -> its PRB
-  matrix (``prb_tables``); ``elastica`` -> declined (no closed-form member law for general
-  end poses: the exact elastica is a boundary-value problem per member).
+  matrix (``prb_tables``); ``elastica`` -> the extensible elastica by shooting per member
+  (``elastica_member``; ``elastica-bvp`` stays a single-beam solver).
 * ``MechanismModel(name)`` puts that law into every flexible member; ``Kinetostatic`` solves
   scenes without flexible members; ``Mixed`` reads each member's ``model`` key.
 * ``reduced_models.routing.routed`` gives a registered single-beam model the mechanism route
@@ -69,11 +69,10 @@ def member_spec(name: str, options: dict | None = None) -> tuple | str:
             return ("chain", LINEAR_LAW, int(n), False)
         if family == "prb-fsm":
             return ("prb", T.fsm_matrix(int(n), o.get("placement", "mid")))
+    if name == "elastica":  # exact member law by shooting (mechanism/elastica_member.py)
+        return ("elastica",)
     if name.startswith("elastica"):
-        return (
-            "elastica: no closed-form member law for general end poses (the exact elastica "
-            "is a boundary-value problem per member); use cbcm-N or fem-auto for mechanisms"
-        )
+        return f"{name}: single-beam solver only; `elastica` carries the member law in mechanisms"
     return f"{name}: no member energy law in the mechanism assembler"
 
 
@@ -303,6 +302,10 @@ class _Post:
 def postprocess(scene: Scene, sol: Solution) -> Solution:
     """Shapes and bending stress of every step from the states the solve kept (outside the
     timed solve); ``sol`` unchanged when it kept none."""
+    if scene.analysis.kind == "synthesis":  # the synthesised scene re-solved by fem-auto
+        from reduced_models.mechanism.fecheck import fe_check
+
+        sol = fe_check(scene, sol)
     post = sol.extras.get("_post")
     if not isinstance(post, _Post):
         return sol

@@ -13,19 +13,31 @@ Stability (``Step.stable``): the reduced Hessian ``Z^T W Z`` on the tangent spac
 constraints (driver held in energy analyses) is positive definite iff the KKT matrix has
 exactly ``m + n_p`` negative eigenvalues and none near zero (inertia additivity; n_p = number
 of axial multipliers of chained segments, each of which brings one negative eigenvalue).
+
+The KKT system comes from ``kkt.Assembly`` (one scatter per evaluation), dense below
+``kkt.SPARSE_FROM`` unknowns (LAPACK dgesv, Bunch-Kaufman dsytrf for the inertia), sparse
+above (SuperLU; the inertia from ``kkt_sparse``'s certified symmetric LDL^T).
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
+import scipy.sparse as sp
 from scipy.linalg import lapack
+
+from reduced_models.mechanism import kkt_sparse
+from reduced_models.mechanism.kkt import Assembly
 
 if TYPE_CHECKING:
     from reduced_models.mechanism.system import MechanismSystem
+
+#: KKT matrix: dense below ``kkt.SPARSE_FROM`` unknowns, CSC above
+Matrix = np.ndarray | sp.csc_matrix
 
 TOL = 1e-10
 MAX_ITER = 30
@@ -44,21 +56,28 @@ class State:
     lam: float
     iterations: int = 0
     residual: float = 0.0
-    K: np.ndarray | None = None  # KKT matrix at this state (reused by tangent/stability)
+    K: Matrix | None = None  # KKT matrix at this state (reused by tangent/stability)
     lam_free: bool = False
-    ldl: tuple | None = None  # (lu, piv, sc): LDL^T of the scaled K from ``Solver.stable``
+    ldl: tuple | None = None  # (solve K x = b, size): factors from ``Solver.stable``
 
 
 class Solver:
-    """Newton solves on one system; ``lam_free`` makes the load factor the driver's unknown."""
+    """Newton solves on one system; ``lam_free`` makes the load factor the driver's unknown.
+    ``sparse``: force the sparse (True) or dense (False) KKT path (None: by size, ``kkt``)."""
 
-    def __init__(self, sysm: MechanismSystem, tol: float = TOL, max_iter: int = MAX_ITER) -> None:
+    def __init__(
+        self,
+        sysm: MechanismSystem,
+        tol: float = TOL,
+        max_iter: int = MAX_ITER,
+        sparse: bool | None = None,
+    ) -> None:
         self.s = sysm
         self.tol, self.max_iter = tol, max_iter
         self.f = sysm.free
         self.nf = len(self.f)
-        self.cs = None
-        self._irs = None
+        self.asm = Assembly(sysm, sparse)
+        self.sparse = sparse
         self._stab_key: tuple | None = None
         self._cap: np.ndarray | None = None
         self.memo: tuple | None = None  # last (path kind, t, x, dx) for the Hermite predictor
@@ -70,31 +89,17 @@ class Solver:
             return None
         return s.m - s.linear.m + s.driver_row
 
-    def kkt(self, st: State, lam_free: bool = False) -> tuple[np.ndarray, np.ndarray, float]:
-        """Residual (nf + m,) and KKT matrix at a state; the scaled residual norm."""
-        s, f = self.s, self.f
-        mu = st.mu.copy()
-        d = self.driver_index()
+    def kkt(self, st: State, lam_free: bool = False) -> tuple[np.ndarray, Matrix, float]:
+        """Residual (nf + m,) and KKT matrix (dense array or CSC) at a state; the scaled
+        residual norm."""
+        mu, col = st.mu, None
         if lam_free:
+            d = self.driver_index()
+            mu = mu.copy()
             mu[d] = 0.0
-        g, W, c, Jf = s.reduced(st.q, st.lam, mu)
-        r = g + Jf.T @ mu
-        nf, m = self.nf, len(c)
-        K = np.zeros((nf + m, nf + m))
-        K[:nf, :nf] = W
-        K[:nf, nf:] = Jf.T
-        K[nf:, :nf] = Jf
-        if lam_free:
-            K[:nf, nf + d] = s.reduced_load(st.q)
-        if self.cs is None:
-            self.cs = s.cscale()
-        if self._irs is None:
-            self._irs = 1.0 / s.rscale[f]
-            self._ics = 1.0 / self.cs
-        res = float(np.abs(r * self._irs).max()) if nf else 0.0
-        if m:
-            res = max(res, float(np.abs(c * self._ics).max()))
-        return np.concatenate([r, c]), K, res
+            col = self.nf + d
+        R, K = self.asm.evaluate(st.q, st.lam, mu, col)
+        return R, K, float(np.abs(R * self.asm.isc).max()) if len(R) else 0.0
 
     def newton(self, st: State, lam_free: bool = False) -> State:
         """Newton from ``st`` (not modified); raises SolveError when it does not converge."""
@@ -111,7 +116,7 @@ class Solver:
         for it in range(self.max_iter + 1):
             cur = State(q, mu, lam)
             R, K, res = self.kkt(cur, lam_free)
-            if not np.all(np.isfinite(R)):
+            if not np.isfinite(R).all():
                 raise SolveError("non-finite residual")
             if res <= self.tol:
                 return State(q, mu, lam, it, res, K, lam_free)
@@ -119,9 +124,9 @@ class Solver:
                 break
             prev = res
             dx = _solve(K, -R)
-            if not np.all(np.isfinite(dx)):
+            if not np.isfinite(dx).all():
                 raise SolveError("singular KKT matrix (mechanism at a singular configuration)")
-            big = float(np.max(np.abs(dx[:nf]) * icap, initial=0.0))
+            big = float((np.abs(dx[:nf]) * icap).max()) if nf else 0.0
             if big > 1.0:
                 dx /= big
             q = q.copy()
@@ -143,50 +148,95 @@ class Solver:
             rhs[: self.nf] = -self.s.reduced_load(st.q)
         else:
             rhs[self.nf + self.driver_index()] = 1.0
-        if st.ldl is not None and not lam_free and len(st.ldl[2]) == len(rhs):
-            # the stability check factorised diag(sc) K diag(sc) at this state already
-            lu, piv, sc = st.ldl
-            x, info = lapack.dsytrs(lu, piv, sc * rhs, lower=1)
-            if info == 0 and np.all(np.isfinite(x)):
-                return sc * x
+        if st.ldl is not None and not lam_free and st.ldl[1] == len(rhs):
+            x = st.ldl[0](rhs)  # the stability check factorised K at this state already
+            if np.isfinite(x).all():
+                return x
         return _solve(K, rhs)
 
     def stable(self, st: State, hold_driver: bool) -> tuple[bool | None, float]:
-        """Reduced-Hessian verdict and the lowest scaled eigenvalue (module doc)."""
+        """Reduced-Hessian verdict and the lowest scaled pivot (module doc)."""
         s, f, nf = self.s, self.f, self.nf
         K = st.K if st.K is not None and not st.lam_free else self.kkt(st)[1]
         d = self.driver_index()
-        key = (K.shape[0], hold_driver)
+        key = (K.shape[0], hold_driver, sp.issparse(K))
         if self._stab_key != key:  # congruence scaling (keeps the inertia) and kept rows
             keep = np.ones(K.shape[0], bool)
             if d is not None and not hold_driver:
                 keep[nf + d] = False
-            cs = self.cs if d is None or hold_driver else np.delete(self.cs, d)
+            cs = s.cscale()
+            cs = cs if d is None or hold_driver else np.delete(cs, d)
             sc = np.concatenate([1.0 / np.sqrt(s.rscale[f]), 1.0 / np.sqrt(cs)])
             n_p = sum(len(ch.w) for ch in s.chains)
-            self._stab = (np.flatnonzero(keep), np.outer(sc, sc), bool(np.all(keep)), sc, n_p)
+            S = None if sp.issparse(K) else np.outer(sc, sc)  # dense: elementwise scaling
+            self._stab = (np.flatnonzero(keep), S, bool(np.all(keep)), sc, n_p)
             self._stab_key = key
         keep, S, full, sc, n_p = self._stab
-        A = K * S if full else K[np.ix_(keep, keep)] * S
-        m = A.shape[0] - nf
-        if A.size == 0:
+        m = len(keep) - nf
+        if len(keep) == 0:
             return True, 1.0
-        lu, piv, info = lapack.dsytrf(A, lower=1)[:3]
-        if info < 0:
-            return None, 0.0
-        if full and not st.lam_free:
-            st.ldl = (lu, piv, sc)  # reused by ``tangent`` at this state
-        n_neg, pivot = _inertia(lu, piv)
+        reuse = full and not st.lam_free
+        if sp.issparse(K):
+            n_neg, pivot = self._sparse_inertia(st, K, keep, full, sc, reuse)
+        else:
+            n_neg, pivot = _dense_inertia(st, K if full else K[np.ix_(keep, keep)], S, sc, reuse)
         if n_neg is None:
             return None, pivot
         return n_neg == m + n_p, pivot
 
+    def _sparse_inertia(
+        self,
+        st: State,
+        K: sp.csc_matrix,
+        keep: np.ndarray,
+        full: bool,
+        sc: np.ndarray,
+        reuse: bool,
+    ) -> tuple[int | None, float]:
+        """Inertia by the sparse symmetric LDL^T (``kkt_sparse``); dense Bunch-Kaufman when
+        it cannot be certified and the system is small enough (``DENSE_MAX``)."""
+        A = K if full else K[keep][:, keep]
+        D = sp.diags(sc)
+        A = (D @ A @ D).tocsc()
+        fac = kkt_sparse.ldl(A, self.nf)
+        if fac is not None:
+            solve_a, piv, rel = fac
+            if reuse:
+                st.ldl = (lambda rhs: sc * solve_a(sc * rhs), len(sc))
+            return kkt_sparse.inertia(piv, rel)
+        if A.shape[0] > DENSE_MAX:
+            return None, 0.0
+        return _dense_inertia(st, A.toarray(), 1.0, sc, False)
 
-def _solve(K: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+
+DENSE_MAX = 2000  # largest KKT size for the dense inertia fallback of the sparse path
+
+
+def _dense_inertia(
+    st: State, K: np.ndarray, S: np.ndarray | float, sc: np.ndarray, reuse: bool
+) -> tuple[int | None, float]:
+    """Bunch-Kaufman LDL^T (LAPACK dsytrf) of ``K * S`` (S: congruence scaling outer(sc, sc))
+    and its inertia; ``reuse``: keep the factors for ``Solver.tangent`` at this state."""
+    lu, piv, info = lapack.dsytrf(K * S, lower=1)[:3]
+    if info < 0:
+        return None, 0.0
+    if reuse:
+
+        def solve(rhs: np.ndarray) -> np.ndarray:
+            x, info = lapack.dsytrs(lu, piv, sc * rhs, lower=1)
+            return sc * x if info == 0 else np.full(len(rhs), np.nan)
+
+        st.ldl = (solve, len(sc))
+    return _inertia(lu, piv)
+
+
+def _solve(K: Matrix, rhs: np.ndarray) -> np.ndarray:
     """LAPACK dgesv (least squares if singular); the argument checks of numpy.linalg.solve
-    cost more than the factorisation at these sizes."""
+    cost more than the factorisation at these sizes.  Sparse K: SuperLU."""
+    if sp.issparse(K):
+        return kkt_sparse.solve(K, rhs)
     _, _, x, info = lapack.dgesv(K, rhs)
-    if info != 0 or not np.all(np.isfinite(x)):
+    if info != 0 or not np.isfinite(x).all():
         return np.linalg.lstsq(K, rhs, rcond=None)[0]
     return x
 
@@ -194,22 +244,49 @@ def _solve(K: np.ndarray, rhs: np.ndarray) -> np.ndarray:
 def _inertia(lu: np.ndarray, piv: np.ndarray) -> tuple[int | None, float]:
     """Number of negative eigenvalues of a symmetric matrix from its Bunch-Kaufman LDL^T
     factors (LAPACK dsytrf, lower; Sylvester's law of inertia), and the smallest |eigenvalue
-    of D| relative to the largest; (None, pivot) when the matrix is numerically singular."""
-    d = np.diag(lu)
-    two = np.flatnonzero(piv < 0)  # 2x2 blocks: rows k, k+1 share a negative pivot index
-    starts = two[::2]
-    one = np.ones(len(d), bool)
-    one[starts] = one[starts + 1] = False
-    a, c, b = d[starts], d[starts + 1], lu[starts + 1, starts]
-    det, tr = a * c - b * b, a + c
-    disc = np.sqrt(np.maximum((a - c) ** 2 / 4 + b * b, 0.0))
-    neg = int(np.count_nonzero(d[one] < 0) + np.count_nonzero(det < 0))
-    neg += 2 * int(np.count_nonzero((det >= 0) & (tr < 0)))
-    mags = np.abs(np.concatenate([d[one], tr / 2 - disc, tr / 2 + disc]))
-    rel = float(mags.min() / max(mags.max(), 1e-300))
+    of D| relative to the largest; (None, pivot) when the matrix is numerically singular.
+    2x2 blocks: rows k, k+1 share a negative pivot index; eigenvalues mean +- disc."""
+    if len(piv) <= SMALL:
+        neg, lo, hi = _inertia_small(np.diag(lu).tolist(), np.diag(lu, -1).tolist(), piv)
+    else:
+        d = np.diag(lu)
+        starts = np.flatnonzero(piv < 0)[::2]
+        a, c, b = d[starts], d[starts + 1], lu[starts + 1, starts]
+        det, half = a * c - b * b, 0.5 * (a + c)
+        big = np.abs(half) + np.sqrt(0.25 * (a - c) ** 2 + b * b)
+        mags = np.abs(d)
+        mags[starts], mags[starts + 1] = big, np.abs(det) / np.maximum(big, 1e-300)
+        neg = int(np.count_nonzero(d < 0)) - int(np.count_nonzero(a < 0))
+        neg += int(np.count_nonzero(det < 0)) - int(np.count_nonzero(c < 0))
+        neg += 2 * int(np.count_nonzero((det >= 0) & (half < 0)))
+        lo, hi = float(mags.min()), float(mags.max())
+    rel = lo / max(hi, 1e-300)
     if rel <= 1e-13:
         return None, rel
     return neg, rel
+
+
+SMALL = 128  # pivots counted with plain floats up to this size (fewer calls than numpy)
+
+
+def _inertia_small(d: list, sub: list, piv: np.ndarray) -> tuple[int, float, float]:
+    """(negative eigenvalues, min |eigenvalue|, max |eigenvalue|) of the block-diagonal D."""
+    p = piv.tolist()
+    neg, lo, hi, k = 0, math.inf, 0.0, 0
+    while k < len(d):
+        if p[k] < 0:
+            a, c, b = d[k], d[k + 1], sub[k]
+            det, half = a * c - b * b, 0.5 * (a + c)
+            big = abs(half) + math.sqrt(0.25 * (a - c) ** 2 + b * b)
+            neg += 1 if det < 0 else (2 if half < 0 else 0)
+            lo, hi = min(lo, abs(det) / big if big else 0.0), max(hi, big)
+            k += 2
+        else:
+            v = d[k]
+            neg += v < 0
+            lo, hi = min(lo, abs(v)), max(hi, abs(v))
+            k += 1
+    return neg, lo, hi
 
 
 def follow(
@@ -280,6 +357,7 @@ def _predict(
     h00, h10 = 2 * tau**3 - 3 * tau**2 + 1, tau**3 - 2 * tau**2 + tau
     h01, h11 = -2 * tau**3 + 3 * tau**2, tau**3 - tau**2
     cubic = h00 * x0 + h10 * H * dx0 + h01 * x + h11 * H * dx
-    if np.linalg.norm(cubic - x) > 3.0 * np.linalg.norm(line - x):
+    a, b = cubic - x, line - x  # norms as numpy's 2-norm computes them: sqrt(v . v)
+    if math.sqrt(float(a @ a)) > 3.0 * math.sqrt(float(b @ b)):
         return line
     return cubic

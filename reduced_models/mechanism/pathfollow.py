@@ -7,7 +7,9 @@ bordered system
 
 with K the KKT matrix, r_lam = d r / d lam (minus the load vector) and the arc length measured
 on (q / length scale, lam) only (multipliers carry no length).  The step grows after easy
-steps and halves on failure.  A crossing of ``stop_output = stop_value`` is landed exactly
+steps and halves on failure or when the corrector lands off the step (``JUMP_COS``,
+``JUMP_ITERATIONS``).
+A crossing of ``stop_output = stop_value`` is landed exactly
 (the arc-length row replaced by the output row); a crossing of ``factor_end`` by a Newton
 solve at that factor.  Load-factor extrema (sign changes of d lam / ds between steps) are
 refined (zero of d lam / ds along the arc), inserted as steps with ``info["limit_point"]``
@@ -18,7 +20,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from reduced_models.mechanism.kkt import bordered_solve
 from reduced_models.mechanism.newton import SolveError, State
+
+# a corrector whose secant leaves the tangent by more than acos(JUMP_COS), or that needs more
+# than JUMP_ITERATIONS Newton iterations, has left the path's neighbourhood (members with a
+# stiff primal axial law, elastica or PRB-2RPR, landed past Lee's frame's snap-back and across
+# the shallow arch's snap-through): the step is halved
+JUMP_COS = 0.95
+JUMP_ITERATIONS = 12
 
 
 class ArcLength:
@@ -86,13 +96,10 @@ class ArcLength:
                 return State(st.q, st.mu, st.lam, it, res, K, False)
             if it == sv.max_iter:
                 break
-            n = K.shape[0]
-            B = np.zeros((n + 1, n + 1))
-            B[:n, :n] = K
-            B[:n, n][: self.nf] = s.reduced_load(st.q)
-            B[n, :] = a
+            col = np.zeros(K.shape[0])
+            col[: self.nf] = s.reduced_load(st.q)
             try:
-                dz = np.linalg.solve(B, -np.concatenate([R, [extra]]))
+                dz = bordered_solve(K, col, a, -np.concatenate([R, [extra]]))
             except np.linalg.LinAlgError:
                 break
             if not np.all(np.isfinite(dz)):
@@ -140,6 +147,11 @@ def run_path(run: object) -> None:
             ds /= 2.0
             if cuts > 12:
                 raise SolveError(f"arc-length step cut 12 times near factor {st.lam:.6g}") from None
+            continue
+        dz = al._z(new) - z0
+        off = al._dot(dz, t) ** 2 < JUMP_COS**2 * al._dot(dz, dz) * al._dot(t, t)
+        if (off or new.iterations > JUMP_ITERATIONS) and ds > 1e-6 * ds_max:
+            ds /= 2.0  # the corrector landed off the step's direction: a snap may be jumped
             continue
         t_new = al.tangent(new, t)
         if al._dot(t_new, t) < 0.98 and ds > 1e-6 * ds_max:

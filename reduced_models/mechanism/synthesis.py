@@ -21,8 +21,9 @@ import numpy as np
 
 from cases.schema import Member, Scene
 from reduced_models.base import Solution, not_applicable
-from reduced_models.mechanism import analyses
+from reduced_models.mechanism import analyses, bistable
 from reduced_models.mechanism.builder import build
+from reduced_models.mechanism.newton import SolveError
 from reduced_models.mechanism.system import SceneError
 
 MAX_IT = 30
@@ -41,36 +42,26 @@ def synthesised_scene(scene: Scene, scale: float) -> Scene:
 
 
 def _measure(run: analyses.Run, goal: str, output: str | None) -> float:
+    """The synthesised quantity: the output at factor_end, or the largest |driving force|
+    before the first unstable equilibrium (refined off the grid, ``bistable.peak``)."""
     if goal == "stiffness":
         return float(run.steps[-1].outputs[output])
-    key = "driver.torque" if run.scene.analysis.driver.kind == "rotation" else "driver.force"
-    F = np.abs([s.outputs[key] for s in run.steps])
-    un = [e for e in run.extras.get("equilibria", []) if e["kind"] == "unstable"]
     vals = np.array([s.factor for s in run.steps])
-    stop = len(F)
-    if un:
-        x = un[0]["coordinate"]
-        stop = (
-            int(
-                np.searchsorted(np.sign(vals[-1] - vals[0]) * vals, np.sign(vals[-1] - vals[0]) * x)
-            )
-            + 1
-        )
-    k = int(np.argmax(F[:stop]))
-    if 0 < k < len(F) - 1:  # parabola through the largest sample and its neighbours
-        f0, f1, f2 = F[k - 1], F[k], F[k + 1]
-        den = f0 - 2 * f1 + f2
-        if den < 0:
-            t = 0.5 * (f0 - f2) / den
-            return float(f1 - 0.25 * (f0 - f2) * t)
-    return float(F[k])
+    F = np.array([s.outputs[bistable.force_key(run)] for s in run.steps])
+    un = [e for e in run.extras.get("equilibria", []) if e["kind"] == "unstable"]
+    hi = un[0]["coordinate"] if un else float(vals[-1])
+    inside = (vals - vals[0]) * (vals - hi) <= 0.0
+    sign = float(np.sign(F[inside][np.argmax(np.abs(F[inside]))])) or 1.0
+    return abs(bistable.peak(bistable.At(run), float(vals[0]), hi, sign)[1])
 
 
 def synthesise(scene: Scene, name: str, spec_of: Callable[[Member], tuple]) -> Solution:
     """Solve the synthesis of ``scene`` with the member laws of ``spec_of``."""
     syn = scene.analysis.synthesis
-    if syn.goal == "critical-load" and scene.analysis.driver is None:
-        return not_applicable(scene, name, "critical-load synthesis needs analysis.driver")
+    if syn.goal != "stiffness" and scene.analysis.driver is None:
+        return not_applicable(scene, name, f"{syn.goal} synthesis needs analysis.driver")
+    if syn.goal == "bistable":
+        return bistable.search(scene, name, spec_of)
     kind = "load" if syn.goal == "stiffness" else "energy"
 
     def evaluate(s: float) -> tuple[float, analyses.Run]:
@@ -116,4 +107,10 @@ def synthesise(scene: Scene, name: str, spec_of: Callable[[Member], tuple]) -> S
         "evaluations": its,
     }
     msg = f"EI scaled by {s:.6g} ({its} analyses); {syn.goal} = {v1:.6g}"
+    if syn.goal == "critical-load":  # both stable positions, the barrier, both switching loads
+        try:
+            extras["bistable"] = bistable.bistable(run)
+        except SolveError as err:
+            return Solution(scene.name, name, "failed", f"bistable summary: {err}", run.steps)
+        msg += "; " + bistable.describe(extras["bistable"])
     return Solution(scene.name, name, "converged", msg, tuple(run.steps), extras)

@@ -19,6 +19,7 @@ from typing import Any
 from reports import grading
 from reports.render import frontpage as FP
 from reports.render import sweep_section as SW
+from reports.render import synthnote
 from reports.render.cells import Cell
 
 Block = tuple
@@ -159,6 +160,7 @@ def _model_rows(case: Mapping, recs: Sequence[Mapping]) -> tuple[list[str], list
                 f"chose N = {n} (tried {fid.get('sequence')}; estimate "
                 f"{FP.fmt_err(fid.get('estimate'))}, target {FP.fmt_err(fid.get('target'))})"
             )
+        notes += synthnote.notes(r.get("extras") or {})  # synthesis: EI, fem-auto check
         if (r.get("grade") or {}).get("validity_warning"):
             notes.append("⚠ " + r["grade"]["validity_warning"])
         if err.get("coverage") is not None and err["coverage"] < 0.999:

@@ -1,0 +1,46 @@
+"""Per-model notes of the synthesis analyses (issue 9): the synthesised EI, the bistable summary
+and the fem-auto re-solve of the synthesised scene (``reduced_models/mechanism/fecheck.py``)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+
+def _g(v: object) -> str:
+    return f"{v:.6g}" if isinstance(v, int | float) else "?"
+
+
+def _bistable(b: Mapping) -> str:
+    if not b.get("bistable"):
+        return f"not bistable ({b.get('reason', 'no stable-unstable-stable triple')})"
+    c, bar = b.get("critical") or {}, b.get("barrier") or {}
+    st = b.get("stable") or [None, None]
+    return (
+        f"stable at {_g(st[0])} and {_g(st[1])}, unstable at {_g(b.get('unstable'))}, "
+        f"barrier {_g(bar.get('forward'))} (back {_g(bar.get('backward'))}), switching "
+        f"{_g(c.get('forward'))} / back {_g(c.get('backward'))}"
+    )
+
+
+def notes(extras: Mapping) -> list[str]:
+    """Lines for the per-case model table (empty when the run is not a synthesis)."""
+    out = []
+    syn = extras.get("synthesis")
+    if isinstance(syn, Mapping):
+        ei = ", ".join(f"{k} {_g(v)}" for k, v in (syn.get("EI") or {}).items())
+        out.append(f"synthesised EI: {ei} ({syn.get('goal')} {_g(syn.get('achieved'))})")
+        fe = syn.get("fem-auto")
+        if isinstance(fe, Mapping):
+            out.append(
+                f"fem-auto on the synthesised scene: {_g(fe.get('achieved'))} "
+                f"(error {_g(fe.get('relative_error'))} of the target)"
+                if fe.get("status") == "converged"
+                else f"fem-auto on the synthesised scene: {fe.get('status')}"
+            )
+    b = extras.get("bistable")
+    if isinstance(b, Mapping):
+        out.append("bistable: " + _bistable(b))
+        fe = b.get("fem-auto") or ((syn or {}).get("fem-auto") or {})
+        if isinstance(fe.get("bistable"), Mapping):
+            out.append("fem-auto: " + _bistable(fe["bistable"]))
+    return out
