@@ -50,11 +50,11 @@ class ReplayOptions:
 
     zeta: float = 1.0
     damping: str = "mass"
-    rho_inf: float = 0.6
+    rho_inf: float = 0.0
     ramp_periods: float = 4.0
     settle_tol: float = 1e-7
     lte_tol: float = 3e-4
-    dt_max: float = 2.0
+    dt_max: float = 0.5
     max_hold: float = 400.0
     probe: str = "all"
     probe_amplitude: float = 1e-3
@@ -67,6 +67,9 @@ class ReplayOptions:
     locks: tuple[ev.LengthLock, ...] = ()
 
 
+SOFT_AFTER = 20.0  # T1 of holding after which a soft mode gets its own critical damping
+
+
 class _Run:
     """Mutable replay of one system: the current state, the energy books and the history."""
 
@@ -74,9 +77,15 @@ class _Run:
         self.sys, self.o = system, o
         self.L = float(system.length_scale())
         self.w = ev.dof_weights(system, self.L)
-        M = system.mass()
         n = system.ndof
-        _, K0 = system.residual_and_tangent(np.zeros(n), 0.0)
+        alg = getattr(system, "algebraic", None)
+        Mfull, self.point_masses = ev.point_masses(system.mass(), self.w, alg)
+        modal = getattr(system, "modal_pair", None)  # (K0, M) of the free vibration, if not
+        if modal is not None:  # the system's own (a servo's bordered, singular-mass one)
+            K0, M = modal()
+            M = ev.point_masses(M, self.w if alg is None else np.delete(self.w, alg))[0]
+        else:
+            M, (_, K0) = Mfull, system.residual_and_tangent(np.zeros(n), 0.0)
         a0, a1, self.w1, self.damping_note = ev.rayleigh(sp.csr_matrix(K0), M, o.zeta)
         if o.damping == "mass":
             a0, a1, self.damping_note = 2 * o.zeta * self.w1, 0.0, "mass-proportional"
@@ -84,7 +93,14 @@ class _Run:
         pairs = ev.resolve_locks(system, scene, o.locks)
         damp = (a0, a1, K0 if o.damping == "initial" else None)
         self.integ = ev.GenAlpha(
-            system, damp, pairs, self.w, self.L, rho_inf=o.rho_inf, newton_tol=1e-2 * o.settle_tol
+            system,
+            damp,
+            pairs,
+            self.w,
+            self.L,
+            rho_inf=o.rho_inf,
+            newton_tol=1e-2 * o.settle_tol,
+            mass=Mfull,
         )
         self.integ.act_ramp = o.ramp_periods * self.T1  # the boom pushes ramp in, like loads
         self.M = self.integ.M
@@ -190,11 +206,20 @@ class _Run:
         """Hold the load at ``lam`` until settled (static_check passes)."""
         if any(p.lock.force and not p.locked for p in self.integ.pairs):
             self.advance(self.integ.act_ramp, lambda t: lam)  # let the boom pushes ramp in
-        chk = self.static_check(self.s)
+        chk = self.static_check(self.s) if self.s.lam == lam else None  # else: a step change
         if chk is not None:
             return self.s, chk
         t_end = self.s.t + self.o.max_hold * self.T1
-        s, chk = self.advance(t_end, lambda t: lam, until=self.static_check)
+        t_soft = min(t_end, self.s.t + SOFT_AFTER * self.T1)
+        s, chk = self.advance(t_soft, lambda t: lam, until=self.static_check)
+        a0 = self.integ.a0
+        if chk is None and self.integ.a1 == 0.0:  # a soft mode creeps, overdamped at a0:
+            w = ev.soft_frequency(self.sys, self.integ, s)  # damp it critically instead
+            if w is not None and 2.0 * self.o.zeta * w < a0:
+                self.integ.a0, self.integ._C0 = 2.0 * self.o.zeta * w, None
+        if chk is None:
+            s, chk = self.advance(t_end, lambda t: lam, until=self.static_check)
+        self.integ.a0, self.integ._C0 = a0, None
         if chk is None:
             raise ev.ReplayError(f"did not settle at factor {lam:.6g} within {self.o.max_hold} T1")
         return s, chk
@@ -299,6 +324,21 @@ class _Run:
         return {**out, "verdict": verdict or "undecided"}
 
 
+def _reach(run: _Run, lam: float) -> tuple[ev.State, dict]:
+    """Ramp the load factor to ``lam`` (over ``ramp_periods`` T1) and hold until settled."""
+    if run.s.lam != lam or run.s.t == 0.0 and lam != 0.0:
+        la, t0, Tr = run.s.lam, run.s.t, run.o.ramp_periods * run.T1
+        run.advance(t0 + Tr, ev.ramp_path(la, lam, t0, Tr))
+    return run.hold(lam)
+
+
+def _stability(run: _Run, s: ev.State, chk: dict, want: bool, scene: Scene | None) -> tuple:
+    """Tangent test and (if ``want``) impulse probe of the settled state ``s``: (eig, probe)."""
+    eig, mode = ev.tangent_test(chk["K"], chk["G"], run.M)
+    pr = run.probe(s, eig, mode, scene) if want else {"stable": None, "verdict": "skipped"}
+    return eig, pr
+
+
 def replay_system(
     system: object,
     factors: np.ndarray,
@@ -306,6 +346,8 @@ def replay_system(
     scene: Scene | None = None,
     case: str = "",
     options: ReplayOptions | None = None,
+    stability: Callable = _stability,
+    reach: Callable = _reach,
 ) -> Solution:
     """Replay ``system`` through the load ``factors`` (the heart of the ``replay`` model).
 
@@ -315,6 +357,10 @@ def replay_system(
     factors : (nsteps,) reported load factors, starting with the initial one.
     scene : the scene (node coordinates for boom events and nodal probes), optional.
     case : case name for the Solution; options : ReplayOptions (defaults if None).
+    stability : ``(run, state, static_check, want_probe, scene) -> (eigenvalue, probe dict)``
+        at each settled state (a servo replay tests the load-controlled system instead).
+    reach : ``(run, factor) -> (settled state, static_check)``: how a report point is
+        reached (default: ramp and hold; a servo replay aims its coordinate).
 
     Returns
     -------
@@ -336,14 +382,9 @@ def replay_system(
         it0, h = run.integ.newton_iterations, run.hist
         mark = (len(h.t), run.W, h.strain[-1], run.D - run.D_impact, prev_q)
         try:
-            if k > 0 or lam != 0.0:
-                la, t0, Tr = run.s.lam, run.s.t, o.ramp_periods * run.T1
-                path = ev.ramp_path(la, lam, t0, Tr)
-                run.advance(t0 + Tr, path)
-            s, chk = run.hold(lam)
-            eig, mode = ev.tangent_test(chk["K"], chk["G"], run.M)
+            s, chk = reach(run, float(lam))
             want = o.probe == "all" or (o.probe == "last" and k == len(factors) - 1)
-            pr = run.probe(s, eig, mode, scene) if want else {"stable": None, "verdict": "skipped"}
+            eig, pr = stability(run, s, chk, want, scene)
         except (ev.ReplayError, RuntimeError, ValueError, np.linalg.LinAlgError) as exc:
             status, message = "failed", f"factor {lam:.6g}: {exc}"
             break
@@ -358,7 +399,7 @@ def replay_system(
             "probe_stable": math.nan if pr["stable"] is None else float(pr["stable"]),
             "probe_peak": pr.get("peak", math.nan),
         }
-        st = system.step(s.q, float(lam), run.integ.newton_iterations - it0, pr["stable"])
+        st = system.step(s.q, s.lam, run.integ.newton_iterations - it0, pr["stable"])
         st = replace(st, info={**dict(st.info), **info}, stable=pr["stable"])
         if k > 0:
             jp = run.jump(mark, prev_step, st)
@@ -373,9 +414,13 @@ def replay_system(
         for key in ("t", "factor", "kinetic", "strain", "dissipated", "external_work")
     }
     out_of = getattr(system, "outputs", None)  # FE systems: outputs without shapes (cheaper)
-    outs = [
-        out_of(h.q[i]) if out_of else system.step(h.q[i], h.factor[i], 0, None).outputs for i in idx
-    ]
+    if getattr(system, "outputs_need_factor", False):  # a prescribed coordinate: q alone is not
+        outs = [out_of(h.q[i], h.factor[i]) for i in idx]  # the state
+    else:
+        outs = [
+            out_of(h.q[i]) if out_of else system.step(h.q[i], h.factor[i], 0, None).outputs
+            for i in idx
+        ]
     for key in outs[0] if outs else ():
         history[key] = [float(d.get(key, math.nan)) for d in outs]
     fi = ev.downsample(len(h.t), o.frames)
@@ -384,6 +429,8 @@ def replay_system(
     frames["n_elements"] = getattr(system, "n_elements", None)
     settle = dict(T1=run.T1, omega1=run.w1, damping=run.damping_note, time_steps=len(h.t) - 1)
     settle["newton_iterations"] = run.integ.newton_iterations
+    settle["factorizations"] = run.integ.factorizations
+    settle["point_masses_added"] = run.point_masses
     settle["energy_balance_error"] = (W - U - T - D) / max(abs(W), abs(U), 1e-300)
     extras = dict(history=history, jumps=jumps, events=run.events, probes=probes)
     extras.update(frames=frames, settle=settle)
@@ -412,6 +459,14 @@ _REFERENCES = (
 )
 
 
+_DECLINED = {  # analyses with nothing to replay, and why
+    "kinematics": "a linkage without flexible members has no elastic state to settle "
+    "(its rigid-body motion is the kinetostatic solver's)",
+    "synthesis": "the replay replays a given scene, it does not design one (the synthesised "
+    "scene is re-solved by fem-auto in the report)",
+}
+
+
 class Replay:
     """``replay``: damped generalised-alpha replay of the FE scene (see module docstring).
 
@@ -436,15 +491,20 @@ class Replay:
             "Rayleigh with the current tangent); settled states do not depend on it",
             "a state is settled when velocity, acceleration and the static distance K^-1 r "
             "are all below settle_tol * L (1e-7 L by default)",
-            "stability: a kick along the lowest mode (or a nodal impulse) returns / departs",
+            "stability: a kick along the lowest mode (or a nodal impulse) returns / departs "
+            "(distance/path: under load control at the settled factor, as the FE tests)",
+            "a DOF without mass (a node joining only springs) gets a point mass (the mean "
+            "translational one); settled states do not depend on it",
             "boom events: exact length lock with a plastic latch (no penalty stop)",
             "fixed mesh (n_elements, default 32): settled to the static FE of that mesh, which "
             "differs from fem-auto by its discretisation error -- estimated and stated in the "
             "message (extras mesh_error_estimate); snap-through reported where the static "
             "path loses stability, the dynamic onset alongside",
         ),
-        validity="load analyses of any scene the FE reference represents; transients are "
-        "only as physical as the damping (quasi-static replay, not a vibration model)",
+        validity="load, energy (driver moved as a prescribed motion), distance and path "
+        "(a servo holds the driver / stop coordinate and sets the load factor) and deploy "
+        "analyses of any scene the FE reference represents; transients are only as physical "
+        "as the damping (quasi-static replay, not a vibration model)",
         references=_REFERENCES,
     )
 
@@ -488,8 +548,15 @@ class Replay:
             from fem_reference.replay_driver import applies  # driver moved as a motion
 
             return applies(scene)
-        if scene.analysis.kind not in ("load", "deploy") and self.factors is None:
-            return f"{scene.analysis.kind} analyses: the replay only ramps a load factor"
+        kind = scene.analysis.kind
+        if kind in ("distance", "path") and self.factors is None:
+            from fem_reference.replay_servo import applies  # a servo holds the coordinate
+
+            return applies(scene)
+        if kind in _DECLINED and self.factors is None:
+            return f"{kind} analyses: {_DECLINED[kind]}"
+        if kind not in ("load", "deploy") and self.factors is None:
+            return f"{kind} analyses: the replay only ramps a load factor"
         try:
             build(scene, 1)
         except (ModelError, KeyError) as err:
@@ -509,6 +576,10 @@ class Replay:
             from fem_reference.replay_driver import solve_energy
 
             return solve_energy(scene, self.n_elements, self.options)
+        if scene.analysis.kind in ("distance", "path") and self.factors is None:
+            from fem_reference.replay_servo import solve_checked
+
+            return solve_checked(scene, self.n_elements, self.options)
         system = build(scene, self.n_elements)
         lams = load_factors(scene) if self.factors is None else self.factors
         sol = replay_system(system, lams, scene=scene, case=scene.name, options=self.options)

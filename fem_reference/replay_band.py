@@ -51,9 +51,10 @@ def step_band(integ: GenAlpha, s: State, h: float, lam: float) -> State | None:
     acc = s.acc.copy()
     q = qh + acc / cq
     a0, C, bw, n = integ.a0, None, integ.bw, s.q.shape[0]
+    # dgbmv's storage: the rows below the fill-in (scipy's wrapper rejects n < 2 bw + 1)
+    Mg = np.asfortranarray(integ._Mb[bw:]) if n > 2 * bw else None
     if integ.a1 == 0.0:  # C = a0 M: its band is M's, and one band product M (acc + a0 v)
         Cb = (cv * a0 + cq) * integ._Mb
-        Mg = np.asfortranarray(integ._Mb[bw:])  # dgbmv's storage: the rows below the fill-in
     else:
         C = integ.damping(s)
         Cb = cv * csr_to_band(C, integ.bw) + cq * integ._Mb
@@ -70,7 +71,8 @@ def step_band(integ: GenAlpha, s: State, h: float, lam: float) -> State | None:
             integ.factorizations += 1
             fresh = True
         if C is None:
-            inertia = _dgbmv(n, n, bw, bw, 1.0, Mg, acc + a0 * v)
+            x = acc + a0 * v
+            inertia = integ.M @ x if Mg is None else _dgbmv(n, n, bw, bw, 1.0, Mg, x)
         else:
             inertia = integ.M @ acc + C @ v
         dq = -solve(inertia + ev_.r)
@@ -92,6 +94,8 @@ def step_band(integ: GenAlpha, s: State, h: float, lam: float) -> State | None:
         return None
     v = vh + acc * (cv / cq)
     a = (1 - af) / (1 - am) * acc + astar
+    if integ.alg is not None:  # algebraic unknowns (a servo's load factor): no inertia
+        v[integ.alg] = acc[integ.alg] = a[integ.alg] = 0.0
     fe_new = lam * np.asarray(integ.sys.external(q), dtype=float)
     # the tangent for current-stiffness damping of the next step, only when it is used
     K = integ.sys.tangent_csr(ev_) if integ.a1 != 0.0 and integ.K0 is None else None

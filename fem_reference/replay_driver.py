@@ -97,8 +97,10 @@ class DrivenSystem:
     def strain_energy(self, u: np.ndarray) -> float:
         return float(self.full.strain_energy(self._d(u, self._lam)))
 
-    def outputs(self, u: np.ndarray) -> dict[str, float]:
-        return self.full.outputs(self._d(u, self._lam))
+    outputs_need_factor = True  # the driver coordinate is not in u
+
+    def outputs(self, u: np.ndarray, lam: float | None = None) -> dict[str, float]:
+        return self.full.outputs(self._d(u, self._lam if lam is None else lam))
 
     def length_scale(self) -> float:
         return float(self.full.length_scale())

@@ -217,6 +217,7 @@ class GenAlpha:
     L : length scale; rho_inf : spectral radius at infinite step (numerical dissipation).
     newton_tol : Newton accepts the evaluated state whose correction max|w dq| computed from
         its own residual is <= newton_tol * L (the state returned is the one evaluated).
+    mass : the mass matrix to use (default ``system.mass()``; see ``point_masses``).
     """
 
     def __init__(
@@ -229,9 +230,10 @@ class GenAlpha:
         rho_inf: float = 0.6,
         newton_tol: float = 1e-11,
         max_iter: int = 12,
+        mass: sp.spmatrix | None = None,
     ) -> None:
         self.sys = system
-        self.M = sp.csr_matrix(system.mass())
+        self.M = sp.csr_matrix(system.mass() if mass is None else mass)
         self.a0, self.a1, K0 = damping
         self.K0 = None if K0 is None else sp.csr_matrix(K0)
         self.pairs = pairs
@@ -248,7 +250,9 @@ class GenAlpha:
         self.newton_iterations = 0
         self.factorizations = 0
         self.bw = getattr(system, "bandwidth", None)  # half-bandwidth of the FE matrices
+        self.alg = getattr(system, "algebraic", None)  # DOF indices without inertia
         self._Mb = band_mass(self)  # not None: ``step`` works in band storage
+        self._C0 = None  # mass damping a0 M, once asked for
         try:
             self._Msolve = factor(self.M)
         except RuntimeError:  # singular mass (massless DOFs): no consistent start accel.
@@ -291,7 +295,9 @@ class GenAlpha:
         """C = a0 M + a1 K for a step starting at ``s`` (K: current tangent or initial K0)."""
         K = self.K0 if self.K0 is not None else s.K
         if self.a1 == 0.0 or K is None:
-            return self.a0 * self.M
+            if self._C0 is None:  # constant: built once (the energy books ask every step)
+                self._C0 = self.a0 * self.M
+            return self._C0
         return combine([(self.a0, self.M), (self.a1, K)])
 
     def start(self, t: float, lam: float, q: np.ndarray, v: np.ndarray) -> State:
@@ -376,6 +382,8 @@ class GenAlpha:
             return None
         v = vh + acc * (cv / cq)
         a = (1 - af) / (1 - am) * acc + astar
+        if self.alg is not None:  # algebraic unknowns (a servo's load factor): no inertia
+            v[self.alg] = acc[self.alg] = a[self.alg] = 0.0
         # external force at the converged state for the work integral (actuators included)
         fe_new = lam * np.asarray(self.sys.external(q), dtype=float)
         for p in self.pairs:
@@ -522,6 +530,39 @@ def tangent_test(K: sp.spmatrix, G: np.ndarray, M: sp.spmatrix) -> tuple[float, 
         return float(vals[0]), Z @ vecs[:, 0]
     vals, vecs = lowest_modes(K, M, k=1)
     return float(vals[0]), vecs[:, 0]
+
+
+def point_masses(M: sp.spmatrix, w: np.ndarray, skip: np.ndarray | None = None) -> tuple:
+    """M with a lumped mass on every DOF that has none (a node joining only springs, a
+    rigid-body scene): the mean translational diagonal mass (1 if there is none) times w^2
+    (inertia for rotations).  Settled states do not depend on it; without it the dynamics
+    is singular.  ``skip``: algebraic DOFs, left massless.  Returns (M, number added)."""
+    M = sp.csr_matrix(M)
+    d = M.diagonal()
+    empty = d <= 0.0
+    if skip is not None:
+        empty[np.asarray(skip)] = False
+    if not empty.any():
+        return M, 0
+    trans = (d > 0.0) & (w == 1.0)
+    m = float(d[trans].mean()) if trans.any() else 1.0
+    add = np.where(empty, m * w * w, 0.0)
+    return (M + sp.diags(add)).tocsr(), int(empty.sum())
+
+
+def soft_frequency(system: object, integ: GenAlpha, s: State) -> float | None:
+    """Lowest circular frequency of the current tangent (coordinate held for a servo system:
+    ``modal_pair_at``), or None if it is not positive (no mode to damp critically)."""
+    at = getattr(system, "modal_pair_at", None)
+    if at is not None:
+        K, M = at(s.q, s.lam)
+    else:
+        K, M = sp.csr_matrix(system.residual_and_tangent(s.q, s.lam)[1]), integ.M
+    try:
+        lam = float(lowest_modes(K, M, k=1)[0][0])
+    except (ValueError, np.linalg.LinAlgError, RuntimeError, spla.ArpackError):
+        return None
+    return math.sqrt(lam) if lam > 0.0 else None
 
 
 def downsample(n: int, cap: int) -> np.ndarray:

@@ -355,3 +355,15 @@ def test_ex3_snaps_near_10_n_and_is_bistable():
     assert 9.5 < 15.0 * f.max() < 10.5 and f.min() < 0.0 < f[-1]
     k = int(f.argmax())
     assert 3.0 < ux[k] < 4.5 and np.all(np.diff(f[:k]) > 0)
+
+
+def test_ex3_guided_shuttle_path_is_stable_up_to_the_snap():
+    """Ex. 3's shuttle guide makes the symmetric path the physical one: the FE's own tangent
+    test holds it stable at every step before the limit point (without the guide the path
+    bifurcates into a tilted branch from about 1.9 mm, tests/test_replay_mech.py) and unstable
+    in the snap region between the largest and the smallest load factor."""
+    sol = solved("das2d-ex3-bistable-switch", "fem-auto")
+    f = np.array([s.factor for s in sol.steps])
+    top, bottom = int(np.argmax(f)), int(np.argmin(f))
+    assert all(s.stable for s in sol.steps[:top])
+    assert not any(s.stable for s in sol.steps[top + 1 : bottom])  # the ends are near-critical
