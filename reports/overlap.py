@@ -8,7 +8,9 @@ cores inflating the solves' wall times) and the pool's workers, forked before th
 piled up, stay small.  The case's errors are attached exactly as ``store.assemble`` does it,
 and the colour map is the run's (every planned model), so the figures equal those the final
 render would draw.  What needs the whole run (stability maps of sweeps, the overall plot, the
-history trend with this run's row, the document) is still done at the end.
+history trend with this run's row, the document) is still done at the end, and so is the
+final deformed-scene render (all cases in one child process, ``reports.render.scenes``, so
+no pool worker loads VTK).
 """
 
 from __future__ import annotations
@@ -50,7 +52,6 @@ class EarlyFigures:
         are all among them is left to the final render.
     metas : case -> case meta (``runner.plan``).
     out_dir : the run's output folder.
-    backend : ``render_figures``' backend of the final-shape render (None: none).
     probe : the run's pyvista probe thread (``exports.start_render_probe``), joined before
         the first job so the workers (forked before it ended) inherit its verdict.
     """
@@ -61,7 +62,6 @@ class EarlyFigures:
         records: Sequence[dict],
         metas: Mapping[str, dict],
         out_dir: Path,
-        backend: str | None,
         probe: Any = None,
     ):
         from reports.render import figures as F
@@ -71,7 +71,7 @@ class EarlyFigures:
         for r in records:
             if r["case"] in self.left:
                 self.recs[r["case"]].append(r)
-        self.metas, self.out_dir, self.backend, self.probe = metas, out_dir, backend, probe
+        self.metas, self.out_dir, self.probe = metas, out_dir, probe
         (out_dir / "figures").mkdir(parents=True, exist_ok=True)
         self.cmap = F.colours(sorted({t["model"] for t in todo} | {r["model"] for r in records}))
         self.figures: dict[str, dict] = {}
@@ -96,7 +96,9 @@ class EarlyFigures:
             return
         mine = sorted(self.recs.pop(name), key=lambda r: r["model"])  # as store.assemble
         case = {**meta, **errors.attach_errors(meta, mine)}
-        args = (name, case, mine, self.cmap, self.out_dir, self.backend, None)
+        # no final-scene render here: pyvista would keep VTK (~240 MB) in every worker that
+        # draws a case; the final render draws them in one child (render/scenes.py)
+        args = (name, case, mine, self.cmap, self.out_dir, None, None)
         if self.probe is not None:
             self.probe.join()
         job = {"key": f"{name}|{ROLE}", "case": name, "model": ROLE, "role": ROLE}

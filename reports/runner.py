@@ -533,8 +533,7 @@ def run_matrix(
     pooled = not dask and (workers or os.cpu_count() or 1) > 1 and len(todo) > 1
     early = None
     if render and pooled:
-        backend = "auto" if render_shapes else None
-        early = overlap.EarlyFigures(todo, records, metas, out.resolve(), backend, probe)
+        early = overlap.EarlyFigures(todo, records, metas, out.resolve(), probe)
     if teaching == "auto":  # the page is about the default models: not for a --models run
         teaching = None if models else teach_run.QUICK_GRID if quick else teach_run.GRID
     teach = None

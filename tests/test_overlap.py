@@ -60,7 +60,7 @@ def test_sweep_points_are_planned_last_and_get_no_figure_job(tmp_path):
     is_point = [t["scene"].sweep_parent is not None for t in tasks]
     assert any(is_point) and is_point == sorted(is_point)  # every point after every case
     queue: collections.deque = collections.deque()
-    early = overlap.EarlyFigures(tasks, [], metas, tmp_path, None)
+    early = overlap.EarlyFigures(tasks, [], metas, tmp_path)
     for t in tasks:
         base = {k: t[k] for k in ("key", "case", "model", "role")}
         early.pair_done(store.record(base, "failed", "not solved in this test"), queue)
@@ -82,3 +82,19 @@ def test_sweep_points_are_one_section_with_a_row_each(tmp_path):
         assert f"<td>{r['case'].rsplit('/', 1)[-1]}</td>" in html
     ids = set(re.findall(r'id="([^"]+)"', html))
     assert set(re.findall(r'href="#([^"]+)"', html)) <= ids  # points link to the sweep
+
+
+def test_final_scenes_are_rendered_at_the_end_not_in_the_pool(dummies, spy, tmp_path):  # noqa: F811
+    # a pyvista render keeps VTK (~240 MB) in the process that draws it: figure jobs must
+    # not render; the final render draws those cases' scenes (render/scenes.py)
+    scenes = [dummy_scene("dummy-a"), dummy_scene("dummy-b")]
+    res = runner.run_matrix(scenes, MODELS, tmp_path, workers=2, render_shapes=True)
+    assert res.report_error is None
+    (early,) = spy
+    assert sorted(early.jobs) == ["dummy-a", "dummy-b"]
+    assert all(args[5] is None for args in early.jobs.values())  # no backend in the pool
+    html = (tmp_path / "report.html").read_text()
+    for name in ("dummy-a", "dummy-b"):
+        assert "render" not in early.figures[name] or early.figures[name]["render"] is None
+        assert f"figures/{name}-render.png" in html
+        assert (tmp_path / "figures" / f"{name}-render.png").read_bytes()[:8] == PNG

@@ -204,10 +204,18 @@ def render_figures(
     if results is None:
         results = [_case_figures(job) for job in jobs]
     made: dict[str, dict] = {job[0]: res for job, res in zip(jobs, results)}
+    from reports.render import scenes  # early cases' final scenes: one child, beside the trends
+
+    drawn = scenes.Renders(
+        scenes.jobs(payload, list(early or {}), out_dir, render) if render else []
+    )
     for name, figs in (early or {}).items():  # the trend needs this run's history row
         trend, error = _trend(name, cmap, out_dir / "figures", hist)
         rel = trend.relative_to(out_dir).as_posix() if trend else None
         made[name] = {**figs, "trend": rel, "render_error": error or figs.get("render_error")}
+    for name, (png, error) in drawn.result().items():
+        made[name]["render"] = Path(png).relative_to(out_dir).as_posix() if png else None
+        made[name]["render_error"] = made[name]["render_error"] or error
     from reports.render import frontpage as FP
 
     models, common, _ = FP.common_set(payload)
