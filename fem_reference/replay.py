@@ -319,11 +319,12 @@ class _Run:
                 return None
             if d < 0.02 * peak[0] and vnorm < 0.02 * om * peak[0]:
                 return "returned"
-            # at rest in an equilibrium away from q0 (near a limit point the settled state of
-            # a servo is that far from the load-controlled one): it stays there -- undecided
+            # at rest in an equilibrium (it stays there): within 2 % of the kick's excursion
+            # of q0 it returned (the offset is q0's own distance to the load-controlled
+            # equilibrium, amplified by a near-singular tangent), further away undecided
             if self.static_check(st) is not None:
                 rest.append(d / self.L)
-                return "undecided"
+                return "returned" if d < 0.02 * d_ref else "undecided"
             return None
 
         # steps up to tau / 10: a soft, overdamped probed mode (tau >> T1 near a limit point)
@@ -346,7 +347,7 @@ class _Run:
         stable = {"returned": True, "departed": False}.get(verdict)
         out = dict(stable=stable, peak=peak[0] / self.L, final=d_end, time=end.t - s.t)
         if rest:
-            out["at_rest_elsewhere"] = rest[0]
+            out["at_rest_distance"] = rest[0]  # / L, where it came to rest
         return {**out, "verdict": verdict or "undecided"}
 
 
