@@ -133,10 +133,12 @@ class _Run:
         books: bool = True,
         hmax: float | None = None,
         lte: float | None = None,
+        steady: bool = False,
     ) -> tuple[ev.State, object]:
         """Integrate to ``t_stop`` (or until ``until(state)`` returns non-None); steps at most
         ``hmax`` (default ``dt_max`` T1), local error per step at most ``lte`` L (default
-        ``lte_tol``)."""
+        ``lte_tol``).  ``steady``: keep the step while the error test would change it by
+        less than x0.8 .. x1.5 (so a kept factorisation stays valid)."""
         o, integ, hmin = self.o, self.integ, 1e-10 * self.T1
         hmax = o.dt_max * self.T1 if hmax is None else hmax
         lte = o.lte_tol if lte is None else lte
@@ -178,7 +180,8 @@ class _Run:
             if books:
                 self.s = s
                 self._record(s)
-            self.h = h * min(2.0, 0.9 * (lte / max(err, 1e-300)) ** (1 / 3))
+            grow = min(2.0, 0.9 * (lte / max(err, 1e-300)) ** (1 / 3))
+            self.h = h if steady and 0.8 <= grow < 1.5 else h * grow
             if until is not None:
                 res = until(s)
                 if res is not None:
@@ -333,13 +336,15 @@ class _Run:
         self.s, self.h = start, min(self.h, tau / 10)
         hmax = max(o.dt_max * self.T1, tau / 10)
         lte = min(o.lte_tol, PROBE_LTE * d_ref / self.L)
+        integ.keep_lu = {}  # modified Newton across steps: the tangent barely changes
         try:
             end, verdict = self.advance(
-                s.t + 60.0 * tau, lambda t: s.lam, watch, books=False, hmax=hmax, lte=lte
+                s.t + 60.0 * tau, lambda t: s.lam, watch, False, hmax, lte, steady=True
             )
         except ev.ReplayError:
             end, verdict = start, None
         finally:
+            integ.keep_lu = None
             for p, lk in zip(integ.pairs, saved[0]):
                 p.locked = lk
             self.s, self.h = s, saved[1]
