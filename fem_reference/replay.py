@@ -68,7 +68,7 @@ class ReplayOptions:
 
 
 SOFT_AFTER = 20.0  # T1 of holding after which a soft mode gets its own critical damping
-PROBE_LTE = 1e-3  # local error per step of a probe, as a fraction of the kick's excursion
+PROBE_LTE = 3e-2  # local error per step of a probe, as a fraction of the kick's excursion
 
 
 class _Run:
