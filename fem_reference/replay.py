@@ -68,7 +68,7 @@ class ReplayOptions:
 
 
 SOFT_AFTER = 20.0  # T1 of holding after which a soft mode gets its own critical damping
-PROBE_LTE = 3e-2  # local error per step of a probe, as a fraction of the kick's excursion
+PROBE_LTE = 0.1  # local error per step of a probe / the kick's excursion (lte_tol: ~0.3 of 1e-3 L)
 
 
 class _Run:
@@ -293,7 +293,12 @@ class _Run:
 
     # -- stability -----------------------------------------------------------------------------
     def probe(self, s: ev.State, eig: float, mode: np.ndarray, scene: Scene | None) -> dict:
-        """Kick the settled state ``s`` and watch: returns (stable), departs (unstable)."""
+        """Kick the settled state ``s`` and watch: returns (stable), departs (unstable).
+
+        Steps are sized by the probed mode (up to tau / 10, local error ``PROBE_LTE`` of the
+        kick's excursion) and one factorisation serves steps of one size; a probe that comes
+        to rest at an equilibrium stops there (returned if within 2 % of the kick of ``s``).
+        """
         o, M = self.o, self.M
         om = max(math.sqrt(abs(eig)), 1e-3 * self.w1)
         if o.probe_node is not None:
