@@ -68,6 +68,7 @@ class ReplayOptions:
 
 
 SOFT_AFTER = 20.0  # T1 of holding after which a soft mode gets its own critical damping
+PROBE_LTE = 0.1  # local error per step of a probe / the kick's excursion (lte_tol: ~0.3 of 1e-3 L)
 
 
 class _Run:
@@ -125,11 +126,22 @@ class _Run:
         h.q.append(s.q)
 
     def advance(
-        self, t_stop: float, lam_of_t: Callable, until: Callable | None = None, books: bool = True
+        self,
+        t_stop: float,
+        lam_of_t: Callable,
+        until: Callable | None = None,
+        books: bool = True,
+        hmax: float | None = None,
+        lte: float | None = None,
+        steady: bool = False,
     ) -> tuple[ev.State, object]:
-        """Integrate to ``t_stop`` (or until ``until(state)`` returns non-None)."""
+        """Integrate to ``t_stop`` (or until ``until(state)`` returns non-None); steps at most
+        ``hmax`` (default ``dt_max`` T1), local error per step at most ``lte`` L (default
+        ``lte_tol``).  ``steady``: keep the step while the error test would change it by
+        less than x0.8 .. x1.5 (so a kept factorisation stays valid)."""
         o, integ, hmin = self.o, self.integ, 1e-10 * self.T1
-        hmax = o.dt_max * self.T1
+        hmax = o.dt_max * self.T1 if hmax is None else hmax
+        lte = o.lte_tol if lte is None else lte
         s = self.s
         while s.t < t_stop * (1 - 1e-14):
             if self.deadline.passed():
@@ -140,10 +152,10 @@ class _Run:
             h = min(self.h, hmax, t_stop - s.t)
             s1 = integ.step(s, h, lam_of_t(s.t + h))
             err = math.inf if s1 is None else integ.error(s, s1, h)
-            if err > o.lte_tol:
+            if err > lte:
                 if h <= hmin:
                     raise ev.ReplayError(f"step size underflow at t = {s.t:.6g} (Newton failed)")
-                self.h = h * (0.25 if s1 is None else max(0.2, 0.9 * (o.lte_tol / err) ** (1 / 3)))
+                self.h = h * (0.25 if s1 is None else max(0.2, 0.9 * (lte / err) ** (1 / 3)))
                 continue
             pair = integ.crossing(s, s1)
             if pair is not None:
@@ -168,7 +180,8 @@ class _Run:
             if books:
                 self.s = s
                 self._record(s)
-            self.h = h * min(2.0, 0.9 * (o.lte_tol / max(err, 1e-300)) ** (1 / 3))
+            grow = min(2.0, 0.9 * (lte / max(err, 1e-300)) ** (1 / 3))
+            self.h = h if steady and 0.8 <= grow < 1.5 else h * grow
             if until is not None:
                 res = until(s)
                 if res is not None:
@@ -280,7 +293,12 @@ class _Run:
 
     # -- stability -----------------------------------------------------------------------------
     def probe(self, s: ev.State, eig: float, mode: np.ndarray, scene: Scene | None) -> dict:
-        """Kick the settled state ``s`` and watch: returns (stable), departs (unstable)."""
+        """Kick the settled state ``s`` and watch: returns (stable), departs (unstable).
+
+        Steps are sized by the probed mode (up to tau / 10, local error ``PROBE_LTE`` of the
+        kick's excursion) and one factorisation serves steps of one size; a probe that comes
+        to rest at an equilibrium stops there (returned if within 2 % of the kick of ``s``).
+        """
         o, M = self.o, self.M
         om = max(math.sqrt(abs(eig)), 1e-3 * self.w1)
         if o.probe_node is not None:
@@ -297,7 +315,7 @@ class _Run:
         integ, q0 = self.integ, s.q
         saved = [p.locked for p in integ.pairs], self.h
         start = integ.start(s.t, s.lam, s.q, s.v + v0)
-        peak = [0.0]
+        peak, rest = [0.0], []
 
         def watch(st: ev.State) -> str | None:
             d = float(np.max(np.abs(self.w * (st.q - q0))))
@@ -305,22 +323,41 @@ class _Run:
             if d > 20.0 * d_ref:
                 return "departed"
             vnorm = float(np.max(np.abs(self.w * st.v)))
-            if d < 0.02 * peak[0] and vnorm < 0.02 * om * peak[0] and st.t - s.t > tau:
+            if st.t - s.t <= tau:
+                return None
+            if d < 0.02 * peak[0] and vnorm < 0.02 * om * peak[0]:
                 return "returned"
+            # at rest in an equilibrium (it stays there): within 2 % of the kick's excursion
+            # of q0 it returned (the offset is q0's own distance to the load-controlled
+            # equilibrium, amplified by a near-singular tangent), further away undecided
+            if self.static_check(st) is not None:
+                rest.append(d / self.L)
+                return "returned" if d < 0.02 * d_ref else "undecided"
             return None
 
+        # steps up to tau / 10: a soft, overdamped probed mode (tau >> T1 near a limit point)
+        # needs no finer steps than its own time scale; the error test sizes them, to a
+        # fraction of the kick's excursion (the probe's motion, far below lte_tol L)
         self.s, self.h = start, min(self.h, tau / 10)
+        hmax = max(o.dt_max * self.T1, tau / 10)
+        lte = min(o.lte_tol, PROBE_LTE * d_ref / self.L)
+        integ.keep_lu = {}  # modified Newton across steps: the tangent barely changes
         try:
-            end, verdict = self.advance(s.t + 60.0 * tau, lambda t: s.lam, until=watch, books=False)
+            end, verdict = self.advance(
+                s.t + 60.0 * tau, lambda t: s.lam, watch, False, hmax, lte, steady=True
+            )
         except ev.ReplayError:
             end, verdict = start, None
         finally:
+            integ.keep_lu = None
             for p, lk in zip(integ.pairs, saved[0]):
                 p.locked = lk
             self.s, self.h = s, saved[1]
         d_end = float(np.max(np.abs(self.w * (end.q - q0)))) / self.L
         stable = {"returned": True, "departed": False}.get(verdict)
         out = dict(stable=stable, peak=peak[0] / self.L, final=d_end, time=end.t - s.t)
+        if rest:
+            out["at_rest_distance"] = rest[0]  # / L, where it came to rest
         return {**out, "verdict": verdict or "undecided"}
 
 

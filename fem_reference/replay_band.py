@@ -5,7 +5,9 @@ FE system's band, so the iteration matrix ``K + cv C + cq M`` is assembled strai
 ``dgbtrf`` storage (no csr assembly, no SuperLU: together 3x the cost of the banded
 factorisation at 100 DOFs) and solved by modified Newton: factorised at the first iteration
 of a step and again only when the updates stop contracting fast (an update above
-``REFRESH`` times the previous one).  Convergence is judged by the same update test as
+``REFRESH`` times the previous one).  While ``GenAlpha.keep_lu`` is a dict (an impulse
+probe: small motion about a settled state, steps of one size) the factorisation also
+carries over to the next step of the same size.  Convergence is judged by the same update test as
 ``GenAlpha.step``; the converged state is the same to that tolerance.
 """
 
@@ -59,7 +61,8 @@ def step_band(integ: GenAlpha, s: State, h: float, lam: float) -> State | None:
         C = integ.damping(s)
         Cb = cv * csr_to_band(C, integ.bw) + cq * integ._Mb
     tol = integ.newton_tol * integ.L
-    prev, solve, fresh = math.inf, None, False
+    keep = integ.keep_lu  # {h: solve} while a probe reuses its factorisation across steps
+    prev, solve, fresh = math.inf, None if keep is None else keep.get(h), False
     for it in range(1, 2 * integ.max_iter + 1):
         v = vh + acc * (cv / cq)
         ev_ = integ.sys.evaluate(q, lam)
@@ -70,6 +73,9 @@ def step_band(integ: GenAlpha, s: State, h: float, lam: float) -> State | None:
                 return None
             integ.factorizations += 1
             fresh = True
+            if keep is not None:
+                keep.clear()
+                keep[h] = solve
         if C is None:
             x = acc + a0 * v
             inertia = integ.M @ x if Mg is None else _dgbmv(n, n, bw, bw, 1.0, Mg, x)

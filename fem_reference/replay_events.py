@@ -253,6 +253,7 @@ class GenAlpha:
         self.alg = getattr(system, "algebraic", None)  # DOF indices without inertia
         self._Mb = band_mass(self)  # not None: ``step`` works in band storage
         self._C0 = None  # mass damping a0 M, once asked for
+        self.keep_lu: dict | None = None  # factorisation kept across steps (replay_band)
         try:
             self._Msolve = factor(self.M)
         except RuntimeError:  # singular mass (massless DOFs): no consistent start accel.

@@ -495,7 +495,14 @@ def _verdict(
         reason += f" (tied within {TIE:.0%} with {others}; fewer unknowns wins)"
     if pick.model.startswith("fem-"):
         miss = [c for c in reduced if not c.qualifies]
-        if miss:
+        dearer = [c for c in reduced if c.qualifies]
+        if dearer:  # a reduced model is within tolerance but measured dearer than the FE
+            c = min(dearer, key=lambda c: cost(c.model, c.cpu_s))
+            reason += (
+                f"; the cheapest reduced model within {tol.text()}, {c.model} "
+                f"({pct(c.worst_error)}), costs more here ({c.cpu_s * 1e3:.3g} ms CPU)"
+            )
+        elif miss:
             reason += f"; no reduced model qualifies: closest {_miss(min(miss, key=_closeness))}"
         elif not reduced:
             reason += f"; every reduced model declines this scene ({_declines(cands)})"

@@ -129,3 +129,24 @@ def test_rigid_scene_picks_exact_kinetostatic_over_a_costlier_model_within_toler
     assert rec.recommended == "kinetostatic"
     others = [c for c in rec.candidates if c.qualifies and c.model != "kinetostatic"]
     assert others, "the scene should have other models within tolerance to beat"
+
+
+def test_fe_pick_names_a_dearer_reduced_model_within_tolerance():
+    """When the FE wins on cost but a reduced model is also within tolerance (Ex. 2 at 0.1 %:
+    the elastica member law), the reason says so instead of 'no reduced model qualifies'."""
+    from reports.recommend import Candidate, _verdict
+    from reports.tolerance import parse_tolerance
+
+    tol = parse_tolerance("0.1%")
+
+    def cand(model, err, cpu):
+        c = Candidate(model, "converged", worst_error=err, worst_output="c.uy", at_factor=1.0)
+        c.tolerance, c.cpu_s, c.qualifies = 1e-3, cpu, err <= 1e-3
+        return c
+
+    cands = [cand("fem-16", 9e-4, 0.030), cand("elastica", 1e-6, 0.046), cand("cbcm-8", 2e-3, 0.02)]
+    pick, reason = _verdict(cands, tol, lambda name, cpu: cpu)
+    assert pick == "fem-16"
+    assert "no reduced model qualifies" not in reason and "elastica" in reason
+    pick, reason = _verdict(cands[::2], tol, lambda name, cpu: cpu)
+    assert pick == "fem-16" and "no reduced model qualifies: closest cbcm-8" in reason
