@@ -517,6 +517,10 @@ def run_matrix(
         t["export"], t["out_dir"] = sweep.export_for(t["scene"], export), str(out.resolve())
     if render_shapes is None:
         render_shapes = not quick
+    if render and render_shapes:  # the final scenes' render child, forked while we are small
+        from reports.render import scenes
+
+        scenes.prefork()  # before the probe's thread starts: no fork beside a live thread
     probe = start_render_probe() if render and render_shapes else None
     wanted = {t["key"] for t in tasks}
     previous = journal.read(partial)  # a torn last line is cut off
