@@ -514,15 +514,21 @@ def as_json(at: MechAtlas) -> dict:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """``python -m reports.atlas_mech CASE...``: atlas time, per-state cost ratio, claims."""
-    import sys
+    import argparse
 
-    names = list(argv if argv is not None else sys.argv[1:])
-    for name in names:
+    from cases.load import CaseError
+
+    parser = argparse.ArgumentParser(prog="python -m reports.atlas_mech", description=main.__doc__)
+    parser.add_argument("cases", nargs="+", help="catalog names or TOML paths")
+    for name in parser.parse_args(argv).cases:
         try:
             at = compute(name)
         except NoAtlas as exc:
             print(f"{name}: no atlas: {exc}")
             continue
+        except CaseError as exc:  # one line, as the CLI does for bad input
+            print(f"{name}: {exc}")
+            return 2
         a, d = at.error[next(iter(at.error))].shape
         print(
             f"{name}: {a} x {d} states ({at.axis}), {at.wall_s:.2f} s wall, "
