@@ -26,6 +26,7 @@ from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
+from scipy.optimize import brentq
 
 from cases.schema import Member, Scene
 from reduced_models.base import Solution, not_applicable
@@ -82,7 +83,7 @@ class At:
 
 def peak(at: At, lo: float, hi: float, sign: float) -> tuple[float, float]:
     """(coordinate, force) of the extremum sign * F -> max on [lo, hi]: the grid's best point,
-    refined where dF/d(driver) (the KKT tangent) changes sign around it (Illinois)."""
+    refined where dF/d(driver) (the KKT tangent) changes sign around it (Brent)."""
     x = at.vals
     F = np.array([s.outputs[force_key(at.r)] for s in at.r.steps])
     inside = np.flatnonzero((x - lo) * (x - hi) <= 0.0)
@@ -95,22 +96,9 @@ def peak(at: At, lo: float, hi: float, sign: float) -> tuple[float, float]:
     (_, ga), (_, gb) = at.slope(a), at.slope(b)
     if ga * gb >= 0.0:  # no interior extremum between the neighbours
         return best
-    side, v, f = 0, a, best[1]
-    for _ in range(60):
-        v = (a * gb - b * ga) / (gb - ga)
-        f, g = at.slope(v)
-        if g == 0.0 or b - a <= 1e-12 * max(abs(hi - lo), 1e-300):
-            break
-        if g * gb > 0:
-            b, gb = v, g
-            ga = ga / 2 if side == -1 else ga
-            side = -1
-        else:
-            a, ga = v, g
-            gb = gb / 2 if side == 1 else gb
-            side = 1
-        if abs(g) * abs(b - a) <= 1e-14 * max(abs(f), 1e-300):  # |dF| over the bracket
-            break
+    # the bracket holds a sign change of dF/dx: Brent's method finds the extremum
+    v = brentq(lambda u: at.slope(u)[1], a, b, xtol=1e-12 * max(abs(hi - lo), 1e-300))
+    f = at.slope(v)[0]
     return (v, f) if sign * f >= sign * best[1] else best
 
 
