@@ -72,6 +72,8 @@ def _reference_line(case: Mapping, recs: Sequence[Mapping]) -> str:
         return "No converged reference path: errors only against published values."
     ref_rec = next((r for r in recs if r["model"] == ref), {})
     what = "exact closed form" if ref in FP.EXACT_MODELS else "finite elements"
+    if ref == "kinetostatic":
+        what = "exact: rigid links and springs, no compliant member"
     if case.get("uncertainty") is not None:
         what += f", own error estimate {FP.fmt_err(case['uncertainty'])}"
     t = FP.fmt_time((ref_rec.get("timing") or {}).get("median_s"))
