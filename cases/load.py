@@ -31,6 +31,7 @@ from cases.schema import (
     UNITS,
     Analysis,
     Boom,
+    DesignTolerance,
     Driver,
     GridAxis,
     Load,
@@ -129,6 +130,7 @@ class _Builder:
         "analysis",
         "outputs",
         "references",
+        "tolerances",
         "models",
         "booms",
     )
@@ -263,6 +265,7 @@ class _Builder:
             if not any(ld.fx or ld.fy or ld.moment for ld in loads):
                 raise self.fail("loads", "a 'path' analysis needs a nonzero load to trace")
         references = self.references(outputs, booms)
+        tolerances = self.tolerances(outputs, booms)
         models = self.models()
         scene = Scene(
             name=name,
@@ -276,6 +279,7 @@ class _Builder:
             outputs=outputs,
             torsion_springs=springs,
             references=references,
+            tolerances=tolerances,
             models=models,
             tags=tuple(tags),
             description=self.str_(case, "description", "case", default="") or "",
@@ -749,6 +753,38 @@ class _Builder:
                     abs_tolerance=self.bool_(t, "abs_tolerance", p),
                 )
             )
+        return tuple(out)
+
+    def tolerances(
+        self, outputs: tuple[Output, ...], booms: tuple[Boom, ...] = ()
+    ) -> tuple[DesignTolerance, ...]:
+        """``[[tolerances]]``: the outputs a designer judges, each with ``rel`` or ``abs``."""
+        keys = {f"{o.name}.{q}" for o in outputs for q in NODE_QUANTITIES} | set(EXTRA_OUTPUTS)
+        keys |= {f"{b.id}.length" for b in booms} | {o.name for o in outputs} | {"factor"}
+        out = []
+        for i, t in enumerate(self.array("tolerances", required=False)):
+            p = f"tolerances[{i}]"
+            self.keys(t, p, ("output", "rel", "abs", "floor", "why"), ("output", "why"))
+            key = self.str_(t, "output", p)
+            if key not in keys:
+                raise self.fail(
+                    f"{p}.output", f"{key!r} is neither an output key nor a point of this case"
+                )
+            if ("rel" in t) == ("abs" in t):
+                raise self.fail(p, "give exactly one of 'rel' (e.g. 0.01) or 'abs' (case units)")
+            rel = self.num(t, "rel", p, positive=True)
+            if rel is not None and rel >= 1.0:
+                raise self.fail(f"{p}.rel", f"{rel:g} is not a fraction below 1 (1 % is 0.01)")
+            out.append(
+                DesignTolerance(
+                    output=key,
+                    why=self.str_(t, "why", p),
+                    rel=rel,
+                    abs=self.num(t, "abs", p, positive=True),
+                    floor=self.num(t, "floor", p, positive=True),
+                )
+            )
+        self.unique([t.output for t in out], "tolerances")
         return tuple(out)
 
     def models(self) -> tuple[ModelSpec, ...]:

@@ -309,6 +309,25 @@ class Reference:
 
 
 @dataclass(frozen=True)
+class DesignTolerance:
+    """An output a designer judges, and how closely (``[[tolerances]]`` in a case file).
+
+    ``output`` is an output key (``stage.uy``), a point name (``stage``: the magnitude of that
+    point's displacement error) or ``factor``.  Exactly one of ``rel`` (relative to the
+    output's own excursion along the reference path, the yardstick of ``reports.errors``) and
+    ``abs`` (case units: length, rad, force, ...) is set.  ``floor`` (case units, optional)
+    replaces the default floor under the excursion: an output whose excursion is below it is
+    judged against the floor, never divided by ~0.  ``why`` says where the number comes from.
+    """
+
+    output: str
+    why: str
+    rel: float | None = None
+    abs: float | None = None
+    floor: float | None = None
+
+
+@dataclass(frozen=True)
 class ModelSpec:
     """A model the case recommends, with options (``prb-custom`` matrix, segment counts)."""
 
@@ -332,6 +351,7 @@ class Scene:
     torsion_springs: tuple[TorsionSpring, ...] = ()
     references: tuple[Reference, ...] = ()
     models: tuple[ModelSpec, ...] = ()
+    tolerances: tuple[DesignTolerance, ...] = ()
     tags: tuple[str, ...] = ()
     description: str = ""
     reference_model: str | None = None

@@ -11,12 +11,14 @@ is the exact answer and the atlas shows model error, not axial stretch):
 
 Batching: one load ramp per direction, whose ``n_mag`` steps are the atlas's magnitudes, so a
 40 x 40 atlas is 40 continuation runs per model (the path to each magnitude is reused), not
-1600 separate solves.  The error at a state is the report's summary error: the largest of
-|d ux| / L, |d uy| / L and |d rot| (rad).  ``locus`` is the distance from the model's tip to
-the elastica's tip path of the same direction, divided by the tip deflection: what Howell's
-0.5 % claim is about (the tip locus, not the force-deflection relation); for the ``force``
-family that path is solved ``FINE`` times denser than the grid, for the others (no claim
-reads their locus) it is the grid's own.
+1600 separate solves.  The error at a state is on the report's default yardstick
+(``error_rel``, ``state_error_rel``): the largest of |d ux|, |d uy| over the tip's largest
+displacement on the ramp to that state and |d rot| over its largest rotation; ``error_L``
+keeps the classic |d ux| / L, |d uy| / L, |d rot| (rad).  ``locus`` is the distance from
+the model's tip to the elastica's tip path of the same direction, divided by the tip
+deflection: what Howell's 0.5 % claim is about (the tip locus, not the force-deflection
+relation); for the ``force`` family that path is solved ``FINE`` times denser than the grid,
+for the others (no claim reads their locus) it is the grid's own.
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ from reduced_models import prb_tables as T
 from reduced_models.base import Solution
 from reduced_models.registry import DEFAULT_NAMES
 from reports import api
+from reports import yardstick as Y
 
 # the default run's reduced single-beam models: not the exact references (the atlas is
 # measured against the elastica), the mechanism-only models or the self-refining *-auto
@@ -65,8 +68,10 @@ class Atlas:
     mags : (m,) load magnitudes (PL^2/EI, or ML/EI).
     angles : (a,) directions in deg (one 0 for ``moment``).
     ref : (a, m, 3) elastica tip ux, uy, rot (NaN where it failed).
-    error, pos, locus : model -> (a, m) summary error, tip position error / L, locus error /
-        deflection (NaN where the model declined or failed).
+    error, error_L, pos, locus : model -> (a, m) error on the default yardstick
+        (``error_rel``, see ``state_error_rel``), the classic error (translations / L,
+        rotation in rad), tip position error / L and locus error / deflection (NaN where the
+        model declined or failed).
     status : model -> (a,) statuses of the direction's run; message : model -> first reason.
     seconds : model -> CPU seconds of its whole atlas; single_s : model -> CPU seconds of one
         ordinary 20-step solve of a single state (per-state cost ratio = single_s /
@@ -78,6 +83,7 @@ class Atlas:
     angles: np.ndarray
     ref: np.ndarray
     error: dict[str, np.ndarray] = field(default_factory=dict)
+    error_L: dict[str, np.ndarray] = field(default_factory=dict)
     pos: dict[str, np.ndarray] = field(default_factory=dict)
     locus: dict[str, np.ndarray] = field(default_factory=dict)
     status: dict[str, list[str]] = field(default_factory=dict)
@@ -141,6 +147,26 @@ def _locus_distance(pts: np.ndarray, path: np.ndarray) -> np.ndarray:
     return np.min(np.where(np.isfinite(d), d, np.inf), axis=1)
 
 
+def state_error_rel(d: np.ndarray, ref: np.ndarray) -> np.ndarray:
+    """``error_rel`` of the states of ramps along the magnitude axis, shape (a, m).
+
+    ``d`` and ``ref`` are (a, m, 3) tip (ux, uy, rot) errors and exact values.  The state at
+    magnitude m is the end of a ramp from zero, so its yardstick is that ramp's (as for a path
+    error, ``reports.yardstick``): translations over the tip's largest displacement up to m,
+    the rotation over its largest rotation up to m, each floored at ``FLOOR_FRACTION`` of the
+    ramp's characteristic motion (its displacement, or displacement / L with L = 1) and at
+    round-off (``ROUNDOFF_FRACTION``).
+    """
+    move = np.fmax.accumulate(np.hypot(ref[..., 0], ref[..., 1]), axis=1)
+    turn = np.fmax.accumulate(np.abs(ref[..., 2]), axis=1)
+    floor_t = np.fmax(Y.FLOOR_FRACTION * move, Y.ROUNDOFF_FRACTION)  # L = 1
+    floor_r = np.fmax(Y.FLOOR_FRACTION * np.fmax(turn, move), Y.ROUNDOFF_FRACTION)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        trans = np.max(np.abs(d[..., :2]), axis=-1) / np.fmax(move, floor_t)
+        rot = np.abs(d[..., 2]) / np.fmax(turn, floor_r)
+    return np.maximum(trans, rot)  # NaN (a failed model) stays NaN
+
+
 def _model_block(
     family: str, name: str, n_mag: int, n_ang: int, dense: np.ndarray
 ) -> dict[str, object]:
@@ -162,12 +188,14 @@ def _model_block(
     single = time.process_time() - t0
     tips = np.stack([_tips(sol, n_mag) for sol in sols])
     d = tips - ref
+    rel = state_error_rel(d, ref)
     paths = np.concatenate([np.zeros((len(angles), 1, 2)), dense[:, :, :2]], axis=1)
     defl = np.linalg.norm(ref[:, :, :2], axis=-1)
     locus = np.stack([_locus_distance(tips[i, :, :2], paths[i]) for i in range(len(angles))])
     return {
         "pos": np.hypot(d[..., 0], d[..., 1]),
-        "error": np.max(np.abs(d), axis=-1),
+        "error": rel,
+        "error_L": np.max(np.abs(d), axis=-1),
         "locus": locus / np.where(defl > 0, defl, np.nan),
         "status": [s.status for s in sols],
         "message": next((s.message for s in sols if s.status != "converged"), ""),
@@ -203,7 +231,8 @@ def compute(
     else:
         blocks = [_model_block(*a) for a in args]
     for name, b in zip(models, blocks):
-        for key in ("error", "pos", "locus", "status", "message", "seconds", "single_s"):
+        keys = ("error", "error_L", "pos", "locus", "status", "message", "seconds", "single_s")
+        for key in keys:
             getattr(atlas, key)[name] = b[key]
         if progress:
             progress(f"{family} atlas: {name} {b['seconds']:.2f} s CPU")

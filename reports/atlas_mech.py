@@ -29,10 +29,11 @@ reference of every model at that value) and per model one path-following solve a
 driver (the case's own continuation), so an a x d atlas of m models is a (1 + m) solves, not
 a d (1 + m) separate ones.
 
-Error at a state: the report's summary error (largest of |d ux|, |d uy| over the case's length
-L and |d rot| in rad over the named outputs) and, for driver analyses, the driven quantity
-(driver force / torque of energy analyses, the load factor of distance analyses) divided by its
-largest reference magnitude on that path (as ``reports.errors`` scales non-node outputs).
+Error at a state: on the report's default yardstick (``error_rel``, ``reports.yardstick``) of
+the reference path along the driver at that axis value: |d ux|, |d uy| over the point's
+largest displacement on that path, |d rot| over its largest rotation (floored where an output
+barely moves) and, for driver analyses, the driven quantity (driver force / torque of energy
+analyses, the load factor of distance analyses) over its largest reference magnitude.
 
 Claims (on the reference's member shapes at each state; ``CLAIMS``): Awtar's BCM range |y| <=
 0.1 L and the seed's "within 10 % slope change" per BCM segment (``bcm``, ``cbcm-N``: the
@@ -55,6 +56,7 @@ from cases.schema import Scene
 from reduced_models import prb_tables as T
 from reduced_models.base import Solution, load_factors
 from reports import api
+from reports import yardstick as Y
 
 MODELS = (
     "linear-1",
@@ -226,18 +228,10 @@ def path_table(sol: Solution, scene: Scene, grid: np.ndarray) -> dict[str, np.nd
 def state_error(
     mod: dict[str, np.ndarray], ref: dict[str, np.ndarray], length: float
 ) -> np.ndarray:
-    """(d,) error at each state (module docstring); NaN where either path is missing."""
-    parts = []
-    for k, r in ref.items():
-        q = k.rsplit(".", 1)[-1]
-        if q in ("ux", "uy"):
-            scale = length
-        elif q == "rot":
-            scale = 1.0
-        else:
-            big = float(np.nanmax(np.abs(r))) if np.any(np.isfinite(r)) else 0.0
-            scale = big if big > 0 else 1.0
-        parts.append(np.abs(mod[k] - r) / scale)
+    """(d,) ``error_rel`` at each state (module docstring); NaN where either path is
+    missing.  The divisors are the yardstick of the reference path along the driver."""
+    stick = Y.yardstick(ref, length)
+    parts = [np.abs(mod[k] - r) / stick.rel(k) for k, r in ref.items()]
     return np.max(np.stack(parts), axis=0)
 
 

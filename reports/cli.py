@@ -239,7 +239,7 @@ def cmd_recommend(args: argparse.Namespace) -> int:
     from reports.tolerance import ToleranceError, parse_tolerance
 
     try:
-        tol = parse_tolerance(args.tol)
+        tol = None if args.tol is None else parse_tolerance(args.tol)
         result = recommend(_load(args.case), tol)
     except ToleranceError as exc:
         raise UsageError(str(exc)) from None
@@ -461,7 +461,10 @@ def build_parser() -> argparse.ArgumentParser:
     rc = sub.add_parser("recommend", help="the cheapest model within a tolerance for one case")
     rc.add_argument("case", help="catalog name or path to a .toml case file")
     rc.add_argument(
-        "--tol", default="1%", help="path error allowed: 1%%, 1e-3 or tip.uy=0.5%%,tip.rot=1e-3"
+        "--tol",
+        default=None,
+        help="error allowed, relative to each output's own excursion: 1%%, 1e-3 or "
+        "tip.uy=0.5%%,tip.rot=abs:1e-3 (default: the case's [[tolerances]], else 1%%)",
     )
     rc.add_argument("--json", action="store_true", help="print the contract JSON object")
     rc.set_defaults(func=cmd_recommend)

@@ -7,16 +7,16 @@ can be recomputed from a ``results.json`` alone.
 Definitions (also printed in the report)
 ----------------------------------------
 * **Path error** of output ``k``: the largest ``|model - reference|`` over the load factors
-  both paths reached.  Translations (``.x .y .ux .uy``) are divided by the case's length scale
-  ``L`` (the longest member), rotations (``.rot``, rad) are raw, ``factor`` (path analyses) is
-  divided by the largest reference factor, anything else by its largest reference magnitude.
-  Factors are matched exactly when both paths report the same factors (load analyses), else
-  the reference is interpolated linearly (flagged ``interpolated``).
-* **Summary error** of a pair (the y axis of the Pareto plots): the largest path error over
-  the node displacement and rotation outputs (``.ux``, ``.uy``, ``.rot``) -- a dimensionless
-  "worst deviation over the whole path, as a fraction of L (or in rad)".  Without a reference
-  path the largest relative error against the case's published references is used instead
-  (``summary_basis = "references"``).
+  both paths reached, on two yardsticks (``reports.yardstick``): ``error_rel`` divides by the
+  output's own excursion along the reference path (the default everywhere) and ``error_L``
+  divides translations by the case's length scale L and leaves rotations in rad.  Factors are
+  matched exactly when both paths report the same factors (load analyses), else the reference
+  is interpolated linearly (flagged ``interpolated``).
+* **Summary error** of a pair (``error_rel`` / ``error_L`` of the record, the y axis of the
+  Pareto plots): the largest path error over the outputs a designer judges -- the case's
+  ``[[tolerances]]`` when it names them, else every point's ``.ux``, ``.uy`` and ``.rot``.
+  Without a reference path the largest relative error against the case's published
+  references is used instead (``summary_basis = "references"``).
 * **Reference check**: ``|v - value| / |value|`` (``abs_tolerance``: ``|v - value|``) at
   ``at_factor`` (None: the last step of a converged path) against the reference's tolerance.
 """
@@ -29,7 +29,9 @@ from typing import Any
 
 import numpy as np
 
-TRANSLATIONS = ("x", "y", "ux", "uy")
+from reports import yardstick as Y
+from reports.yardstick import TRANSLATIONS
+
 SUMMARY_QUANTITIES = ("ux", "uy", "rot")
 FALLBACK_REFERENCES = ("fem-auto", "elastica", "kinetostatic")
 # model -> the baseline it is timed against in the same run (speed ratio in the report)
@@ -50,17 +52,6 @@ def values(steps: Sequence[Mapping], key: str) -> np.ndarray:
 
 def _monotonic(a: np.ndarray) -> bool:
     return a.size >= 2 and bool(np.all(np.isfinite(a))) and bool(np.all(np.diff(a) > 0))
-
-
-def _scale(key: str, ref: np.ndarray, length: float) -> float:
-    """What an error of output ``key`` is divided by (see module docstring)."""
-    quantity = key.rsplit(".", 1)[-1]
-    if key != "factor" and quantity in TRANSLATIONS:
-        return length
-    if quantity == "rot":
-        return 1.0
-    big = float(np.nanmax(np.abs(ref))) if np.any(np.isfinite(ref)) else 0.0
-    return big if big > 0 else 1.0
 
 
 def _align(
@@ -94,20 +85,42 @@ def path_errors(
     ref_steps: Sequence[Mapping],
     length: float,
     stop_output: str | None = None,
+    meta: Mapping | None = None,
 ) -> dict[str, Any]:
-    """Largest error of every common output along the path (see module docstring).
+    """Largest error of every common output along the path, on both yardsticks.
+
+    Parameters
+    ----------
+    model_steps, ref_steps : JSON-level steps of the model and of the reference.
+    length : the case's length scale L (case units).
+    stop_output : the output a path analysis stops on (its abscissa when the load factor is
+        not monotonic).
+    meta : the case's meta (``reports.runner.case_meta``): its ``tolerances`` name the judged
+        outputs and any floors.
 
     Returns
     -------
-    dict with ``per_output`` (key -> error, None if not comparable), ``summary`` (float or
-    None), ``n_points``, ``abscissa`` (``factor`` or the stop output), ``interpolated``,
-    ``coverage`` (fraction of the reference's final abscissa the model reached), ``note`` and
-    ``per_output_at`` (key -> model load factor where that output's error is largest).
+    dict with ``per_output`` (key -> ``error_rel``, the default yardstick, None if not
+    comparable), ``per_output_L`` (key -> ``error_L``), ``per_output_abs`` (key -> largest
+    ``|model - reference|``, case units), ``per_point`` (point -> its displacement-vector error
+    over its excursion), ``scale`` (key -> the ``error_rel`` divisor, case units),
+    ``floored`` (keys judged against a floor), ``summary`` / ``summary_L`` (largest judged
+    error on each yardstick), ``judged`` (the keys the summary is over), ``yardstick``
+    (``"error_rel"``), ``n_points``, ``abscissa``, ``interpolated``, ``coverage``, ``note``
+    and ``per_output_at`` (key -> model load factor where that output's error is largest).
     """
     out: dict[str, Any] = {
+        "yardstick": "error_rel",
         "per_output": {},
+        "per_output_L": {},
+        "per_output_abs": {},
+        "per_point": {},
         "per_output_at": {},
+        "scale": {},
+        "floored": [],
+        "judged": [],
         "summary": None,
+        "summary_L": None,
         "n_points": 0,
         "abscissa": None,
         "interpolated": False,
@@ -138,38 +151,80 @@ def path_errors(
     keys = set(model_steps[0]["outputs"]) & set(ref_steps[0]["outputs"])
     if abscissa != "factor":
         keys = (keys - {abscissa}) | {"factor"}
-    summary = []
+    ref_all = Y.as_arrays(ref_steps, sorted(keys | {abscissa}))
+    stick = Y.yardstick(ref_all, length, Y.case_floors(meta or {}))
+    out["scale"] = dict(stick.scale)
+    out["floored"] = sorted(stick.floored)
+    diffs = {}
     for key in sorted(keys):
-        ref = values(ref_steps, key)
+        ref = ref_all[key]
         mod = values(model_steps, key)[idx_m]
         if interp:
             order = np.argsort(sign * r_abs)
             refv = np.interp(at * sign, (sign * r_abs)[order], ref[order])
         else:
             refv = ref[idx_r]
-        diff = np.abs(mod - refv)
+        diff = diffs[key] = mod - refv
         if not np.any(np.isfinite(diff)):
-            out["per_output"][key] = None
+            for k in ("per_output", "per_output_L", "per_output_abs"):
+                out[k][key] = None
             continue
-        err = float(np.nanmax(diff)) / _scale(key, ref, length)
-        out["per_output"][key] = err
-        out["per_output_at"][key] = _num(model_steps[idx_m[int(np.nanargmax(diff))]]["factor"])
-        if key.rsplit(".", 1)[-1] in SUMMARY_QUANTITIES:
-            summary.append(err)
+        worst = float(np.nanmax(np.abs(diff)))
+        out["per_output_abs"][key] = worst
+        out["per_output"][key] = worst / stick.rel(key)
+        out["per_output_L"][key] = worst / Y.scale_L(key, ref, length)
+        out["per_output_at"][key] = _num(
+            model_steps[idx_m[int(np.nanargmax(np.abs(diff)))]]["factor"]
+        )
+    for p in sorted({Y.point(k) for k in keys} - {None}):
+        du, dv = diffs.get(f"{p}.ux"), diffs.get(f"{p}.uy")
+        if du is not None and dv is not None and np.any(np.isfinite(du + dv)):
+            out["per_point"][p] = float(np.nanmax(np.hypot(du, dv))) / stick.rel(p)
+    _summaries(out, meta, abscissa, last_ref, reached, stick)
+    return out
+
+
+def _summaries(
+    out: dict[str, Any],
+    meta: Mapping | None,
+    abscissa: str,
+    last_ref: float,
+    reached: float,
+    stick: Y.Yardstick,
+) -> None:
+    """Fill ``summary``, ``summary_L`` and ``judged``: the largest error over the case's
+    judged outputs (its ``[[tolerances]]``) or, by default, over every point's ``.ux .uy
+    .rot``; a displacement-traced path that stops short adds the part it never reached."""
+    named = Y.judged_outputs(meta or {})
+    if named is not None:
+        judged = [t["output"] for t in named]
+    else:
+        judged = [k for k in out["per_output"] if Y.quantity(k) in SUMMARY_QUANTITIES]
+    rel, per_L = [], []
+    for key in judged:
+        if key in out["per_point"]:  # a point: its displacement-vector error
+            rel.append(out["per_point"][key])
+            per_L.append(out["per_point"][key] * stick.rel(key) / stick.length)
+        elif out["per_output"].get(key) is not None:
+            rel.append(out["per_output"][key])
+            per_L.append(out["per_output_L"][key])
     if abscissa != "factor" and out["coverage"] < 1.0 - 1e-6:
         # traced against a displacement: the part of the reference's range the model never
         # reached is an error of at least that displacement (a model that cannot move there
         # is not accurate there)
-        short = (last_ref - reached) / _scale(abscissa, r_abs, length)
-        out["per_output"][abscissa] = short
+        short = last_ref - reached
+        for name, div in (("per_output", stick.rel(abscissa)), ("per_output_L", stick.length)):
+            out[name][abscissa] = short / div
         out["note"] = f"the model reaches {out['coverage']:.0%} of the reference's {abscissa}"
-        summary.append(short)
-    if summary:
-        out["summary"] = max(summary)
-    elif out["per_output"]:
-        finite = [v for v in out["per_output"].values() if v is not None]
-        out["summary"] = max(finite) if finite else None
-    return out
+        rel.append(short / stick.rel(abscissa))
+        per_L.append(short / stick.length)
+        judged.append(abscissa)
+    if not rel and out["per_output"]:
+        rel = [v for v in out["per_output"].values() if v is not None]
+        per_L = [v for v in out["per_output_L"].values() if v is not None]
+    out["judged"] = judged
+    out["summary"] = max(rel) if rel else None
+    out["summary_L"] = max(per_L) if per_L else None
 
 
 def abscissa_output(meta: Mapping) -> str | None:
@@ -240,20 +295,32 @@ def reference_checks(
     return checks
 
 
-def estimate_scale(estimate: Mapping[str, Any], length: float) -> float | None:
-    """Largest normalised error estimate (same scaling as path errors) of a reference.
+def estimate_scale(
+    estimate: Mapping[str, Any], stick: Y.Yardstick, yardstick: str = "error_rel"
+) -> float | None:
+    """Largest error estimate of a reference on one yardstick (as its path errors).
 
-    ``estimate`` maps output key -> float (last step) or list of floats (one per step).
+    ``estimate`` maps output key -> float (last step) or list of floats (one per step);
+    ``stick`` is the reference path's yardstick.
     """
     worst = []
     for key, est in estimate.items():
         arr = np.atleast_1d(np.asarray([_num(e) for e in np.atleast_1d(est)], dtype=float))
-        if not np.any(np.isfinite(arr)):
+        if not np.any(np.isfinite(arr)) or Y.quantity(key) not in SUMMARY_QUANTITIES:
             continue
-        q = key.rsplit(".", 1)[-1]
-        if q in SUMMARY_QUANTITIES:
-            worst.append(float(np.nanmax(np.abs(arr))) / (length if q in TRANSLATIONS else 1.0))
+        if yardstick == "error_rel":
+            div = stick.rel(key)
+        else:
+            div = stick.length if Y.quantity(key) in TRANSLATIONS else 1.0
+        worst.append(float(np.nanmax(np.abs(arr))) / div)
     return max(worst) if worst else None
+
+
+def reference_yardstick(meta: Mapping, ref_steps: Sequence[Mapping]) -> Y.Yardstick:
+    """The yardstick of a case's reference path (every output it reports)."""
+    keys = sorted(ref_steps[0]["outputs"]) if ref_steps else []
+    length = float(meta.get("length_scale") or 1.0)
+    return Y.yardstick(Y.as_arrays(ref_steps, keys), length, Y.case_floors(meta))
 
 
 def choose_reference(meta: Mapping, records: Mapping[str, Mapping]) -> tuple[str | None, str]:
@@ -280,20 +347,25 @@ def choose_reference(meta: Mapping, records: Mapping[str, Mapping]) -> tuple[str
 
 
 def attach_errors(meta: Mapping, records: Sequence[dict]) -> dict[str, Any]:
-    """Fill ``errors``, ``refchecks``, ``summary_error`` and speed ratios of one case's records.
+    """Fill ``errors``, ``refchecks``, ``error_rel``, ``error_L`` and speed ratios of one
+    case's records.
 
-    Returns the case-level reference info (``reference``, ``note``, ``uncertainty``).
+    Returns the case-level reference info (``reference``, ``note``, ``uncertainty`` and
+    ``uncertainty_L``: the reference's own error estimate on each yardstick, ``yardstick``).
     """
     by_model = {r["model"]: r for r in records}
     ref_name, note = choose_reference(meta, by_model)
     ref = by_model.get(ref_name) if ref_name else None
     length = float(meta.get("length_scale") or 1.0)
-    uncertainty = None
+    uncertainty = uncertainty_L = None
     extras = (ref or {}).get("extras") or {}
-    for est_key in ("error_estimate_steps", "error_estimate"):  # fem-auto: per step, last step
-        if isinstance(extras.get(est_key), Mapping):
-            uncertainty = estimate_scale(extras[est_key], length)
-            break
+    if ref is not None and ref["steps"]:
+        stick = reference_yardstick(meta, ref["steps"])
+        for est_key in ("error_estimate_steps", "error_estimate"):  # fem-auto: per step, last
+            if isinstance(extras.get(est_key), Mapping):
+                uncertainty = estimate_scale(extras[est_key], stick)
+                uncertainty_L = estimate_scale(extras[est_key], stick, "error_L")
+                break
     t_ref = cost_s(ref)
     for rec in records:
         rec["is_reference"] = rec["model"] == ref_name
@@ -301,18 +373,27 @@ def attach_errors(meta: Mapping, records: Sequence[dict]) -> dict[str, Any]:
             meta.get("references", ()), rec["steps"], rec["status"] == "converged"
         )
         rec["errors"] = None
-        rec["summary_error"], rec["summary_basis"] = None, None
+        rec["error_rel"], rec["error_L"], rec["summary_basis"] = None, None, None
         if ref is not None and rec["steps"] and not rec["is_reference"]:
-            rec["errors"] = path_errors(rec["steps"], ref["steps"], length, abscissa_output(meta))
-            if rec["errors"]["summary"] is not None and rec["errors"]["n_points"] >= 2:
-                rec["summary_error"], rec["summary_basis"] = rec["errors"]["summary"], "path"
-        if rec["summary_error"] is None and not rec["is_reference"]:
+            pe = path_errors(rec["steps"], ref["steps"], length, abscissa_output(meta), meta)
+            rec["errors"] = pe
+            if pe["summary"] is not None and pe["n_points"] >= 2:
+                rec["error_rel"], rec["error_L"] = pe["summary"], pe["summary_L"]
+                rec["summary_basis"] = "path"
+        if rec["error_rel"] is None and not rec["is_reference"]:
             errs = [c["error"] for c in rec["refchecks"] if c["error"] is not None]
-            if errs:
-                rec["summary_error"], rec["summary_basis"] = max(errs), "references"
+            if errs:  # published values: relative to the value itself, on both yardsticks
+                rec["error_rel"] = rec["error_L"] = max(errs)
+                rec["summary_basis"] = "references"
         t = cost_s(rec)
         rec["speedup_vs_reference"] = t_ref / t if t_ref and t else None
-    return {"reference": ref_name, "note": note, "uncertainty": uncertainty}
+    return {
+        "reference": ref_name,
+        "note": note,
+        "uncertainty": uncertainty,
+        "uncertainty_L": uncertainty_L,
+        "yardstick": Y.describe("error_rel"),
+    }
 
 
 def cost_s(rec: Mapping | None) -> float | None:

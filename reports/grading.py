@@ -1,16 +1,20 @@
 """Grading that fits the model: each pair's error judged against a tolerance meant for it.
 
 A reduced model is not graded against the reference's own 1e-3 tolerance (that would give
-PRB-1R at 0.7 % the same FAIL as linear-1 at 100 %): its summary error (the report's largest
-path error, translations / L, rotations in rad) is judged against the user's tolerance
-(``flexbench run --tol``) or, without one, its family's default below.  The model's own
-validity warnings travel with the grade so that every table shows them next to the numbers.
+PRB-1R at 0.7 % the same FAIL as linear-1 at 100 %): its error on the default yardstick
+(``error_rel``: each judged output's error over its own excursion along the reference path)
+is judged against the case's ``[[tolerances]]`` when it names the outputs a designer judges,
+else against the user's tolerance (``flexbench run --tol``) or its family's default below.
+The model's own validity warnings travel with the grade so that every table shows them
+next to the numbers.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
+
+from reports.tolerance import for_case, judged_errors
 
 # family (ModelCard.family) -> default tolerance on the summary error, and why
 FAMILY_TOLERANCE: dict[str, tuple[float, str]] = {
@@ -19,7 +23,10 @@ FAMILY_TOLERANCE: dict[str, tuple[float, str]] = {
     "replay": (1e-3, "settles to the static reference"),
     "auto": (1e-3, "refined to a 1e-3 estimate by default"),
 }
-DEFAULT_TOLERANCE = (1e-2, "engineering accuracy of a reduced model: 1 % of L or 0.01 rad")
+DEFAULT_TOLERANCE = (
+    1e-2,
+    "engineering accuracy of a reduced model: 1 % of each output's excursion",
+)
 
 
 def family_of(rec: Mapping[str, Any]) -> str:
@@ -48,14 +55,24 @@ def validity_warning(rec: Mapping[str, Any]) -> str | None:
     return str(extras.get("validity_message") or "outside the model's validity range")
 
 
-def grade(rec: Mapping[str, Any], user: float | None = None) -> dict[str, Any]:
+def grade(
+    rec: Mapping[str, Any], user: float | None = None, case_tolerances: Sequence[Mapping] = ()
+) -> dict[str, Any]:
     """``{"tolerance", "source", "verdict", "validity_warning"}`` of one pair record.
 
     ``verdict``: ``within`` | ``exceeds`` | ``reference`` | ``-`` (no error to judge: declined,
-    failed before a comparable step, or no reference).
+    failed before a comparable step, or no reference).  With ``case_tolerances`` (the case's
+    ``[[tolerances]]`` dicts) every named output is judged against its own value (the user's
+    ``user`` replaces the relative ones) and ``tolerance`` is that of the worst output.
     """
     tol, source = tolerance_of(rec, user)
-    err = rec.get("summary_error")
+    err = rec.get("error_rel")
+    path = rec.get("errors") if rec.get("summary_basis") == "path" else None
+    if case_tolerances and path and not rec.get("is_reference"):
+        judged = judged_errors(path, for_case(case_tolerances, user))
+        if judged:
+            _, key, err, tol = max(judged)  # the worst output by error / its tolerance
+            source = f"case tolerance on {key}" + ("" if user is None else " (user value)")
     if rec.get("is_reference"):
         verdict = "reference"
     elif err is None:
@@ -88,7 +105,7 @@ def summary_text(user: float | None) -> str:
     if user is not None:
         return (
             f"Grades: every model's summary error is judged against the user's tolerance "
-            f"{user * 100:.3g} % (of L, or rad)."
+            f"{user * 100:.3g} % of each judged output's own excursion (error_rel)."
         )
     fams = ", ".join(f"{f} {t * 100:.3g} %" for f, (t, _) in FAMILY_TOLERANCE.items())
     return (

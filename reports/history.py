@@ -61,7 +61,7 @@ def trends(path: Path, case: str, last: int = MAX_RUNS_DRAWN) -> dict[str, list[
         marks = ",".join("?" * len(ids))
         rows = con.execute(
             "SELECT results.run_id, runs.time, runs.git_commit, runs.git_dirty, model,"
-            " wall_median_s, summary_error, status FROM results JOIN runs"
+            " wall_median_s, error_rel, status FROM results JOIN runs"
             f" ON runs.id = results.run_id WHERE case_name = ? AND run_id IN ({marks})"
             " ORDER BY results.run_id",
             (case, *ids),

@@ -16,12 +16,12 @@ a fixed model such as ``prb-3r`` is a ladder of one), cheapest first:
   (``auto_candidates``).
 
 *Qualifies* means: the model converged over the whole path (it reaches the reference's last
-load factor) and, for every judged output, the largest error along the path (the path error of
-``reports.errors``: translations divided by the case's length L, rotations in rad, path-analysis
-load factors divided by the largest reference factor) is within that output's tolerance.
-Judged outputs: displacements and rotations of the case's named outputs (``.ux``, ``.uy``,
-``.rot``), the load factor of path analyses and any non-node output, unless per-output
-tolerances name the outputs explicitly.
+load factor) and, for every judged output, the largest error along the path on the default
+yardstick (``error_rel`` of ``reports.errors``: the output's error over its own excursion along
+the reference path, against a floor where that excursion is ~0) is within that output's
+tolerance.  Judged outputs: the case's ``[[tolerances]]`` when it names them (merged with the
+user's ``--tol``), else displacements and rotations of the case's named outputs (``.ux``,
+``.uy``, ``.rot``), the load factor of path analyses and any non-node output.
 
 Cost is measured on this scene: the median ``time.process_time`` of repeated solves (BLAS
 pinned to one thread).  Costs within ``TIE`` of the cheapest are a tie (the resolution of a
@@ -46,7 +46,14 @@ from typing import Any
 from cases.schema import Scene
 from reduced_models.base import Solution
 from reports import api, errors
-from reports.tolerance import Tolerance, ToleranceError, parse_tolerance, pct
+from reports.tolerance import (
+    Tolerance,
+    ToleranceError,
+    for_case,
+    judged_errors,
+    parse_tolerance,
+    pct,
+)
 
 # member N of each parametrised ladder (the FE starts at 2 elements per member)
 LADDER_N: dict[str, tuple[int, ...]] = {
@@ -62,7 +69,6 @@ EXCLUDED = ("elastica-bvp", "replay")
 # a-priori unknowns of fixed models (tie-break only; measured cost decides)
 RANK = {"prb-short": 1, "prb-1r": 1, "bcm": 3, "prb-2r": 2, "prb-3r": 3, "prb-2rpr": 3}
 TIE = 0.10
-JUDGED = ("ux", "uy", "rot")
 
 
 @dataclass
@@ -80,6 +86,7 @@ class Candidate:
     ratio_to_reference: float | None = None
     qualifies: bool = False
     warning: str = ""
+    yardstick: str = "error_rel"
     rank: int = 0
     errors: dict[str, float] = field(default_factory=dict)
     profile: list[tuple[float, float]] = field(default_factory=list)  # (factor, error / tol)
@@ -97,6 +104,7 @@ class Candidate:
         out.update(
             worst_output=self.worst_output,
             tolerance=_finite(self.tolerance),
+            yardstick=self.yardstick,
             qualifies=self.qualifies,
             message=self.message,
             validity_warning=self.warning or None,
@@ -132,6 +140,7 @@ class Recommendation:
             "candidates": [c.as_json() for c in self.candidates],
             "reference": self.reference,
             "reference_cpu_s": _finite(self.reference_cpu_s),
+            "yardstick": "error_rel",
             "not_run": self.skipped,
         }
 
@@ -188,8 +197,7 @@ def _options(name: str, scene: Scene, tol: Tolerance) -> dict:
     """The case's options for ``name``; ``*-auto`` gets the smallest tolerance as its target."""
     opts = dict(scene.model_options(name))
     if name.endswith("-auto"):
-        vals = [t for t in (tol.default, *tol.per_output.values()) if t is not None]
-        opts.setdefault("target", min(vals))
+        opts.setdefault("target", min(tol.values(), default=0.01))
     return opts
 
 
@@ -210,26 +218,18 @@ def judge(
 ) -> None:
     """Fill ``cand``'s errors and verdict from its solution against the reference path.
 
-    ``uncertainty`` (normalised like the errors) is the reference's own error estimate: a
-    model qualifies only if its measured error plus that stays within the tolerance.
+    Errors are on the default yardstick (``error_rel``: each output over its own excursion
+    along the reference path) unless ``tol`` gives an output an absolute value.
+    ``uncertainty`` (``error_rel``) is the reference's own error estimate: a model qualifies
+    only if its measured error plus that stays within the tolerance.
     """
     from reports import store  # lazy: ``import reports`` (the CLI) does not need sqlite
 
     steps, _, _ = store.steps_json(sol)
     stop = errors.abscissa_output(meta)
-    pe = errors.path_errors(steps, ref_steps, meta["length_scale"], stop)
+    pe = errors.path_errors(steps, ref_steps, meta["length_scale"], stop, meta)
     cand.errors = {k: v for k, v in pe["per_output"].items() if v is not None}
-    judged = []
-    for key, err in pe["per_output"].items():
-        quantity = key.rsplit(".", 1)[-1]
-        node_key = quantity in errors.TRANSLATIONS or quantity == "rot"
-        if key not in tol.per_output and node_key and quantity not in JUDGED:
-            continue  # .x/.y repeat .ux/.uy
-        t = tol.of(key)
-        if t is None or (key == "factor" and pe["abscissa"] == "factor"):
-            continue
-        e = math.inf if err is None else err
-        judged.append((e / t, key, e, t))
+    judged = judged_errors(pe, tol)
     if sol.extras.get("validity_warning"):
         cand.warning = str(sol.extras.get("validity_message", "outside its validity range"))
     if not judged or pe["n_points"] < 2:
@@ -238,36 +238,47 @@ def judge(
         )
         return
     _, key, e, t = max(judged)
-    cand.profile = _profile(steps, ref_steps, [(k, tk) for _, k, _, tk in judged], meta)
+    cand.profile = _profile(steps, ref_steps, judged, pe, tol)
     cand.worst_output, cand.worst_error, cand.tolerance = key, e, t
-    cand.at_factor = pe["per_output_at"].get(key)
+    cand.yardstick = "abs" if key in tol.absolute else "error_rel"
+    cand.at_factor = pe["per_output_at"].get(key, pe["per_output_at"].get(f"{key}.uy"))
     coverage = pe["coverage"] or 0.0
     if sol.status != "converged":
         cand.message = sol.message
     elif coverage < 1.0 - 1e-6:
         cand.message = f"path covers {coverage:.0%} of the reference's"
     else:
-        cand.qualifies = all(e + uncertainty <= t for _, _, e, t in judged)
+        cand.qualifies = all(
+            e + (0.0 if k in tol.absolute else uncertainty) <= t for _, k, e, t in judged
+        )
 
 
 def _profile(
-    steps: list[dict], ref_steps: list[dict], keys: list[tuple[str, float]], meta: Mapping
+    steps: list[dict],
+    ref_steps: list[dict],
+    judged: list[tuple[float, str, float, float]],
+    pe: Mapping[str, Any],
+    tol: Tolerance,
 ) -> list[tuple[float, float]]:
     """(factor, largest error / tolerance over the judged outputs) at every model step whose
     factor the reference also reports (load and driver analyses); [] otherwise."""
     ref = {round(float(s["factor"]), 9): s for s in ref_steps}
-    length = float(meta["length_scale"])
-    scale = {k: errors._scale(k, errors.values(ref_steps, k), length) for k, _ in keys}
     out = []
     for s in steps:
         r = ref.get(round(float(s["factor"]), 9))
         if r is None:
             continue
         worst = 0.0
-        for k, t in keys:
-            a, b = s["outputs"].get(k), r["outputs"].get(k)
-            if k != "factor" and a is not None and b is not None:
-                worst = max(worst, abs(a - b) / scale[k] / t)
+        for _, k, _, t in judged:
+            comps = [f"{k}.ux", f"{k}.uy"] if k in pe["per_point"] else [k]
+            d = [
+                s["outputs"][c] - r["outputs"][c]
+                for c in comps
+                if s["outputs"].get(c) is not None and r["outputs"].get(c) is not None
+            ]
+            if k != "factor" and d:
+                div = 1.0 if k in tol.absolute else pe["scale"].get(k, 1.0)
+                worst = max(worst, math.hypot(*d) / div / t)
         out.append((float(s["factor"]), worst))
     return out if len(out) >= 2 else []
 
@@ -292,7 +303,7 @@ def reference_of(scene: Scene) -> tuple[str | None, Solution | None, float | Non
 
 def recommend(
     scene: Scene | str,
-    tol: str | float | Tolerance = 0.01,
+    tol: str | float | Tolerance | None = None,
     *,
     cost: Callable[[str, float], float] | None = None,
     brute_force: bool = False,
@@ -302,7 +313,9 @@ def recommend(
     Parameters
     ----------
     scene : Scene or catalog name / path.
-    tol : ``"1%"``, ``1e-3``, ``"tip.uy=0.5%,tip.rot=1e-3"`` or a Tolerance.
+    tol : ``"1%"``, ``1e-3``, ``"tip.uy=0.5%,tip.rot=abs:1e-3"`` or a Tolerance; None: the
+        case's ``[[tolerances]]`` (1 % on every output when it names none).  Merged with the
+        case's by ``reports.tolerance.for_case``.
     cost : ``(model name, measured CPU s) -> cost`` to rank by (default: the CPU time, the
         median of repeats); tests pass a deterministic cost (each model is then solved once).
     brute_force : run every ladder member (no early exit), for verification.
@@ -323,9 +336,9 @@ def recommend(
         from cases.sweep import expand
 
         scene = expand(scene)[0]
-    tol = parse_tolerance(tol)
-    known = set(scene.output_keys()) | {"factor"}
-    for key in tol.per_output:
+    tol = for_case(scene.tolerances, tol)
+    known = set(scene.output_keys()) | {"factor"} | {o.name for o in scene.outputs}
+    for key in tol.named():
         if key not in known:
             raise ToleranceError(
                 f"--tol: {scene.name} has no output {key!r} (outputs: {', '.join(sorted(known))})"
@@ -342,7 +355,8 @@ def recommend(
 
         ref_steps, _, _ = store.steps_json(ref_sol)
         est = ref_sol.extras.get("error_estimate")
-        unc = errors.estimate_scale(est, meta["length_scale"]) if isinstance(est, Mapping) else 0
+        stick = errors.reference_yardstick(meta, ref_steps)
+        unc = errors.estimate_scale(est, stick) if isinstance(est, Mapping) else 0
         lad = ladders(scene, ref_name)
         cands, skipped = _walk(
             scene, lad, ref_steps, meta, tol, cost, brute_force, unc or 0.0, repeats
@@ -536,8 +550,8 @@ def _declines(cands: list[Candidate]) -> str:
 def format_text(rec: Recommendation) -> str:
     """The evidence table and verdict printed by ``flexbench recommend``."""
     lines = [
-        f"{rec.case}: tolerance {rec.tolerance.text()} (path error: translations / L, "
-        f"rotations in rad); reference {rec.reference} "
+        f"{rec.case}: tolerance {rec.tolerance.text()} (error_rel: each output's error "
+        f"over its own excursion along the reference path); reference {rec.reference} "
         f"({(rec.reference_cpu_s or math.nan) * 1e3:.3g} ms CPU)",
         f"recommended: {rec.recommended or 'none'}",
         f"  {rec.reason}",

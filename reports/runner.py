@@ -16,7 +16,7 @@ A pair record (JSON-level dict built by ``solve_task`` with ``store.record``)::
                 "post_s", "post_cpu_s"},
      "warnings", "traceback", "exports"}
 
-plus, after ``attach_errors``: ``errors``, ``refchecks``, ``summary_error``,
+plus, after ``attach_errors``: ``errors``, ``refchecks``, ``error_rel``,
 ``summary_basis``, ``is_reference``, ``speedup_vs_reference``.
 
 Timing (``reports.timing``): CPU time (``process_time``, the ratios' basis) and wall time of
@@ -155,6 +155,7 @@ def case_meta(scene: Scene) -> dict[str, Any]:
         "outputs": [dataclasses.asdict(o) for o in scene.outputs],
         "primary_output": scene.outputs[0].name if scene.outputs else None,
         "references": [dataclasses.asdict(r) for r in scene.references],
+        "tolerances": [dataclasses.asdict(t) for t in scene.tolerances],
         "undeformed": undeformed,
         **scene_drawing(scene),
         "scene_hash": scene_hash(scene),

@@ -55,7 +55,8 @@ CSV_COLUMNS = (
     "wall_max_s",
     "wall_spread_s",
     "n_repeats",
-    "summary_error",
+    "error_rel",
+    "error_L",
     "summary_basis",
     "speedup_vs_reference",
     "refs_passed",
@@ -281,7 +282,8 @@ def csv_row(rec: Mapping) -> dict[str, Any]:
         "wall_max_s": timing.get("max_s"),
         "wall_spread_s": timing.get("spread_s"),
         "n_repeats": timing.get("n_repeats"),
-        "summary_error": rec.get("summary_error"),
+        "error_rel": rec.get("error_rel"),
+        "error_L": rec.get("error_L"),
         "summary_basis": rec.get("summary_basis"),
         "speedup_vs_reference": rec.get("speedup_vs_reference"),
         "refs_passed": sum(1 for c in checks if c.get("passed")),
@@ -315,12 +317,23 @@ CREATE TABLE IF NOT EXISTS results (
     run_id INTEGER NOT NULL REFERENCES runs(id),
     case_name TEXT NOT NULL, model TEXT NOT NULL, role TEXT, status TEXT, message TEXT,
     n_steps INTEGER, wall_median_s REAL, wall_min_s REAL, wall_max_s REAL, wall_spread_s REAL,
-    n_repeats INTEGER, summary_error REAL, summary_basis TEXT, speedup_vs_reference REAL,
+    n_repeats INTEGER, error_rel REAL, error_L REAL, summary_basis TEXT,
+    speedup_vs_reference REAL,
     refs_passed INTEGER, refs_total INTEGER, errors TEXT,
     PRIMARY KEY (run_id, case_name, model)
 );
 CREATE INDEX IF NOT EXISTS results_case_model ON results (case_name, model);
 """
+
+
+def _migrate(con: sqlite3.Connection) -> None:
+    """Bring a history file written before the yardstick change up to the current schema:
+    its ``summary_error`` held errors over L, so the column becomes ``error_L`` and an empty
+    ``error_rel`` joins it (old runs have no own-scale errors; they are not invented)."""
+    cols = {row[1] for row in con.execute("PRAGMA table_info(results)")}
+    if "summary_error" in cols:
+        con.execute("ALTER TABLE results RENAME COLUMN summary_error TO error_L")
+        con.execute("ALTER TABLE results ADD COLUMN error_rel REAL")
 
 
 def append_history(path: Path, payload: Mapping, out_dir: str, elapsed_s: float) -> int:
@@ -332,6 +345,7 @@ def append_history(path: Path, payload: Mapping, out_dir: str, elapsed_s: float)
     try:
         with con:
             con.executescript(_SCHEMA)
+            _migrate(con)
             cur = con.execute(
                 "INSERT INTO runs (time, git_commit, git_dirty, python, machine, cpu, cpu_count,"
                 " packages, config, out_dir, n_pairs, elapsed_s)"
@@ -363,8 +377,8 @@ def append_history(path: Path, payload: Mapping, out_dir: str, elapsed_s: float)
             con.executemany(
                 "INSERT INTO results (run_id, case_name, model, role, status, n_steps,"
                 " wall_median_s, wall_min_s, wall_max_s, wall_spread_s, n_repeats,"
-                " summary_error, summary_basis, speedup_vs_reference, refs_passed, refs_total,"
-                " message, errors) VALUES (" + ", ".join("?" * 18) + ")",
+                " error_rel, error_L, summary_basis, speedup_vs_reference, refs_passed,"
+                " refs_total, message, errors) VALUES (" + ", ".join("?" * 19) + ")",
                 rows,
             )
     finally:
@@ -373,11 +387,11 @@ def append_history(path: Path, payload: Mapping, out_dir: str, elapsed_s: float)
 
 
 def history_rows(path: Path, case: str, model: str) -> Sequence[tuple]:
-    """(time, wall_median_s, summary_error, status) of a pair over all recorded runs."""
+    """(time, wall_median_s, error_rel, status) of a pair over all recorded runs."""
     con = sqlite3.connect(path)
     try:
         return con.execute(
-            "SELECT runs.time, wall_median_s, summary_error, status FROM results"
+            "SELECT runs.time, wall_median_s, error_rel, status FROM results"
             " JOIN runs ON runs.id = results.run_id WHERE case_name = ? AND model = ?"
             " ORDER BY runs.id",
             (case, model),
@@ -397,7 +411,8 @@ def assemble(
         mine = [r for r in records if r["case"] == name]
         cases[name] = {**meta, **errors.attach_errors(meta, mine)}
     for r in records:  # each result judged against a tolerance meant for it (grading.py)
-        r["grade"] = grading.grade(r, config.get("tolerance"))
+        case_tols = (metas.get(r["case"]) or {}).get("tolerances") or ()
+        r["grade"] = grading.grade(r, config.get("tolerance"), case_tols)
     cards = {}
     for r in records:
         if r.get("card") and r["model"] not in cards:

@@ -4,7 +4,7 @@ pieces of a pair record the report draws from (shapes along the path, how a scen
 ``errors.csv`` (one row per pair and compared quantity; ``pandas.read_csv`` loads it)::
 
     case, model, role, status, basis, output, at_factor, error, error_unit, value_unit,
-    wall_median_s, summary_error
+    wall_median_s, error_rel
 
 * ``basis = "path"``: ``error`` is the largest deviation from the reference path over the
   load factors both reached (``reports.errors``): translations divided by the length scale
@@ -43,7 +43,7 @@ ERRORS_CSV_COLUMNS = (
     "error_unit",
     "value_unit",
     "wall_median_s",
-    "summary_error",
+    "error_rel",
 )
 SHAPE_STEPS = 6  # deformed shapes kept per pair along the path (last step always)
 MAX_SHAPE_POINTS = 64
@@ -87,7 +87,7 @@ def error_rows(payload: Mapping) -> list[dict[str, Any]]:
             "role": "reference" if rec.get("is_reference") else rec.get("role", "model"),
             "status": rec["status"],
             "wall_median_s": (rec.get("timing") or {}).get("median_s"),
-            "summary_error": rec.get("summary_error"),
+            "error_rel": rec.get("error_rel"),
         }
         for key, err in sorted(((rec.get("errors") or {}).get("per_output") or {}).items()):
             eu, vu = _quantity_units(key, units)

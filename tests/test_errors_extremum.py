@@ -65,6 +65,8 @@ def test_a_path_stuck_short_of_the_reference_is_not_called_accurate():
     stuck = _path([(f, 0.0) for f in (0.0, 5.0, 50.0, 100.0)])
     err = path_errors(stuck, ref, length=2.0, stop_output="apex.uy")
     assert err["abscissa"] == "apex.uy" and err["coverage"] == 0.0
-    assert err["summary"] == pytest.approx(0.25 / 2.0)
+    # own scale: the apex travels 0.25, the model none of it (100 %); over L = 2: 12.5 %
+    assert err["summary"] == pytest.approx(1.0)
+    assert err["summary_L"] == pytest.approx(0.25 / 2.0)
     exact = path_errors(ref, ref, length=2.0, stop_output="apex.uy")
     assert exact["summary"] == pytest.approx(0.0, abs=1e-15) and exact["coverage"] == 1.0

@@ -15,7 +15,7 @@ def rec(model: str, family: str, err: float | None, **more) -> dict:
     return {
         "model": model,
         "card": {"family": family},
-        "summary_error": err,
+        "error_rel": err,
         "status": "converged",
         **more,
     }

@@ -40,7 +40,8 @@ def exact_tip(scene, factor: float) -> dict[str, float]:
 
 @functools.cache
 def independent_error(case: str, model: str, tol: float | None = None) -> float:
-    """Largest tip error over the whole path (translations / L, rotation in rad); inf if the
+    """Largest tip error over the whole path on the output's own scale (translations over the
+    tip's largest exact displacement, rotation over its largest exact rotation); inf if the
     model did not converge over the whole ramp.  ``*-auto`` runs with target ``tol`` (as the
     recommender runs it)."""
     scene = cases.load(case)
@@ -48,12 +49,13 @@ def independent_error(case: str, model: str, tol: float | None = None) -> float:
     sol = reports.solve(scene, model, options=opts)
     if sol.status != "converged" or not np.isclose(sol.steps[-1].factor, 1.0):
         return math.inf
-    L = scene.member_length(scene.members[0].id)
+    exact = [exact_tip(scene, s.factor) for s in sol.steps]
+    move = max(math.hypot(ex["tip.ux"], ex["tip.uy"]) for ex in exact)
+    turn = max(abs(ex["tip.rot"]) for ex in exact)
     worst = 0.0
-    for s in sol.steps:
-        ex = exact_tip(scene, s.factor)
+    for s, ex in zip(sol.steps, exact, strict=True):
         for k, v in ex.items():
-            scale = 1.0 if k.endswith("rot") else L
+            scale = turn if k.endswith("rot") else move
             worst = max(worst, abs(s.outputs[k] - v) / scale)
     return worst
 

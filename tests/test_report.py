@@ -62,7 +62,7 @@ def test_report_files_and_content(run):
         assert "RuntimeError: boom in the dummy" in text  # failures are listed
         assert "dummy declines every scene" in text  # not-applicable reason
         assert "reached 50% of the reference path" in text
-        assert f"{EPS * P / 2:.1e}" in text  # the scaled model's summary error
+        assert f"{EPS:.1e}" in text  # the scaled model's error on its own scale
     assert "FAIL 1.0e-02" in html and "pass " in html
 
 
@@ -88,13 +88,13 @@ def test_store_csv_and_sqlite_history(run, dummies):
         assert con.execute("SELECT COUNT(*) FROM runs").fetchone()[0] == 2
         assert con.execute("SELECT COUNT(*) FROM results").fetchone()[0] == 20
         (err,) = con.execute(
-            "SELECT summary_error FROM results WHERE case_name = 'dummy-a'"
+            "SELECT error_rel FROM results WHERE case_name = 'dummy-a'"
             " AND model = 'dummy-scaled' ORDER BY run_id DESC"
         ).fetchone()
         commit = con.execute("SELECT cpu, python FROM runs WHERE id = 1").fetchone()
     finally:
         con.close()
-    assert err == pytest.approx(EPS * P / 2)
+    assert err == pytest.approx(EPS)
     assert all(commit)
     hist = store.history_rows(out / "history.sqlite", "dummy-a", "dummy-scaled")
     assert [h[3] for h in hist] == ["converged", "converged"]

@@ -47,7 +47,7 @@ def test_speed_vs_error_points_are_the_numbers_in_results_json(small):
         judged = [
             r
             for r in data["results"]
-            if r["case"] == name and not r["is_reference"] and r["summary_error"] is not None
+            if r["case"] == name and not r["is_reference"] and r["error_rel"] is not None
         ]
         if not judged:  # the reference alone: no plot
             assert not side.exists()
@@ -65,7 +65,7 @@ def test_speed_vs_error_points_are_the_numbers_in_results_json(small):
                 assert p["kind"] == "reference"
                 assert p["error"] == (case["uncertainty"] or 0.0)
             else:
-                assert p["error"] == r["summary_error"]  # ... and the stored error
+                assert p["error"] == r["error_rel"]  # ... and the stored error
             if p["error"] >= figures.ROUNDOFF:
                 assert p["y"] == p["error"] and not p["roundoff"]
             else:
@@ -83,7 +83,7 @@ def _prb_record(tip: tuple[float, float]) -> dict:
     return {
         "model": "prb-3r",
         "status": "converged",
-        "summary_error": 0.02,
+        "error_rel": 0.02,
         "steps": [{"factor": 1.0, "outputs": {"tip.x": tip[0], "tip.y": tip[1]}}],
         "shape_steps": {"0": {"beam": seg}},
     }
@@ -247,7 +247,7 @@ def test_front_page_pick_and_overall_plot_over_common_cases(small):
     recs = [r for r in data["results"] if r["case"] == "cantilever-tip-load"]
     time = {r["model"]: r["timing"]["median_s"] for r in recs if r.get("timing")}
     err = {
-        r["model"]: (0.0 if r["model"] == "elastica" else r["summary_error"])
+        r["model"]: (0.0 if r["model"] == "elastica" else r["error_rel"])
         for r in recs
         if r["model"] in SMALL_MODELS and r["status"] == "converged"
     }
@@ -261,7 +261,7 @@ def test_front_page_pick_and_overall_plot_over_common_cases(small):
     assert sorted(p["model"] for p in drawn) == sorted(models) and common
     for p in drawn:  # worst error and geometric-mean time over exactly the common cases
         vals = [
-            (r["timing"]["median_s"], 0.0 if r["is_reference"] else r["summary_error"])
+            (r["timing"]["median_s"], 0.0 if r["is_reference"] else r["error_rel"])
             for r in data["results"]
             if r["model"] == p["model"] and r["case"] in common
         ]

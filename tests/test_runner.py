@@ -217,13 +217,18 @@ def test_errors_and_records_against_closed_form(dummies, tmp_path):
     case = res.payload["cases"]["dummy-cantilever"]
     assert case["reference"] == "dummy-exact" and recs["dummy-exact"]["is_reference"]
 
-    # known errors: uy_ref,max = P/3 = 0.1 (L = 1), rot_ref,max = P/2 = 0.15 rad
+    # known errors: uy_ref,max = P/3 = 0.1 (L = 1), rot_ref,max = P/2 = 0.15 rad; a model
+    # scaled by 1 + EPS is EPS off on its own scale (error_rel) whatever P is, and
+    # EPS P / 3 (of L) / EPS P / 2 (rad) on the classic yardstick (error_L)
     sc = recs["dummy-scaled"]
-    per = sc["errors"]["per_output"]
-    assert per["tip.uy"] == pytest.approx(EPS * P / 3, rel=1e-9)
-    assert per["tip.rot"] == pytest.approx(EPS * P / 2, rel=1e-9)
+    per, per_L = sc["errors"]["per_output"], sc["errors"]["per_output_L"]
+    assert per["tip.uy"] == pytest.approx(EPS, rel=1e-9)
+    assert per["tip.rot"] == pytest.approx(EPS, rel=1e-9)
+    assert per_L["tip.uy"] == pytest.approx(EPS * P / 3, rel=1e-9)
+    assert per_L["tip.rot"] == pytest.approx(EPS * P / 2, rel=1e-9)
     assert per["tip.ux"] == 0.0
-    assert sc["summary_error"] == pytest.approx(EPS * P / 2, rel=1e-9)
+    assert sc["error_rel"] == pytest.approx(EPS, rel=1e-9)
+    assert sc["error_L"] == pytest.approx(EPS * P / 2, rel=1e-9)
     assert sc["summary_basis"] == "path" and sc["errors"]["n_points"] == 9
     assert not sc["errors"]["interpolated"]
     # reference checks: the exact dummy passes, the scaled one is 1% off (> 1e-3): fails
@@ -237,7 +242,7 @@ def test_errors_and_records_against_closed_form(dummies, tmp_path):
     half = recs["dummy-half"]
     assert half["status"] == "failed" and len(half["steps"]) == 5
     assert half["errors"]["coverage"] == pytest.approx(0.5)
-    assert half["summary_error"] == pytest.approx(0.0, abs=1e-15)
+    assert half["error_rel"] == pytest.approx(0.0, abs=1e-15)
     assert half["refchecks"][0]["passed"] is None  # factor 1 never reached
 
     crash = recs["dummy-crash"]
@@ -245,7 +250,7 @@ def test_errors_and_records_against_closed_form(dummies, tmp_path):
     assert "Traceback" in crash["traceback"]
     na = recs["dummy-na"]
     assert na["status"] == "not-applicable" and na["message"] == "dummy declines every scene"
-    assert na["timing"] is None and na["summary_error"] is None
+    assert na["timing"] is None and na["error_rel"] is None
 
     t = sc["timing"]
     assert 1 <= t["n_repeats"] <= 5
@@ -281,7 +286,7 @@ def test_resume_skips_finished_pairs(dummies, tmp_path):
     assert (first.solved, first.resumed) == (6, 0)
     again = runner.run_matrix(scenes, models, tmp_path, workers=1, render=False)
     assert (again.solved, again.resumed) == (0, 6)
-    assert by_model(again)["dummy-scaled"]["summary_error"] == pytest.approx(EPS * P / 2)
+    assert by_model(again)["dummy-scaled"]["error_rel"] == pytest.approx(EPS)
 
     # a finished run keeps no temporary file: it resumes from results.json
     assert not (tmp_path / "partial.jsonl").exists()
@@ -311,7 +316,7 @@ def test_process_pool_matches_serial_and_survives_a_dead_worker(dummies, tmp_pat
     for r in serial.payload["results"]:
         g = got[(r["case"], r["model"])]
         assert g["status"] == r["status"]
-        assert g["summary_error"] == r["summary_error"]  # deterministic: identical numbers
+        assert g["error_rel"] == r["error_rel"]  # deterministic: identical numbers
     for case in ("dummy-a", "dummy-b"):
         dead = got[(case, "dummy-killer")]
         assert dead["status"] == "failed" and "worker process died" in dead["message"]
@@ -329,7 +334,7 @@ def test_dask_localcluster_runs_the_same_tasks(dummies, tmp_path):
     recs = by_model(res)
     assert set(recs) == {"dummy-scaled", "dummy-exact"}
     assert all(r["status"] == "converged" for r in recs.values())
-    assert recs["dummy-scaled"]["summary_error"] == pytest.approx(EPS * P / 2, rel=1e-9)
+    assert recs["dummy-scaled"]["error_rel"] == pytest.approx(EPS, rel=1e-9)
     assert res.payload["config"]["dask"] == cluster.scheduler_address
     assert not (tmp_path / "partial.jsonl").exists()  # removed once results.json is written
     assert len(store.read_results(tmp_path)["results"]) == 2
@@ -357,7 +362,8 @@ def test_path_errors_interpolate_and_follow_snapback_by_stop_output():
     mod = _steps([0.0, 0.25, 0.55, 0.95], [0.0, -0.25, -0.55, -0.95 * 1.1])
     e = errors.path_errors(mod, ref, length=2.0)
     assert e["interpolated"] and e["n_points"] == 4
-    assert e["per_output"]["p.uy"] == pytest.approx(0.095 / 2.0)
+    assert e["per_output"]["p.uy"] == pytest.approx(0.095 / 1.0)  # p moves 1.0 at most
+    assert e["per_output_L"]["p.uy"] == pytest.approx(0.095 / 2.0)
 
     # limit point: factor rises then falls while uy decreases monotonically (snap-back-free
     # limit point traced by arc-length); comparison goes along uy, factor error normalised
@@ -400,7 +406,10 @@ def test_reference_falls_back_and_error_estimate_scales():
     name, note = errors.choose_reference(meta, recs)
     assert name == "elastica" and "fem-auto" in note
     est = {"tip.uy": [0.0, 2e-6, 4e-6], "tip.rot": 1e-7, "tip.x": 1.0}
-    assert errors.estimate_scale(est, length=2.0) == pytest.approx(2e-6)
+    ref = [{"factor": f, "outputs": {"tip.uy": -0.5 * f, "tip.rot": 0.1 * f}} for f in (0, 1)]
+    stick = errors.reference_yardstick({"length_scale": 2.0}, ref)
+    assert errors.estimate_scale(est, stick) == pytest.approx(8e-6)  # 4e-6 over 0.5
+    assert errors.estimate_scale(est, stick, "error_L") == pytest.approx(2e-6)  # over L
     assert math.isnan(errors.values([{"factor": None}], "factor")[0])
 
 

@@ -38,10 +38,10 @@ def case_points(records: Sequence[Mapping], uncertainty: float | None = None) ->
             if r["status"] != "converged":
                 continue
             err, kind = (uncertainty if uncertainty is not None else 0.0), "reference"
-        elif r.get("summary_error") is None:
+        elif r.get("error_rel") is None:
             continue
         else:
-            err = r["summary_error"]
+            err = r["error_rel"]
             kind = "exact" if r["model"] in EXACT_MODELS else "model"
         pts.append(
             {

@@ -26,10 +26,15 @@ Block = tuple
 FIGURE_ORDER = ("pareto", "path", "driver", "shapes", "errfactor", "render")
 FOLDED_FIGURES = ("history", "trend", "animation")
 DEFINITIONS = (
-    "Summary error: the largest deviation from the case's reference path over every load "
-    "factor both reached, over the displacement (ux, uy; divided by the length scale L = "
-    "longest member) and rotation (rad) outputs. Cases without a reference path use the "
-    "largest relative error against their published references. Wall time: median of "
+    "error_rel (the yardstick of every grade and pick): the largest deviation from the "
+    "case's reference path over every load factor both reached, over the outputs a designer "
+    "judges (the case's [[tolerances]], else every point's ux, uy and rot), each divided by "
+    "that output's own excursion along the reference path (a point: its largest displacement; "
+    "a rotation: its largest rotation), against a floor of 1e-3 of the scene's motion where "
+    "the excursion is smaller (a parasitic output). error_L: the same deviations with "
+    "translations divided by the length scale L (longest member) and rotations in rad. "
+    "Cases without a reference path use the largest relative error against their published "
+    "references on both. Wall time: median of "
     "repeated solves in one worker (first call excluded; a first call slower than the "
     "policy cap is used alone); brackets give [min, max] and the number of repeats. "
     "'vs ref' = reference wall time / model wall time. Errors below 1e-12 are round-off and "
@@ -138,9 +143,10 @@ def _model_rows(case: Mapping, recs: Sequence[Mapping]) -> tuple[list[str], list
         "wall (median)",
         "[min, max] ×n",
         "vs ref",
-        "summary error",
+        "error_rel",
+        "error_L",
         "grade",
-        *(f"err {k}" for k in keys),
+        *(f"error_rel {k}" for k in keys),
         "equilibria stable / unstable",
         "note",
     ]
@@ -173,7 +179,7 @@ def _model_rows(case: Mapping, recs: Sequence[Mapping]) -> tuple[list[str], list
         span = (
             f"[{FP.fmt_time(t.get('min_s'))}, {FP.fmt_time(t.get('max_s'))}] ×{t.get('n_repeats')}"
         )
-        e = r.get("summary_error")
+        e = r.get("error_rel")
         rows.append(
             [
                 r["model"],
@@ -186,6 +192,7 @@ def _model_rows(case: Mapping, recs: Sequence[Mapping]) -> tuple[list[str], list
                     FP.fmt_err(e) + (" (refs)" if r.get("summary_basis") == "references" else ""),
                     FP.error_class(e) if e is not None else None,
                 ),
+                FP.fmt_err(r.get("error_L")),
                 grading.label(r.get("grade")),
                 *(FP.fmt_err(per.get(k)) for k in keys),
                 stability(r),

@@ -216,7 +216,7 @@ def pareto_figure(
     _decade_ticks(ax, "x", xlo, xhi, None)
     _decade_ticks(ax, "y", ylo, yhi, zero)
     ax.set_xlabel(xlabel, fontsize=8)
-    ax.set_ylabel("summary error (max over path; /L or rad)", fontsize=8)
+    ax.set_ylabel("error_rel (max over path, own scale)", fontsize=8)
     ax.set_title(title, fontsize=9)
     ax.tick_params(labelsize=7)
     ax.grid(alpha=0.3)

@@ -94,9 +94,7 @@ def _complete(rec: Mapping) -> bool:
 def judged(recs: Sequence[Mapping]) -> list[Mapping]:
     """Records with an error and a time that are not the case's reference."""
     return [
-        r
-        for r in recs
-        if not r.get("is_reference") and r.get("summary_error") is not None and _time(r)
+        r for r in recs if not r.get("is_reference") and r.get("error_rel") is not None and _time(r)
     ]
 
 
@@ -115,8 +113,8 @@ def candidates(recs: Sequence[Mapping]) -> list[dict]:
         if not t or not _complete(r) or not is_reduced(r["model"], r.get("role")):
             continue
         if r.get("is_reference") and r["model"] in EXACT_MODELS:
-            out.append({**r, "summary_error": 0.0, "speedup_vs_reference": 1.0})
-        elif not r.get("is_reference") and r.get("summary_error") is not None:
+            out.append({**r, "error_rel": 0.0, "speedup_vs_reference": 1.0})
+        elif not r.get("is_reference") and r.get("error_rel") is not None:
             out.append(r)
     return out
 
@@ -127,11 +125,11 @@ def pick(recs: Sequence[Mapping], tol: float = TOLERANCE) -> dict[str, Any] | No
     cands = candidates(recs)
     if not cands:
         return None
-    good = [r for r in cands if r["summary_error"] <= tol]
-    best = min(good, key=_time) if good else min(cands, key=lambda r: r["summary_error"])
+    good = [r for r in cands if r["error_rel"] <= tol]
+    best = min(good, key=_time) if good else min(cands, key=lambda r: r["error_rel"])
     return {
         "model": best["model"],
-        "error": best["summary_error"],
+        "error": best["error_rel"],
         "time": _time(best),
         "ratio": best.get("speedup_vs_reference"),
         "within": bool(good),
@@ -187,7 +185,7 @@ def pick_table(payload: Mapping) -> tuple[list[str], list[list]]:
             rows.append([link, ref, Cell(text, "na")] + [""] * 5)
             continue
         approx = [r for r in candidates(recs) if r["model"] not in EXACT_MODELS]
-        acc = min(approx, key=lambda r: (r["summary_error"], _time(r))) if approx else None
+        acc = min(approx, key=lambda r: (r["error_rel"], _time(r))) if approx else None
         label = p["model"] if p["within"] else f"none within {tol:g}"
         rows.append(
             [
@@ -198,7 +196,7 @@ def pick_table(payload: Mapping) -> tuple[list[str], list[list]]:
                 fmt_time(p["time"]),
                 fmt_speed(p["ratio"]),
                 f"{p['n_good']} / {p['n_solved']}",
-                "–" if acc is None else f"{acc['model']} ({fmt_err(acc['summary_error'])})",
+                "–" if acc is None else f"{acc['model']} ({fmt_err(acc['error_rel'])})",
             ]
         )
     return head, rows
@@ -224,7 +222,7 @@ def accuracy_map(payload: Mapping) -> tuple[list[str], list[list]]:
             elif r["status"] == "failed":
                 row.append(Cell("fail", "fail", title=r.get("message")))
             else:
-                e = r.get("summary_error")
+                e = r.get("error_rel")
                 tip = f"{fmt_time(_time(r))}; {r['status']}"
                 row.append(
                     Cell(fmt_err(e).replace(" (< 1e-12)", ""), error_class(e, tol), title=tip)
@@ -243,8 +241,8 @@ def solved_by_model(payload: Mapping) -> dict[str, dict[str, tuple[float, float]
             continue
         if r.get("is_reference") and r["model"] in EXACT_MODELS:
             out.setdefault(r["model"], {})[r["case"]] = (t, 0.0)
-        elif not r.get("is_reference") and r.get("summary_error") is not None:
-            out.setdefault(r["model"], {})[r["case"]] = (t, r["summary_error"])
+        elif not r.get("is_reference") and r.get("error_rel") is not None:
+            out.setdefault(r["model"], {})[r["case"]] = (t, r["error_rel"])
     return out
 
 

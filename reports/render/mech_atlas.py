@@ -116,8 +116,9 @@ def summary(data: Mapping) -> str:
     ratios = [m["cost_ratio"] for m in data["models"].values() if m.get("cost_ratio")]
     cost = f"; one atlas state costs {np.median(ratios):.3g} x a single solve (median)"
     return (
-        f"Validity atlas: each model's error against fem-auto (translations / L, rotations in "
-        f"rad, the driven quantity relative to its largest value) over {data['drive_label']} x "
+        f"Validity atlas: each model's error_rel against fem-auto (each output over its own "
+        f"excursion along the driver path, the driven quantity relative to its largest value) "
+        f"over {data['drive_label']} x "
         f"{data['axis_label']} ({n} states per model; why this axis: {data['axis_why']}); "
         f"one fem-auto and one path-following solve per model per axis value; "
         f"{data['wall_s']:.1f} s in all{cost if ratios else ''}. White contours 0.1 / 1 / 5 %; "

@@ -121,7 +121,7 @@ def shapes_figure(
         for r in recs
         if r["model"] != ref
         and r["status"] == "converged"
-        and (r.get("summary_error") is not None and r["summary_error"] < SAME_AS_REF)
+        and (r.get("error_rel") is not None and r["error_rel"] < SAME_AS_REF)
     )
     recs = [r for r in recs if r["model"] not in close]
     if not recs:

@@ -122,9 +122,10 @@ def _roundoff_panel(ax: Any, label: str) -> None:
     ax.set_xlabel(label, fontsize=8)
 
 
-def step_errors(rec: Mapping, ref_rec: Mapping, out: str, length: float) -> tuple:
-    """(factors, error per step): the largest of |d ux|/L, |d uy|/L, |d rot| against the
-    reference at the same factor (interpolated on a monotonic reference factor)."""
+def step_errors(rec: Mapping, ref_rec: Mapping, out: str, scale: Mapping[str, float]) -> tuple:
+    """(factors, ``error_rel`` per step): the largest of |d ux|, |d uy|, |d rot| against the
+    reference at the same factor (interpolated on a monotonic reference factor), each over
+    its divisor in ``scale`` (the reference path's yardstick, ``reports.yardstick``)."""
     f_r, f_m = _series(ref_rec, "factor"), _series(rec, "factor")
     errs = np.zeros_like(f_m)
     mono = f_r.size >= 2 and np.all(np.diff(f_r) > 0)
@@ -136,8 +137,7 @@ def step_errors(rec: Mapping, ref_rec: Mapping, out: str, length: float) -> tupl
         else:
             idx = [np.flatnonzero(np.isclose(f_r, f, rtol=1e-9)) for f in f_m]
             refv = np.array([r[i[0]] if i.size else np.nan for i in idx])
-        scale = 1.0 if q == "rot" else length
-        errs = np.fmax(errs, np.abs(m - refv) / scale)
+        errs = np.fmax(errs, np.abs(m - refv) / scale.get(key, 1.0))
     errs[~np.isfinite(_series(rec, f"{out}.ux"))] = np.nan
     return f_m, errs
 
@@ -155,8 +155,10 @@ def error_factor_figure(
     recs = [r for r in records if r["steps"] and r["model"] != ref and r["status"] != "failed"]
     if not out or ref_rec is None or not recs:
         return None
-    length = float(meta.get("length_scale") or 1.0)
-    series = [(r, *step_errors(r, ref_rec, out, length)) for r in recs]
+    from reports.errors import reference_yardstick
+
+    scale = reference_yardstick(meta, ref_rec["steps"]).scale
+    series = [(r, *step_errors(r, ref_rec, out, scale)) for r in recs]
     series = [s for s in series if np.any(np.isfinite(s[2]))]
     if not series:
         return None
@@ -187,7 +189,7 @@ def error_factor_figure(
     ax.set_ylim(zero / 2, hi)
     _decade_ticks(ax, "y", zero / 2, hi, zero)
     ax.set_xlabel("load factor (driver coordinate for energy analyses)", fontsize=7)
-    ax.set_ylabel("error vs reference (/L, rad)", fontsize=7)
+    ax.set_ylabel(f"error_rel of {out} (own scale)", fontsize=7)
     ax.set_title(
         f"error along the path against {ref} (red dashed: tolerance {TOLERANCE:g}; "
         "red circle: first step outside)",

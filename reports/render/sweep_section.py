@@ -28,7 +28,7 @@ def _cell(rec: Mapping | None) -> str:
     t = FP.fmt_time((rec.get("timing") or {}).get("median_s"))
     if rec["status"] != "converged":
         return f"{rec['status']} ({t})"
-    err = "ref" if rec.get("is_reference") else FP.fmt_err(rec.get("summary_error"))
+    err = "ref" if rec.get("is_reference") else FP.fmt_err(rec.get("error_rel"))
     return f"{err} ({t})"
 
 
