@@ -23,6 +23,8 @@ cached on disk per code version (``cache_dir``) so the command answers in well u
 
 from __future__ import annotations
 
+import copy
+import functools
 import hashlib
 import json
 import math
@@ -254,12 +256,14 @@ def _worst_on(n: float, gamma: float, p_end: float) -> tuple[float, float]:
     return (-float(res.fun), float(res.x)) if -res.fun > err[i] else (float(err[i]), loads[i])
 
 
+@functools.lru_cache(maxsize=64)
 def howell_row(
     n: float, gamma: float, theta_max: float | None, level: float = 5e-3
 ) -> dict[str, Any]:
     """One load ratio of Howell's claim: the worst error with ``gamma`` up to ``theta_max``
     (deg; None: up to the last 0.5 % crossing, Howell's definition), where it occurs, and the
-    worst still left when gamma and Theta_max move within the table's rounding."""
+    worst still left when gamma and Theta_max move within the table's rounding.  Cached per
+    process (the teaching page and the CLI ask again); callers get the shared dict, read-only."""
     tabulated = theta_max is not None
     p_end = (
         _load_at_theta(n, gamma, theta_max)
@@ -297,7 +301,7 @@ def howell_locus(claim: Claim) -> dict[str, Any]:
     """Evaluate Howell's claim on every tabulated n (see the module docstring)."""
     tab = {0.0: T.HOWELL_N0["Theta_max_deg"]}  # the only Theta_max this project carries
     rows = [
-        howell_row(float(n), float(g), tab.get(float(n)), claim.claimed)
+        copy.deepcopy(howell_row(float(n), float(g), tab.get(float(n)), claim.claimed))
         for n, g in zip(T.HOWELL_TABLE_N, T.HOWELL_TABLE_GAMMA)
     ]
     head = rows[0]
@@ -427,7 +431,7 @@ def evaluate(claim: Claim, at: Any = None) -> dict[str, Any]:
     }
 
 
-def force_atlas(grid: tuple[int, int] = ATLAS_GRID) -> Any:
+def force_atlas(grid: tuple[int, int]) -> Any:
     """The force atlas of the models the claims are about (our readings are read on it)."""
     from reports import atlas
 
@@ -455,12 +459,14 @@ def _cache_key(grid: tuple[int, int]) -> str:
     return h.hexdigest()[:12]
 
 
-def evaluate_all(at: Any = None, grid: tuple[int, int] = ATLAS_GRID) -> list[dict[str, Any]]:
+def evaluate_all(at: Any = None, grid: tuple[int, int] | None = None) -> list[dict[str, Any]]:
     """Every registered claim (``evaluate``).  ``at``: a force atlas already computed (the
-    teaching page's); without it the atlas of ``grid`` is computed, and the whole answer is
-    cached per code version under ``cache_dir()`` (an unwritable cache is only slower)."""
+    teaching page's); without it the atlas of ``grid`` (default ``ATLAS_GRID``) is computed,
+    and the whole answer is cached per code version under ``cache_dir()`` (an unwritable
+    cache is only slower)."""
     if at is not None:
         return [evaluate(c, at) for c in CLAIMS]
+    grid = grid or ATLAS_GRID
     path = cache_dir() / f"claims-{grid[0]}x{grid[1]}-{_cache_key(grid)}.json"
     try:
         return json.loads(path.read_text(encoding="utf-8"))["claims"]

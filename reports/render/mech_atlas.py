@@ -1,8 +1,8 @@
 """Mechanism validity atlases (``reports.atlas_mech``) in the report and the teaching page.
 
 * ``figure(data, path)``: one PNG per case, a panel per model: log10 error over driver x second
-  axis, the 0.1 / 1 / 5 % contours, each published claim's region dashed and its failing
-  states marked x.
+  axis, the 0.1 / 1 / 5 % contours, the region of our test of each published claim dashed and
+  its failing states marked x.
 * ``teaching_data(cases)``: the atlases for the teaching page (``render.teaching``), each with
   its figure as a data URI; ``save(mech, out_dir)`` writes them to ``mech_atlas.json`` and
   ``figures/mech-atlas-<case>.png`` so that the report shows them too.
@@ -121,7 +121,8 @@ def summary(data: Mapping) -> str:
         f"{data['axis_label']} ({n} states per model; why this axis: {data['axis_why']}); "
         f"one fem-auto and one path-following solve per model per axis value; "
         f"{data['wall_s']:.1f} s in all{cost if ratios else ''}. White contours 0.1 / 1 / 5 %; "
-        "dashed: a published claim's range, x: states in it where the claim fails."
+        "dashed: the range of our test of a published claim (the publication's own verdict: "
+        "flexbench claims), x: states in it where our test fails."
     )
 
 
