@@ -50,6 +50,7 @@ _SOURCES = (
     "reports/atlas.py",
     "reports/atlas_mech.py",
     "reports/claims.py",
+    "reports/claims_howell.py",
     "reports/render/teaching.py",
     "reports/render/mech_atlas.py",
     "reports/api.py",
