@@ -235,7 +235,7 @@ def ours(claim: Claim, at: Any) -> dict[str, Any] | None:
         "source": main.source,
         "claim": main.label,
         "metric": f"{main.metric}: {_METRICS[main.metric]}",
-        "region": main.label.split(" for ")[-1] if " for " in main.label else main.label,
+        "region": main.label.removeprefix("our test: "),
         "parameters": {"atlas_grid": [len(at.mags), len(at.angles)], "family": at.family},
         "claimed": main.accuracy,
         "worst": res["worst"],
