@@ -82,8 +82,9 @@ CLAIMS = (
         source=HOWELL_SOURCE,
         claim=(
             "'The approximations are accurate to within 0.5% of the closed-form elliptic "
-            "integral solutions' (Howell & Midha), for pseudo-rigid-body angles up to the "
-            "tabulated Theta_max(gamma) of each load ratio n"
+            "integral solutions' (Howell & Midha, abstract of the ASME DETC 1992 paper the "
+            "1995 journal paper extends), for pseudo-rigid-body angles up to the tabulated "
+            "Theta_max(gamma) of each load ratio n (Howell 2001, Table 5.1)"
         ),
         metric=(
             "Howell's relative tip-locus error: |distance of the exact elastica's tip from the "
