@@ -106,6 +106,11 @@ def claim_lines(data: Mapping) -> list[str]:
             f"{c['model']}: {c['label']}: {c['verdict'].upper()} (worst {worst} against the "
             f"claimed {c['accuracy'] * 100:.3g} %; {c['failing']} of {c['points']} states in "
             f"its range fail{where}). Source: {c['source']}. Reading: {c['reading']}."
+            + (
+                f" The publication's own verdict: flexbench claims --id {c['claim_id']}."
+                if c.get("claim_id")
+                else ""
+            )
         )
     return out
 
