@@ -93,7 +93,8 @@ def figure(data: Mapping, dest: str | Path | None = None) -> bytes:
 
 
 def claim_lines(data: Mapping) -> list[str]:
-    """One line per checked claim: verdict, worst error, failing states, source, reading."""
+    """One line per our test of a published claim: verdict, worst error, failing states,
+    source, reading, and where the publication's own verdict is."""
     out = []
     for c in data["claims"]:
         worst = "-" if c["worst"] is None else f"{c['worst'] * 100:.3g} %"
@@ -103,8 +104,8 @@ def claim_lines(data: Mapping) -> list[str]:
                 f"{k} {v:.4g}" for k, v in c["worst_at"].items()
             )
         out.append(
-            f"{c['model']}: {c['label']}: {c['verdict'].upper()} (worst {worst} against the "
-            f"claimed {c['accuracy'] * 100:.3g} %; {c['failing']} of {c['points']} states in "
+            f"{c['model']}: {c['label']}: {c['verdict'].upper()} (worst {worst} against our "
+            f"threshold {c['accuracy'] * 100:.3g} %; {c['failing']} of {c['points']} states in "
             f"its range fail{where}). Source: {c['source']}. Reading: {c['reading']}."
             + (
                 f" The publication's own verdict: flexbench claims --id {c['claim_id']}."
