@@ -6,6 +6,7 @@
     flexbench models                         list the registry with each model's card summary
     flexbench solve CASE --model M [--json]  solve one case (catalog name or .toml path)
     flexbench recommend CASE [--tol 1%] [--json]   cheapest model within the tolerance
+    flexbench claims [--json] [--id ID]      published validity claims judged on their own terms
     flexbench teach [--out DIR] [--quick]    teaching page: atlases, cards, worked advice
     flexbench run [--cases GLOB] [--models LIST] [--out DIR] [--quick] [--workers N]
                   [--dask ADDRESS] [--history PATH] [--fresh] [--no-report] [--time-limit S]
@@ -247,6 +248,18 @@ def cmd_recommend(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_claims(args: argparse.Namespace) -> int:
+    from reports import claims
+
+    ids = [c.id for c in claims.CLAIMS]
+    if args.id and args.id not in ids:
+        raise UsageError(f"--id {args.id}: no such claim (known: {', '.join(ids)})")
+    records = [r for r in claims.evaluate_all() if not args.id or r["id"] == args.id]
+    out = claims.as_json(records)
+    print(json.dumps(out, allow_nan=False) if args.json else claims.format_table(out["claims"]))
+    return 0
+
+
 def cmd_teach(args: argparse.Namespace) -> int:
     import cases
     from reports.render import teaching
@@ -468,6 +481,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     rc.add_argument("--json", action="store_true", help="print the contract JSON object")
     rc.set_defaults(func=cmd_recommend)
+    cl = sub.add_parser("claims", help="published validity claims, judged on their own terms")
+    cl.add_argument("--json", action="store_true", help="print the contract JSON object")
+    cl.add_argument("--id", help="only this claim (e.g. howell-prb-1r)")
+    cl.set_defaults(func=cmd_claims)
     te = sub.add_parser("teach", help="write the teaching page (atlases, which model to use)")
     te.add_argument("--out", default="out", help="output directory (default: out)")
     te.add_argument("--cases", help="catalog globs for the worked recommendations (default: all)")

@@ -49,6 +49,8 @@ def mech_n_axis(grid: tuple[int, int]) -> int:
 _SOURCES = (
     "reports/atlas.py",
     "reports/atlas_mech.py",
+    "reports/claims.py",
+    "reports/claims_howell.py",
     "reports/render/teaching.py",
     "reports/render/mech_atlas.py",
     "reports/api.py",

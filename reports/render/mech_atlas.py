@@ -1,8 +1,8 @@
 """Mechanism validity atlases (``reports.atlas_mech``) in the report and the teaching page.
 
 * ``figure(data, path)``: one PNG per case, a panel per model: log10 error over driver x second
-  axis, the 0.1 / 1 / 5 % contours, each published claim's region dashed and its failing
-  states marked x.
+  axis, the 0.1 / 1 / 5 % contours, the region of our test of each published claim dashed and
+  its failing states marked x.
 * ``teaching_data(cases)``: the atlases for the teaching page (``render.teaching``), each with
   its figure as a data URI; ``save(mech, out_dir)`` writes them to ``mech_atlas.json`` and
   ``figures/mech-atlas-<case>.png`` so that the report shows them too.
@@ -93,7 +93,8 @@ def figure(data: Mapping, dest: str | Path | None = None) -> bytes:
 
 
 def claim_lines(data: Mapping) -> list[str]:
-    """One line per checked claim: verdict, worst error, failing states, source, reading."""
+    """One line per our test of a published claim: verdict, worst error, failing states,
+    source, reading, and where the publication's own verdict is."""
     out = []
     for c in data["claims"]:
         worst = "-" if c["worst"] is None else f"{c['worst'] * 100:.3g} %"
@@ -103,9 +104,14 @@ def claim_lines(data: Mapping) -> list[str]:
                 f"{k} {v:.4g}" for k, v in c["worst_at"].items()
             )
         out.append(
-            f"{c['model']}: {c['label']}: {c['verdict'].upper()} (worst {worst} against the "
-            f"claimed {c['accuracy'] * 100:.3g} %; {c['failing']} of {c['points']} states in "
+            f"{c['model']}: {c['label']}: {c['verdict'].upper()} (worst {worst} against our "
+            f"threshold {c['accuracy'] * 100:.3g} %; {c['failing']} of {c['points']} states in "
             f"its range fail{where}). Source: {c['source']}. Reading: {c['reading']}."
+            + (
+                f" The publication's own verdict: flexbench claims --id {c['claim_id']}."
+                if c.get("claim_id")
+                else ""
+            )
         )
     return out
 
@@ -122,7 +128,8 @@ def summary(data: Mapping) -> str:
         f"{data['axis_label']} ({n} states per model; why this axis: {data['axis_why']}); "
         f"one fem-auto and one path-following solve per model per axis value; "
         f"{data['wall_s']:.1f} s in all{cost if ratios else ''}. White contours 0.1 / 1 / 5 %; "
-        "dashed: a published claim's range, x: states in it where the claim fails."
+        "dashed: the range of our test of a published claim (the publication's own verdict: "
+        "flexbench claims), x: states in it where our test fails."
     )
 
 

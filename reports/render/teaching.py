@@ -2,10 +2,11 @@
 
 Sections: how errors are measured; one section per model family with each model's card, its
 validity atlas (drawn on a canvas from embedded numbers, re-coloured by a tolerance slider,
-with the published validity claims outlined and their failing points marked), the measured
-cost scaling (CPU time vs N on one case) and a worked "which model should I use" per catalog
-case from ``reports.recommend``; a load slider that moves every model's deformed shape
-against the reference for a chosen case.  All data are embedded as JSON; inline JS draws.
+with each published claim's own verdict (``reports.claims``) and our test of it outlined, its
+failing points marked), the measured cost scaling (CPU time vs N on one case) and a worked
+"which model should I use" per catalog case from ``reports.recommend``; a load slider that
+moves every model's deformed shape against the reference for a chosen case.  All data are
+embedded as JSON; inline JS draws.
 
 ``#selftest`` in the page's URL makes the script move both sliders and write a JSON verdict
 (drawings changed, errors caught) into ``<pre id="selftest">`` -- what the browser test reads.
@@ -24,6 +25,7 @@ import numpy as np
 
 import cases
 from reports import api, atlas
+from reports import claims as published
 from reports.recommend import format_text, recommend
 from reports.render import mech_atlas
 
@@ -116,9 +118,13 @@ def atlas_png(at: atlas.Atlas, model: str) -> str:
 
 
 def atlas_data(at: atlas.Atlas) -> dict:
-    """Embeddable atlas: grid, each model's error and the claims on it."""
+    """Embeddable atlas: grid, each model's error and our tests of the published claims on
+    it; the force atlas also carries the claims' own records (``reports.claims``: the
+    publication's verdict, in its own metric, with our reading of this atlas beside it)."""
     claims = [c for c in atlas.CLAIMS if c.family == at.family]
-    out = {"mags": _r(at.mags), "angles": _r(at.angles), "models": {}}
+    out: dict[str, Any] = {"mags": _r(at.mags), "angles": _r(at.angles), "models": {}}
+    if at.family == "force":
+        out["published"] = published.as_json(published.evaluate_all(at))["claims"]
     for name, err in at.error.items():
         entry: dict[str, Any] = {"error": _r(err, 3), "claims": [], "message": at.message[name]}
         if at.family == "force":
@@ -237,8 +243,11 @@ value="0"> <b id="loadv"></b></div>
 <p>Errors are the report's path errors: the largest deviation of the tip from the exact
 elastica, translations divided by the beam length L, rotations in rad. Atlas cells are green
 when the error is within the tolerance chosen above (darker = closer to the limit), red when not,
-grey where the model declines or fails. Outlined cells: a published validity claim's region;
-black dots: points inside a claim's region where the claim's own accuracy is not met.</p>
+grey where the model declines or fails. Under each atlas: the published claim's own verdict,
+judged in the publication's metric, region and parameter values (<code>flexbench claims</code>).
+Outlined cells: the region of our test of that claim on this atlas (a stricter metric or a wider
+region, labelled "our test": never the publication's failure); black dots: points inside it
+where our test's accuracy is not met.</p>
 <div id="root"></div>
 <h2>Deformed shapes</h2><p id="shapecap"></p><canvas id="shape" width="560" height="420">
 </canvas><div id="legend"></div>
@@ -303,11 +312,16 @@ function atlasBlock(fam, model) {
   const ax = fam === "moment" ? "end moment ML/EI 0 to 2 pi (left to right)" :
     `x: load magnitude 0 to 10 (PL^2/EI); y: angle 0 (tension, bottom) to 180 deg (compression)`;
   div.append(el("div", {}, ax));
+  (A.published || []).filter(r => r.model === model).forEach(r => div.append(el("div",
+    {className: {holds: "ok", fails: "bad"}[r.verdict] || ""},
+    `Published claim ${r.id}: ${r.verdict}` + (r.worst === null ? "" :
+    ` (worst ${pct(r.worst)} vs claimed ${pct(r.claimed)}, in the publication's own metric)`) +
+    `. ${r.claim} Source: ${r.source}. ${r.note}`)));
   A.models[model].claims.forEach(cl => div.append(el("div",
     {className: cl.verdict === "holds" ? "ok" : "bad"},
-    `${cl.label}: ${cl.verdict} (worst ${cl.worst === null ? "-" : pct(cl.worst)} vs claimed ` +
+    `${cl.label}: ${cl.verdict} (worst ${cl.worst === null ? "-" : pct(cl.worst)} vs ` +
     `${pct(cl.accuracy)} on ${cl.metric}; ${cl.failing}/${cl.points} points fail). ` +
-    `Source: ${cl.source}. Reading: ${cl.reading}`)));
+    `Reading: ${cl.reading}`)));
   if (A.models[model].message) div.append(el("div", {}, "declines/fails: " +
     A.models[model].message));
   return div;
