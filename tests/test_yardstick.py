@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import importlib
 import math
 
 import numpy as np
@@ -270,9 +271,8 @@ def test_cli_tol_1_is_refused(capsys):
 def test_cli_absolute_tolerance(capsys, monkeypatch):
     """``--tol stage.uy=abs:0.01`` (mm) judges the stage deflection absolutely: prb-fsm-2's
     0.31 mm miss is out, the pick is within 0.01 mm of fem-auto."""
-    import reports.recommend as R
-
-    monkeypatch.setattr(R, "recommend", functools.partial(R.recommend, cost=unknowns))
+    module = importlib.import_module("reports.recommend")  # ``reports.recommend`` is the function
+    monkeypatch.setattr(module, "recommend", functools.partial(recommend, cost=unknowns))
     assert cli.main(["recommend", PG, "--tol", "stage.uy=abs:0.01"]) == 0
     out = capsys.readouterr().out
     pick = out.split("recommended: ")[1].split()[0]
