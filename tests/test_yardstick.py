@@ -139,8 +139,9 @@ def _recommend(case: str, tol: float, cost=unknowns):
 @pytest.mark.parametrize("cost", [unknowns, worst_first])
 def test_pick_is_within_tolerance_on_the_judged_output(case: str, tol: float, cost):
     """The pick's judged output, re-measured against fem-auto, is within the tolerance of the
-    output itself; at 1 % also against the closed form (at 0.1 % the closed form's own O(2e-4)
-    linearisation error would be a tenth of the budget)."""
+    output itself; at 1 % also against the closed form (at 0.1 % the closed form's own
+    linearisation error, 0.8-1.2e-4, is a tenth of the budget: on the pivot with ``unknowns``
+    the pick prb-2r is 0.098 % off fem-auto and 0.107 % off the linear closed form)."""
     rec = _recommend(case, tol, cost)
     assert rec.recommended, rec.reason
     assert remeasured(case, rec.recommended, "fem-auto") <= tol, rec.reason
@@ -171,8 +172,8 @@ def classic(original):
 @pytest.mark.parametrize("case", [PG, XP])
 def test_mutant_yardstick_recommends_outside_the_tolerance(case: str, monkeypatch):
     """Proof that the test above has teeth: with translations divided by L again (and
-    rotations in rad), the recommender takes the cheap model that misses the judged output
-    by 2.8 % (guide: prb-2r) or 5 % (pivot: prb-3r-force) at a 1 % tolerance."""
+    rotations in rad), the recommender takes the cheap prb-3r-force, which misses the judged
+    output by 16.5 % (guide: 0.4 % of L) or 5 % (pivot: 1.5e-3 rad) at a 1 % tolerance."""
     monkeypatch.setattr(Y, "yardstick", classic(Y.yardstick))
     rec = recommend(cases.load(case), 1e-2, cost=worst_first)
     assert rec.recommended in WORST_FIRST, rec.reason
@@ -302,3 +303,48 @@ def test_bad_case_tolerance_is_one_line(tmp_path, capsys, entry: str, key: str, 
     assert cli.main(["recommend", str(path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and key in err[0] and reason in err[0]
+
+
+@pytest.mark.parametrize(
+    "output",
+    [
+        pytest.param(
+            "driver.force",
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason="reports/recommend.py, recommend(): `known` (scene.output_keys() + "
+                "factor + points) lacks the analysis outputs the steps report, so a "
+                "[[tolerances]] output the loader accepts (driver.force) is refused: "
+                "ToleranceError 'has no output'",
+            ),
+        ),
+        pytest.param(
+            "energy",
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason="as driver.force, and reports/errors.py path_errors() compares step "
+                "outputs only, never Step.energy: the judged error is inf, at_factor None, "
+                "and recommend._miss() then raises TypeError formatting None",
+            ),
+        ),
+    ],
+)
+def test_case_tolerance_on_the_driving_force(tmp_path, output: str):
+    """Ex. 5 is designed for its constant driving force: a case naming ``driver.force`` (or
+    the energy) as its judged output gets a recommendation whose judged error is measured."""
+    text = (cases.CATALOG / "das2d-ex5-constant-force.toml").read_text()
+    path = tmp_path / "ex5.toml"
+    path.write_text(f'{text}\n[[tolerances]]\noutput = "{output}"\nrel = 0.01\nwhy = "test"\n')
+    rec = recommend(cases.load(path), None, cost=unknowns)
+    pick = next(c for c in rec.candidates if c.model == rec.recommended)
+    assert pick.worst_output == output and pick.worst_error is not None
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="reports/recommend.py _verdict() (and format_text()) print the pick's error with "
+    "pct() also when its tolerance is absolute: 3.3e-4 mm shows as '0.0331 %'",
+)
+def test_absolute_error_is_printed_in_case_units():
+    rec = _recommend(PG, "stage.uy=abs:0.01")
+    assert "%" not in rec.reason.split("worst error ")[1].split("(")[0], rec.reason
