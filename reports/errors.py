@@ -149,6 +149,8 @@ def path_errors(
     out["coverage"] = reached / last_ref if last_ref > 0 else 1.0
     out["n_points"] = int(idx_m.size)
     keys = set(model_steps[0]["outputs"]) & set(ref_steps[0]["outputs"])
+    if "energy" in {t["output"] for t in Y.judged_outputs(meta or {}) or ()}:
+        keys.add("energy")  # judged only where a case names it (not an output of its own)
     if abscissa != "factor":
         keys = (keys - {abscissa}) | {"factor"}
     ref_all = Y.as_arrays(ref_steps, sorted(keys | {abscissa}))

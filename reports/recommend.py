@@ -91,6 +91,17 @@ class Candidate:
     errors: dict[str, float] = field(default_factory=dict)
     profile: list[tuple[float, float]] = field(default_factory=list)  # (factor, error / tol)
 
+    def error_text(self, value: float | None = None) -> str:
+        """The worst error (or ``value``) on this candidate's yardstick: ``0.5 %`` relative
+        to the output's own excursion, or ``0.0003 abs`` in case units."""
+        v = self.worst_error if value is None else value
+        return pct(v) if self.yardstick == "error_rel" else f"{v:.3g} abs"
+
+    def where(self) -> str:
+        """``"stage.uy at factor 0.6"`` (the factor when known)."""
+        at = "" if self.at_factor is None else f" at factor {self.at_factor:.3g}"
+        return f"{self.worst_output}{at}"
+
     def as_json(self) -> dict[str, Any]:
         """The contract's candidate object (plus ``worst_output``, ``qualifies``, ...)."""
         out = {
@@ -337,7 +348,9 @@ def recommend(
 
         scene = expand(scene)[0]
     tol = for_case(scene.tolerances, tol)
-    known = set(scene.output_keys()) | {"factor"} | {o.name for o in scene.outputs}
+    from cases.load import EXTRA_OUTPUTS
+
+    known = set(scene.output_keys()) | set(EXTRA_OUTPUTS) | {o.name for o in scene.outputs}
     for key in tol.named():
         if key not in known:
             raise ToleranceError(
@@ -501,7 +514,7 @@ def _verdict(
     pick = min(tied, key=lambda c: (c.rank, cost(c.model, c.cpu_s)))
     reason = (
         f"{pick.model} is the cheapest model within {tol.text()}: worst error "
-        f"{pct(pick.worst_error)} ({pick.worst_output} at factor {pick.at_factor:.3g}), "
+        f"{pick.error_text()} ({pick.where()}), "
         f"{pick.cpu_s * 1e3:.3g} ms CPU"
     )
     if len(tied) > 1:
@@ -514,7 +527,7 @@ def _verdict(
             c = min(dearer, key=lambda c: cost(c.model, c.cpu_s))
             reason += (
                 f"; the cheapest reduced model within {tol.text()}, {c.model} "
-                f"({pct(c.worst_error)}), costs more here ({c.cpu_s * 1e3:.3g} ms CPU)"
+                f"({c.error_text()}), costs more here ({c.cpu_s * 1e3:.3g} ms CPU)"
             )
         elif miss:
             reason += f"; no reduced model qualifies: closest {_miss(min(miss, key=_closeness))}"
@@ -532,12 +545,12 @@ def _closeness(c: Candidate) -> float:
 def _miss(c: Candidate) -> str:
     if c.worst_error is None:
         return f"{c.model} ({c.status}: {c.message})"
-    why = f"{c.worst_output} error {pct(c.worst_error)} at factor {c.at_factor:.3g}"
+    why = f"{c.worst_output} error {c.error_text()}{c.where()[len(c.worst_output or '') :]}"
     if c.status != "converged":
         why += f", {c.status}: {c.message}"
     elif c.worst_error <= (c.tolerance or 0.0):
         why += f", {c.message}"
-    return f"{c.model} ({why} > {pct(c.tolerance)})"
+    return f"{c.model} ({why} > {c.error_text(c.tolerance)})"
 
 
 def _declines(cands: list[Candidate]) -> str:
@@ -561,7 +574,7 @@ def format_text(rec: Recommendation) -> str:
     ]
     order = sorted(rec.candidates, key=lambda c: (not c.qualifies, c.cpu_s or math.inf))
     for c in order:
-        err = "-" if c.worst_error is None else pct(c.worst_error)
+        err = "-" if c.worst_error is None else c.error_text()
         at = "-" if c.at_factor is None else f"{c.at_factor:.3g}"
         ms = "-" if c.cpu_s is None else f"{c.cpu_s * 1e3:.3g}"
         ratio = "-" if c.ratio_to_reference is None else f"{c.ratio_to_reference:.3g}"

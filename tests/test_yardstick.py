@@ -305,30 +305,7 @@ def test_bad_case_tolerance_is_one_line(tmp_path, capsys, entry: str, key: str, 
     assert len(err) == 1 and key in err[0] and reason in err[0]
 
 
-@pytest.mark.parametrize(
-    "output",
-    [
-        pytest.param(
-            "driver.force",
-            marks=pytest.mark.xfail(
-                strict=True,
-                reason="reports/recommend.py, recommend(): `known` (scene.output_keys() + "
-                "factor + points) lacks the analysis outputs the steps report, so a "
-                "[[tolerances]] output the loader accepts (driver.force) is refused: "
-                "ToleranceError 'has no output'",
-            ),
-        ),
-        pytest.param(
-            "energy",
-            marks=pytest.mark.xfail(
-                strict=True,
-                reason="as driver.force, and reports/errors.py path_errors() compares step "
-                "outputs only, never Step.energy: the judged error is inf, at_factor None, "
-                "and recommend._miss() then raises TypeError formatting None",
-            ),
-        ),
-    ],
-)
+@pytest.mark.parametrize("output", ["driver.force", "energy"])
 def test_case_tolerance_on_the_driving_force(tmp_path, output: str):
     """Ex. 5 is designed for its constant driving force: a case naming ``driver.force`` (or
     the energy) as its judged output gets a recommendation whose judged error is measured."""
@@ -340,11 +317,6 @@ def test_case_tolerance_on_the_driving_force(tmp_path, output: str):
     assert pick.worst_output == output and pick.worst_error is not None
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="reports/recommend.py _verdict() (and format_text()) print the pick's error with "
-    "pct() also when its tolerance is absolute: 3.3e-4 mm shows as '0.0331 %'",
-)
 def test_absolute_error_is_printed_in_case_units():
     rec = _recommend(PG, "stage.uy=abs:0.01")
     assert "%" not in rec.reason.split("worst error ")[1].split("(")[0], rec.reason
