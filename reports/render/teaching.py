@@ -240,8 +240,10 @@ pre{background:#f6f6f6;padding:.5em;overflow-x:auto;font-size:.78em}
 <b id="tolv"></b> &nbsp; Load factor: <input id="load" type="range" min="0" max="1" step="1"
 value="0"> <b id="loadv"></b></div>
 <h1>Which model should I use, and where does each stop being good enough?</h1>
-<p>Errors are the report's path errors: the largest deviation of the tip from the exact
-elastica, translations divided by the beam length L, rotations in rad. Atlas cells are green
+<p>Errors are on the report's default yardstick (error_rel): the largest deviation of the
+tip from the exact elastica on the ramp to that load, translations divided by the tip's own
+largest displacement and the rotation by its own largest rotation, so a model 5 % off in
+stiffness reads 5 % at any load. Atlas cells are green
 when the error is within the tolerance chosen above (darker = closer to the limit), red when not,
 grey where the model declines or fails. Under each atlas: the published claim's own verdict,
 judged in the publication's metric, region and parameter values (<code>flexbench claims</code>).
