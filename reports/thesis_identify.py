@@ -196,8 +196,11 @@ def main(argv: list[str] | None = None) -> int:
     if bad:
         print(f"thesis_identify: unknown table {bad[0]!r} (one of {', '.join(TABLES)})")
         return 2
+    done: dict[tuple, list[Match]] = {}  # Table 4-10 is Table 4-5: searched once
     for name in names:
-        print(report(name, identify(name)), flush=True)
+        if TABLES[name] not in done:
+            done[TABLES[name]] = identify(name)
+        print(report(name, done[TABLES[name]]), flush=True)
     return 0
 
 
