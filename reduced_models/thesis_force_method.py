@@ -64,6 +64,34 @@ class Chain:
     tip: int
     force: float
     length: float
+    bars: tuple[int, ...] = ()  # scene member index of each chain bar
+
+
+def walk_chain(scene: Scene) -> tuple[tuple[str, ...], tuple[int, ...]] | str:
+    """The members as one open chain, whatever their order, direction and node names: chain
+    nodes and the member index of each bar, run counter-clockwise round the loop the chain
+    closes with the ground (the thesis numbers its joints counter-clockwise), or the reason
+    the members are not one chain."""
+    at: dict[str, list[int]] = {}
+    for i, m in enumerate(scene.members):
+        at.setdefault(m.a, []).append(i)
+        at.setdefault(m.b, []).append(i)
+    ends = sorted(n for n, ms in at.items() if len(ms) == 1)
+    if len(ends) != 2 or any(len(ms) > 2 for ms in at.values()):
+        return "members must form one open chain (no branches)"
+    nodes, bars = [ends[0]], []
+    while len(bars) < len(scene.members):
+        nxt = [i for i in at[nodes[-1]] if i not in bars]
+        if not nxt:
+            return "members must form one open chain (no closed loops)"
+        m = scene.members[nxt[0]]
+        bars.append(nxt[0])
+        nodes.append(m.b if m.a == nodes[-1] else m.a)
+    xy = np.array([[scene.node(n).x, scene.node(n).y] for n in nodes])
+    area = np.sum(xy[:, 0] * np.roll(xy[:, 1], -1) - np.roll(xy[:, 0], -1) * xy[:, 1])
+    if area < 0:
+        nodes, bars = nodes[::-1], bars[::-1]
+    return tuple(nodes), tuple(bars)
 
 
 def read_chain(scene: Scene) -> Chain | str:
@@ -77,24 +105,25 @@ def read_chain(scene: Scene) -> Chain | str:
     pinned = {s.node for s in scene.supports if s.type == "pin"}
     if len(pinned) != len(scene.supports):
         return "only pinned ground joints are modelled"
-    members = scene.members
-    nodes = [members[0].a]
-    for m in members:
-        if m.a != nodes[-1]:
-            return f"members must form one chain in order (member {m.id!r} breaks it)"
-        nodes.append(m.b)
+    walked = walk_chain(scene)
+    if isinstance(walked, str):
+        return walked
+    nodes, bars = walked
+    members = [scene.members[i] for i in bars]
     boom = scene.booms[0]
     if nodes[0] not in pinned or nodes[-1] not in pinned or boom.a not in pinned:
         return "the chain's two ends and the boom's base must be pinned to ground"
-    if len(set(nodes)) != len(nodes) or boom.b not in nodes[1:-1]:
+    if boom.b not in nodes[1:-1]:
         return "the boom must push a moving joint of a simple chain"
+
+    def end_at(m: object, node: str) -> str:
+        return m.end_a if m.a == node else m.end_b
+
     welds = []
-    for i in range(len(members) - 1):
-        ends = (members[i].end_b, members[i + 1].end_a)
-        if ends == ("weld", "weld"):
+    for i in range(len(members) - 1):  # rigid only where both ends are welded (else a pin)
+        j = nodes[i + 1]
+        if (end_at(members[i], j), end_at(members[i + 1], j)) == ("weld", "weld"):
             welds.append((i, i + 1))
-        elif "weld" in ends:
-            return f"a weld at {members[i].b!r} must join both bars (a ternary link)"
     index = {m.id: i for i, m in enumerate(members)}
     springs = []
     for t in scene.torsion_springs:
@@ -103,6 +132,7 @@ def read_chain(scene: Scene) -> Chain | str:
     b = scene.node(boom.a)
     return Chain(
         nodes=tuple(nodes),
+        bars=bars,
         free=tuple(range(1, len(nodes) - 1)),
         welds=tuple(welds),
         springs=tuple(springs),
@@ -417,6 +447,7 @@ class ThesisForceMethod:
             return not_applicable(scene, self.name, why)
         chain, p1, p2 = self.run(scene)
         extras: dict[str, object] = {
+            "load_total_rows": [f"{chain.nodes[j]}.{c}" for j in chain.free for c in "xy"],
             "part1_increments": len(p1.positions) - 1,
             "part1_load_total": p1.load_total.tolist(),
             "part1_boom_length": p1.boom_lengths,
@@ -485,7 +516,8 @@ class ThesisForceMethod:
             # rot: the first member listed at the node (schema convention)
             first = next(i for i, m in enumerate(scene.members) if o.node in (m.a, m.b))
             out |= {f"{o.name}.x": x, f"{o.name}.y": y, f"{o.name}.ux": x - n.x}
-            out |= {f"{o.name}.uy": y - n.y, f"{o.name}.rot": float(turn[first])}
+            rot = float(turn[chain.bars.index(first)])
+            out |= {f"{o.name}.uy": y - n.y, f"{o.name}.rot": rot}
         tip = pos[chain.tip]
         out[f"{boom_id}.length"] = float(math.hypot(tip[0] - chain.base[0], tip[1] - chain.base[1]))
         return Step(factor=factor, outputs=out)
