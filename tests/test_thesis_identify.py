@@ -9,6 +9,8 @@ identification.
 
 from __future__ import annotations
 
+import json
+
 import pytest
 
 from reports.thesis_hypotheses import Hypothesis, run
@@ -81,3 +83,26 @@ def test_digits_measure():
 def test_cli_rejects_unknown_table(capsys):
     assert main(["4-11"]) == 2
     assert "4-11" in capsys.readouterr().out
+
+
+def test_solve_json_holds_the_table(capsys):
+    # the catalogued Configuration 3 (drawn boom, 30.96376 deg): Table 4-7's Part 1 to 8 digits
+    from reports import cli
+
+    assert (
+        cli.main(["solve", "thesis-sixbar-config3", "--model", "thesis-force-method", "--json"])
+        == 0
+    )
+    extras = json.loads(capsys.readouterr().out)["extras"]
+    assert extras["load_total_rows"] == [
+        "J2.x",
+        "J2.y",
+        "J3.x",
+        "J3.y",
+        "J4.x",
+        "J4.y",
+        "J5.x",
+        "J5.y",
+    ]
+    assert digits(extras["part1_load_total"], TABLES["4-7"][0]) >= 8.0
+    assert extras["stability_number"] < 0  # the thesis: Configuration 3 is unstable
