@@ -53,7 +53,9 @@ class Chain:
     ``free``: indices (into ``nodes``) of the moving joints; ``welds``: bar index pairs
     (i, i + 1) welded at their common joint; ``springs``: (bar_a, bar_b or -1, stiffness,
     free angle rad) with bar indices into the chain; ``boom``: (base xy, chain index of the
-    pushed node, force, deployed length).
+    pushed node, force, deployed length); ``others``: further booms, the same four fields:
+    as in the thesis's two-boom Configuration 6 they push while the first boom does (Part 1
+    stops on the first boom alone, so they may be pushed past their length) and lock with it.
     """
 
     nodes: tuple[str, ...]
@@ -65,6 +67,7 @@ class Chain:
     force: float
     length: float
     bars: tuple[int, ...] = ()  # scene member index of each chain bar
+    others: tuple[tuple[tuple[float, float], int, float, float], ...] = ()  # (base, tip, F, L)
 
 
 def walk_chain(scene: Scene) -> tuple[tuple[str, ...], tuple[int, ...]] | str:
@@ -100,8 +103,6 @@ def read_chain(scene: Scene) -> Chain | str:
         return "the force method models rigid bars only"
     if scene.loads:
         return "the thesis's force method has no external loads besides the boom"
-    if len(scene.booms) != 1:
-        return "the Appendix C algorithm drives exactly one boom"
     pinned = {s.node for s in scene.supports if s.type == "pin"}
     if len(pinned) != len(scene.supports):
         return "only pinned ground joints are modelled"
@@ -111,10 +112,11 @@ def read_chain(scene: Scene) -> Chain | str:
     nodes, bars = walked
     members = [scene.members[i] for i in bars]
     boom = scene.booms[0]
-    if nodes[0] not in pinned or nodes[-1] not in pinned or boom.a not in pinned:
-        return "the chain's two ends and the boom's base must be pinned to ground"
-    if boom.b not in nodes[1:-1]:
-        return "the boom must push a moving joint of a simple chain"
+    if nodes[0] not in pinned or nodes[-1] not in pinned:
+        return "the chain's two ends must be pinned to ground"
+    for b in scene.booms:
+        if b.a not in pinned or b.b not in nodes[1:-1]:
+            return f"boom {b.id!r} must run from a ground pin to a moving joint of the chain"
 
     def end_at(m: object, node: str) -> str:
         return m.end_a if m.a == node else m.end_b
@@ -130,7 +132,12 @@ def read_chain(scene: Scene) -> Chain | str:
         ia, ib = index[t.member_a], -1 if t.member_b is None else index[t.member_b]
         springs.append((ia, ib, t.stiffness, math.radians(t.free_angle_deg)))
     b = scene.node(boom.a)
+    others = tuple(
+        ((scene.node(o.a).x, scene.node(o.a).y), nodes.index(o.b), o.force, o.length)
+        for o in scene.booms[1:]
+    )
     return Chain(
+        others=others,
         nodes=tuple(nodes),
         bars=bars,
         free=tuple(range(1, len(nodes) - 1)),
@@ -141,6 +148,12 @@ def read_chain(scene: Scene) -> Chain | str:
         force=boom.force,
         length=boom.length,
     )
+
+
+def boom_lengths(chain: Chain, pos: np.ndarray) -> list[float]:
+    """Length of every boom (the first, then ``others``) at joint positions ``pos``."""
+    ends = [(chain.base, chain.tip)] + [(b, j) for b, j, _, _ in chain.others]
+    return [float(np.hypot(*(pos[j] - np.asarray(b)))) for b, j in ends]
 
 
 def round_sig(x: np.ndarray, digits: int | None) -> np.ndarray:
@@ -205,6 +218,12 @@ class ForceMethodState:
         self.boom_dir = vb / self.boom_length
         if locked:
             cols.append(col([(chain.tip, self.boom_dir)]))
+        self.other_dirs = []
+        for base, j, _, _ in chain.others:
+            vo = pos[j] - np.asarray(base)
+            self.other_dirs.append(vo / np.hypot(*vo))
+            if locked:
+                cols.append(col([(j, self.other_dirs[-1])]))
         self.A = np.column_stack(cols)
         # rotation Jacobian: d(theta_i)/d(x) of every bar, rows = free joint dofs
         dth = np.zeros((2 * nf, nbar))
@@ -277,6 +296,8 @@ def constraint_hessians(chain: Chain, lengths: np.ndarray) -> list[np.ndarray]:
                     H[row[p] : row[p] + 2, row[q] : row[q] + 2] += blk
                     H[row[q] : row[q] + 2, row[p] : row[p] + 2] += blk.T
         out.append(H)
+    for k, (_, j, _, _) in enumerate(chain.others):  # further booms last (order not listed)
+        out.append(pair(None, j, 1.0 / lengths[nbar + 1 + k]))
     return out
 
 
@@ -327,6 +348,9 @@ def run_part(
         load = load0.copy()
         if not locked:
             load[tip : tip + 2] += chain.force * st.boom_dir
+            for (_, j, force, _), e in zip(chain.others, st.other_dirs):  # pushed on (thesis)
+                k = 2 * chain.free.index(j)
+                load[k : k + 2] += force * e
         app = delta * load
         d, dr = solve_increment(st, app, digits)
         res.load_total = res.load_total + app
@@ -460,8 +484,10 @@ class ThesisForceMethod:
             msg = f"Part 1: {self.max_increments} increments at boom length {last:.6g}"
             return self._solution(scene, chain, p1, None, "failed", msg, extras)
         end = p1.positions[-1]
-        lengths = np.append(np.hypot(*np.diff(end, axis=0).T), p1.boom_lengths[-1])
+        reached = boom_lengths(chain, end)
+        lengths = np.append(np.hypot(*np.diff(end, axis=0).T), reached)
         extras.update(thesis_stability(chain, p2, lengths))
+        extras["part1_boom_lengths_end"] = dict(zip([b.id for b in scene.booms], reached))
         extras["part2_increments"] = len(p2.positions) - 1
         extras["part2_load_total"] = p2.load_total.tolist()
         extras["part2_residual"] = p2.residual
@@ -471,6 +497,12 @@ class ThesisForceMethod:
             f"increments, |U_m' Load_0| = {p2.residual:.2e} N; stability number "
             f"{extras['stability_number']:.4g}"
         )
+        for b, L in zip(scene.booms[1:], reached[1:]):
+            if L > b.length:  # the thesis's Part 1 stops on the first boom only
+                msg += (
+                    f"; boom {b.id!r} pushed on past its {b.length:g} to {L:.6g} (the thesis's "
+                    f"Part 1 stops when {scene.booms[0].id!r} reaches its length)"
+                )
         if not ok:
             msg = f"Part 2 did not settle in {self.max_increments} increments; " + msg
         return self._solution(scene, chain, p1, p2, "converged" if ok else "failed", msg, extras)
@@ -486,7 +518,6 @@ class ThesisForceMethod:
         extras: dict,
     ) -> Solution:
         """Steps: Part 1 at ``steps`` + 1 report points of boom extension, then Part 2."""
-        boom = scene.booms[0]
         L0, Lend = p1.boom_lengths[0], chain.length
         prog = (np.array(p1.boom_lengths) - L0) / (Lend - L0)
         picks = []
@@ -495,15 +526,15 @@ class ThesisForceMethod:
             picks.append(int(hit[0]) if hit.size else len(prog) - 1)
         steps = []
         for k in dict.fromkeys(picks):
-            steps.append(self._step(scene, chain, p1.positions[k], float(prog[k]), boom.id))
+            steps.append(self._step(scene, chain, p1.positions[k], float(prog[k])))
         if p2 is not None:
-            st = self._step(scene, chain, p2.positions[-1], 2.0, boom.id)
+            st = self._step(scene, chain, p2.positions[-1], 2.0)
             stable = extras["stability_number"] > 0
             steps.append(Step(st.factor, st.outputs, stable=bool(stable), info=st.info))
         return Solution(scene.name, self.name, status, msg, tuple(steps), extras)
 
     @staticmethod
-    def _step(scene: Scene, chain: Chain, pos: np.ndarray, factor: float, boom_id: str) -> Step:
+    def _step(scene: Scene, chain: Chain, pos: np.ndarray, factor: float) -> Step:
         where = dict(zip(chain.nodes, pos))
         turn = angles(pos) - angles(
             np.array([[scene.node(j).x, scene.node(j).y] for j in chain.nodes])
@@ -518,6 +549,6 @@ class ThesisForceMethod:
             out |= {f"{o.name}.x": x, f"{o.name}.y": y, f"{o.name}.ux": x - n.x}
             rot = float(turn[chain.bars.index(first)])
             out |= {f"{o.name}.uy": y - n.y, f"{o.name}.rot": rot}
-        tip = pos[chain.tip]
-        out[f"{boom_id}.length"] = float(math.hypot(tip[0] - chain.base[0], tip[1] - chain.base[1]))
+        for b, L in zip(scene.booms, boom_lengths(chain, pos)):
+            out[f"{b.id}.length"] = L
         return Step(factor=factor, outputs=out)

@@ -53,3 +53,19 @@ def test_replay_settles_where_kinetostatic_does(kinetostatic, replay):
 def test_models_that_drive_one_boom_decline(model, scene):
     sol = api.solve(scene, model)
     assert sol.status == "not-applicable" and "one boom" in sol.message
+
+
+def test_thesis_force_method_pushes_on_as_the_thesis(scene, kinetostatic):
+    # the thesis's Part 1 stops on boom1 alone: boom2 is pushed past its 0.28 m; Part 1's
+    # load totals are then Table 4-10's (printed again as Table 4-5), F2x .. F5y
+    from reports.thesis_identify import TABLES, digits
+
+    sol = api.solve(scene, "thesis-force-method")
+    assert sol.status == "converged", sol.message
+    assert digits(sol.extras["part1_load_total"], TABLES["4-10"][0]) >= 8.0
+    assert sol.extras["part1_boom_lengths_end"]["boom2"] > 0.28 + 2e-3
+    assert "'boom2' pushed on past its 0.28" in sol.message
+    assert sol.extras["stability_number"] < 0  # the thesis: Configuration 6 is unstable
+    # the difference the physical staging makes: boom2 locked 2.5 mm longer, J4 2.5 mm higher
+    diff = sol.steps[-1].outputs["J4.y"] - kinetostatic.steps[-1].outputs["J4.y"]
+    assert 1e-3 < diff < 5e-3
