@@ -178,12 +178,19 @@ def report(table: str, ranked: list[Match], show: int = 3) -> str:
             f"  {m.score:5.2f} digits (Part 1 {m.part1:5.2f}, Part 2 {m.part2:5.2f}{fit}): "
             f"{m.hypothesis.label()}"
         )
-    best, second = ranked[0], ranked[1]
+    best = ranked[0]
+    tied = [m for m in ranked[1:] if m.score >= ACCEPT_DIGITS]
+    others = [m for m in ranked if m.score < ACCEPT_DIGITS]
     if best.score >= ACCEPT_DIGITS:
-        lines.append(
-            f"  identified: {best.score:.1f} digits; second best {second.score:.1f} "
-            f"(misses by {100 * 10**-second.score:.2g} %)"
+        margin = (
+            f"best other {others[0].score:.1f} (misses by {100 * 10 ** -others[0].score:.2g} %)"
+            if others
+            else "no other hypothesis"
         )
+        lines.append(f"  identified: {best.score:.1f} digits; {margin}")
+        lines += [
+            f"  equally reproduced by (the table cannot tell): {m.hypothesis.label()}" for m in tied
+        ]
     else:
         lines.append(f"  not identified: best {best.score:.1f} digits < {ACCEPT_DIGITS:g}")
     return "\n".join(lines)

@@ -106,3 +106,17 @@ def test_solve_json_holds_the_table(capsys):
     ]
     assert digits(extras["part1_load_total"], TABLES["4-7"][0]) >= 8.0
     assert extras["stability_number"] < 0  # the thesis: Configuration 3 is unstable
+
+
+def test_report_names_ties_and_the_margin_to_the_best_other():
+    from reports.thesis_identify import Match, report
+
+    ranked = [
+        Match(CONFIG4, 11.7, 8.4),
+        Match(Hypothesis(True, "mid", ("J4",), fixed_to_III=True), 11.7, 8.4),
+        Match(CONFIG2, 1.0, 0.5),
+    ]
+    text = report("4-8", ranked)
+    assert "identified: 11.7 digits; best other 1.0 (misses by 10 %)" in text
+    assert "equally reproduced by (the table cannot tell): " in text and "welded" in text
+    assert "not identified: best 1.0" in report("4-9", ranked[2:] * 2)
