@@ -69,3 +69,17 @@ def test_thesis_force_method_pushes_on_as_the_thesis(scene, kinetostatic):
     # the difference the physical staging makes: boom2 locked 2.5 mm longer, J4 2.5 mm higher
     diff = sol.steps[-1].outputs["J4.y"] - kinetostatic.steps[-1].outputs["J4.y"]
     assert 1e-3 < diff < 5e-3
+
+
+def test_kinetostatic_declines_a_two_boom_path_that_would_pull_a_boom(scene):
+    # the J3 spring at rest 20 deg: holding both lengths proportionally needs boom1 pulled
+    # (the replay deploys it: boom2 locks, then boom1); kinetostatic says why it cannot
+    from dataclasses import replace
+
+    springs = tuple(
+        replace(t, free_angle_deg=t.free_angle_deg - 10.0) if t.id == "S3" else t
+        for t in scene.torsion_springs
+    )
+    sol = api.solve(replace(scene, torsion_springs=springs), "kinetostatic")
+    assert sol.status == "not-applicable"
+    assert "would pull boom 'boom1'" in sol.message and "replay" in sol.message
