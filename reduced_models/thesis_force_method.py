@@ -1,9 +1,12 @@
 """``thesis-force-method``: the six-bar thesis's incremental force method (seed 001, Appendix C).
 
 A faithful port of the MATLAB listing for Configuration 4, written for any scene of the same
-family: a serial chain of rigid bars from one pinned ground node to another, consecutive bars
-welded at a free node forming ternary links, torsion springs at the joints, one boom from a
-pinned ground node to a chain node.  Per increment (``feb11_conf1_p1`` / ``_p2``):
+family: a serial chain of rigid bars from one pinned ground node to another (read from the
+graph: any member order, direction or node names; run counter-clockwise as the thesis numbers
+it), consecutive bars welded at a free node forming ternary links (both ends welded; weld +
+pin is a pin), torsion springs at the joints, booms from pinned ground nodes to chain nodes
+(several as in Configuration 6: all push until the first reaches its length, then all lock).
+Per increment (``feb11_conf1_p1`` / ``_p2``):
 
 1. rebuild the free joints along the chain from the bar angles and the stored bar lengths;
 2. equilibrium matrix ``A`` (rows: x, y of the free joints; columns: bar axial forces, one
@@ -406,7 +409,8 @@ class ThesisForceMethod:
         "equilibrium matrix, mechanism modes, spring stiffness, load fractions",
         assumptions=(
             "rigid bars, pin joints, ternary links as welded bar pairs (one moment column)",
-            "boom: constant push along its line until longer than its length, then a bar",
+            "boom: constant push along its line until longer than its length, then a bar; "
+            "further booms push until the first is that long (the thesis's Configuration 6)",
             "each increment applies delta times the whole current load through the modal "
             "spring stiffness R'KR (a relaxation, not a Newton step)",
             "stability number ones' U_m' H U_m ones with the listing's Hessian as written",
