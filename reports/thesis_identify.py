@@ -24,12 +24,13 @@ from __future__ import annotations
 import math
 import sys
 from dataclasses import dataclass
+from functools import cache
 from itertools import permutations, product
 
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from reports.thesis_hypotheses import Hypothesis, build, run
+from reports.thesis_hypotheses import Hypothesis, Totals, build, run
 
 ACCEPT_DIGITS = 5.0
 
@@ -131,9 +132,15 @@ class Match:
         return self.part1
 
 
+@cache
+def _run(h: Hypothesis, first_deg: float | None) -> Totals:
+    """``run`` once per hypothesis: the six-bar tables 4-6, 4-8, 4-9 share their runs."""
+    return run(h, first_deg)
+
+
 def match(h: Hypothesis, table: str, first_deg: float | None = None) -> Match:
-    """Run ``h`` and score it against ``table``."""
-    res = run(h, first_deg)
+    """Run ``h`` (once) and score it against ``table``."""
+    res = _run(h, first_deg)
     p1, p2 = TABLES[table]
     return Match(h, digits(res.part1, p1), digits(res.part2, p2), first_deg)
 
