@@ -221,19 +221,23 @@ def replay_deploy(scene: Scene, model: object) -> Solution:
         sol = replace(sol, message=sol.message + " (retried with lte_tol / 10)")
     if not sol.steps:
         return Solution(scene.name, model.name, sol.status, sol.message, (), sol.extras)
-    boom = scene.booms[0]
     last = sol.steps[-1]
-    pair = ev.resolve_locks(system, scene, booms_as_locks(scene))[0]
-    q = _settled_q(sol, system, pair, last)
-    ell = pair.geometry(q)[0] if q is not None else math.nan
-    locked = len(sol.extras.get("events", [])) >= len(scene.booms)
-    ell0 = pair.geometry(np.zeros(system.ndof))[0]
-    factor = 2.0 if locked else (ell - ell0) / (boom.length - ell0)
-    out = {**last.outputs, f"{boom.id}.length": ell}
+    pairs = ev.resolve_locks(system, scene, booms_as_locks(scene))
+    q = _settled_q(sol, system, pairs[0], last)
+    ends = {e.get("ends") for e in sol.extras.get("events", []) if e.get("kind") == "lock"}
+    out, factor, stalled = dict(last.outputs), 2.0, []
+    for boom, pair in zip(scene.booms, pairs):  # every boom reported, none dropped
+        ell = pair.geometry(q)[0] if q is not None else math.nan
+        out[f"{boom.id}.length"] = ell
+        if f"{boom.a} - {boom.b}" not in ends:
+            ell0 = pair.geometry(np.zeros(system.ndof))[0]
+            factor = min(factor, (ell - ell0) / (boom.length - ell0))
+            stalled.append(f"boom {boom.id!r} stalled at length {ell:.6g}")
+    locked = not stalled
     step = Step(
         factor, out, last.energy, last.iterations, last.stable, last.shapes, None, last.info
     )
-    msg = sol.message + ("" if locked else f"; boom {boom.id!r} stalled at length {ell:.6g}")
+    msg = "; ".join([sol.message, *stalled])
     extras = {**sol.extras, "boom_reached": locked}
     return Solution(scene.name, model.name, sol.status, msg, (step,), extras)
 

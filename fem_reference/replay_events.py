@@ -399,11 +399,15 @@ class GenAlpha:
 
     # -- events --------------------------------------------------------------------------------
     def crossing(self, s0: State, s1: State) -> _Pair | None:
-        """The first unlocked pair whose gap changes sign from s0 to s1 (extending)."""
+        """The unlocked pair whose gap changes sign from s0 to s1 (extending) earliest in the
+        step (linear estimate): two booms crossing in one step lock in turn, the step is
+        located on the first, and the second still has its crossing ahead of it."""
+        hits = []
         for p in self.pairs:
-            if not p.locked and p.gap(s0.q) < 0.0 <= p.gap(s1.q):
-                return p
-        return None
+            g0, g1 = (p.gap(s0.q), p.gap(s1.q)) if not p.locked else (0.0, 0.0)
+            if g0 < 0.0 <= g1:
+                hits.append((g0 / (g0 - g1), len(hits), p))
+        return min(hits)[2] if hits else None
 
     def locate(
         self, s0: State, h: float, lam_of_t: Callable[[float], float], pair: _Pair

@@ -1,9 +1,12 @@
 """``thesis-force-method``: the six-bar thesis's incremental force method (seed 001, Appendix C).
 
 A faithful port of the MATLAB listing for Configuration 4, written for any scene of the same
-family: a serial chain of rigid bars from one pinned ground node to another, consecutive bars
-welded at a free node forming ternary links, torsion springs at the joints, one boom from a
-pinned ground node to a chain node.  Per increment (``feb11_conf1_p1`` / ``_p2``):
+family: a serial chain of rigid bars from one pinned ground node to another (read from the
+graph: any member order, direction or node names; run counter-clockwise as the thesis numbers
+it), consecutive bars welded at a free node forming ternary links (both ends welded; weld +
+pin is a pin), torsion springs at the joints, booms from pinned ground nodes to chain nodes
+(several as in Configuration 6: all push until the first reaches its length, then all lock).
+Per increment (``feb11_conf1_p1`` / ``_p2``):
 
 1. rebuild the free joints along the chain from the bar angles and the stored bar lengths;
 2. equilibrium matrix ``A`` (rows: x, y of the free joints; columns: bar axial forces, one
@@ -53,7 +56,9 @@ class Chain:
     ``free``: indices (into ``nodes``) of the moving joints; ``welds``: bar index pairs
     (i, i + 1) welded at their common joint; ``springs``: (bar_a, bar_b or -1, stiffness,
     free angle rad) with bar indices into the chain; ``boom``: (base xy, chain index of the
-    pushed node, force, deployed length).
+    pushed node, force, deployed length); ``others``: further booms, the same four fields:
+    as in the thesis's two-boom Configuration 6 they push while the first boom does (Part 1
+    stops on the first boom alone, so they may be pushed past their length) and lock with it.
     """
 
     nodes: tuple[str, ...]
@@ -64,6 +69,35 @@ class Chain:
     tip: int
     force: float
     length: float
+    bars: tuple[int, ...] = ()  # scene member index of each chain bar
+    others: tuple[tuple[tuple[float, float], int, float, float], ...] = ()  # (base, tip, F, L)
+
+
+def walk_chain(scene: Scene) -> tuple[tuple[str, ...], tuple[int, ...]] | str:
+    """The members as one open chain, whatever their order, direction and node names: chain
+    nodes and the member index of each bar, run counter-clockwise round the loop the chain
+    closes with the ground (the thesis numbers its joints counter-clockwise), or the reason
+    the members are not one chain."""
+    at: dict[str, list[int]] = {}
+    for i, m in enumerate(scene.members):
+        at.setdefault(m.a, []).append(i)
+        at.setdefault(m.b, []).append(i)
+    ends = sorted(n for n, ms in at.items() if len(ms) == 1)
+    if len(ends) != 2 or any(len(ms) > 2 for ms in at.values()):
+        return "members must form one open chain (no branches)"
+    nodes, bars = [ends[0]], []
+    while len(bars) < len(scene.members):
+        nxt = [i for i in at[nodes[-1]] if i not in bars]
+        if not nxt:
+            return "members must form one open chain (no closed loops)"
+        m = scene.members[nxt[0]]
+        bars.append(nxt[0])
+        nodes.append(m.b if m.a == nodes[-1] else m.a)
+    xy = np.array([[scene.node(n).x, scene.node(n).y] for n in nodes])
+    area = np.sum(xy[:, 0] * np.roll(xy[:, 1], -1) - np.roll(xy[:, 0], -1) * xy[:, 1])
+    if area < 0:
+        nodes, bars = nodes[::-1], bars[::-1]
+    return tuple(nodes), tuple(bars)
 
 
 def read_chain(scene: Scene) -> Chain | str:
@@ -72,37 +106,43 @@ def read_chain(scene: Scene) -> Chain | str:
         return "the force method models rigid bars only"
     if scene.loads:
         return "the thesis's force method has no external loads besides the boom"
-    if len(scene.booms) != 1:
-        return "the Appendix C algorithm drives exactly one boom"
     pinned = {s.node for s in scene.supports if s.type == "pin"}
     if len(pinned) != len(scene.supports):
         return "only pinned ground joints are modelled"
-    members = scene.members
-    nodes = [members[0].a]
-    for m in members:
-        if m.a != nodes[-1]:
-            return f"members must form one chain in order (member {m.id!r} breaks it)"
-        nodes.append(m.b)
+    walked = walk_chain(scene)
+    if isinstance(walked, str):
+        return walked
+    nodes, bars = walked
+    members = [scene.members[i] for i in bars]
     boom = scene.booms[0]
-    if nodes[0] not in pinned or nodes[-1] not in pinned or boom.a not in pinned:
-        return "the chain's two ends and the boom's base must be pinned to ground"
-    if len(set(nodes)) != len(nodes) or boom.b not in nodes[1:-1]:
-        return "the boom must push a moving joint of a simple chain"
+    if nodes[0] not in pinned or nodes[-1] not in pinned:
+        return "the chain's two ends must be pinned to ground"
+    for b in scene.booms:
+        if b.a not in pinned or b.b not in nodes[1:-1]:
+            return f"boom {b.id!r} must run from a ground pin to a moving joint of the chain"
+
+    def end_at(m: object, node: str) -> str:
+        return m.end_a if m.a == node else m.end_b
+
     welds = []
-    for i in range(len(members) - 1):
-        ends = (members[i].end_b, members[i + 1].end_a)
-        if ends == ("weld", "weld"):
+    for i in range(len(members) - 1):  # rigid only where both ends are welded (else a pin)
+        j = nodes[i + 1]
+        if (end_at(members[i], j), end_at(members[i + 1], j)) == ("weld", "weld"):
             welds.append((i, i + 1))
-        elif "weld" in ends:
-            return f"a weld at {members[i].b!r} must join both bars (a ternary link)"
     index = {m.id: i for i, m in enumerate(members)}
     springs = []
     for t in scene.torsion_springs:
         ia, ib = index[t.member_a], -1 if t.member_b is None else index[t.member_b]
         springs.append((ia, ib, t.stiffness, math.radians(t.free_angle_deg)))
     b = scene.node(boom.a)
+    others = tuple(
+        ((scene.node(o.a).x, scene.node(o.a).y), nodes.index(o.b), o.force, o.length)
+        for o in scene.booms[1:]
+    )
     return Chain(
+        others=others,
         nodes=tuple(nodes),
+        bars=bars,
         free=tuple(range(1, len(nodes) - 1)),
         welds=tuple(welds),
         springs=tuple(springs),
@@ -111,6 +151,12 @@ def read_chain(scene: Scene) -> Chain | str:
         force=boom.force,
         length=boom.length,
     )
+
+
+def boom_lengths(chain: Chain, pos: np.ndarray) -> list[float]:
+    """Length of every boom (the first, then ``others``) at joint positions ``pos``."""
+    ends = [(chain.base, chain.tip)] + [(b, j) for b, j, _, _ in chain.others]
+    return [float(np.hypot(*(pos[j] - np.asarray(b)))) for b, j in ends]
 
 
 def round_sig(x: np.ndarray, digits: int | None) -> np.ndarray:
@@ -175,6 +221,12 @@ class ForceMethodState:
         self.boom_dir = vb / self.boom_length
         if locked:
             cols.append(col([(chain.tip, self.boom_dir)]))
+        self.other_dirs = []
+        for base, j, _, _ in chain.others:
+            vo = pos[j] - np.asarray(base)
+            self.other_dirs.append(vo / np.hypot(*vo))
+            if locked:
+                cols.append(col([(j, self.other_dirs[-1])]))
         self.A = np.column_stack(cols)
         # rotation Jacobian: d(theta_i)/d(x) of every bar, rows = free joint dofs
         dth = np.zeros((2 * nf, nbar))
@@ -247,6 +299,8 @@ def constraint_hessians(chain: Chain, lengths: np.ndarray) -> list[np.ndarray]:
                     H[row[p] : row[p] + 2, row[q] : row[q] + 2] += blk
                     H[row[q] : row[q] + 2, row[p] : row[p] + 2] += blk.T
         out.append(H)
+    for k, (_, j, _, _) in enumerate(chain.others):  # further booms last (order not listed)
+        out.append(pair(None, j, 1.0 / lengths[nbar + 1 + k]))
     return out
 
 
@@ -297,6 +351,9 @@ def run_part(
         load = load0.copy()
         if not locked:
             load[tip : tip + 2] += chain.force * st.boom_dir
+            for (_, j, force, _), e in zip(chain.others, st.other_dirs):  # pushed on (thesis)
+                k = 2 * chain.free.index(j)
+                load[k : k + 2] += force * e
         app = delta * load
         d, dr = solve_increment(st, app, digits)
         res.load_total = res.load_total + app
@@ -352,7 +409,8 @@ class ThesisForceMethod:
         "equilibrium matrix, mechanism modes, spring stiffness, load fractions",
         assumptions=(
             "rigid bars, pin joints, ternary links as welded bar pairs (one moment column)",
-            "boom: constant push along its line until longer than its length, then a bar",
+            "boom: constant push along its line until longer than its length, then a bar; "
+            "further booms push until the first is that long (the thesis's Configuration 6)",
             "each increment applies delta times the whole current load through the modal "
             "spring stiffness R'KR (a relaxation, not a Newton step)",
             "stability number ones' U_m' H U_m ones with the listing's Hessian as written",
@@ -417,6 +475,7 @@ class ThesisForceMethod:
             return not_applicable(scene, self.name, why)
         chain, p1, p2 = self.run(scene)
         extras: dict[str, object] = {
+            "load_total_rows": [f"{chain.nodes[j]}.{c}" for j in chain.free for c in "xy"],
             "part1_increments": len(p1.positions) - 1,
             "part1_load_total": p1.load_total.tolist(),
             "part1_boom_length": p1.boom_lengths,
@@ -429,8 +488,10 @@ class ThesisForceMethod:
             msg = f"Part 1: {self.max_increments} increments at boom length {last:.6g}"
             return self._solution(scene, chain, p1, None, "failed", msg, extras)
         end = p1.positions[-1]
-        lengths = np.append(np.hypot(*np.diff(end, axis=0).T), p1.boom_lengths[-1])
+        reached = boom_lengths(chain, end)
+        lengths = np.append(np.hypot(*np.diff(end, axis=0).T), reached)
         extras.update(thesis_stability(chain, p2, lengths))
+        extras["part1_boom_lengths_end"] = dict(zip([b.id for b in scene.booms], reached))
         extras["part2_increments"] = len(p2.positions) - 1
         extras["part2_load_total"] = p2.load_total.tolist()
         extras["part2_residual"] = p2.residual
@@ -440,6 +501,12 @@ class ThesisForceMethod:
             f"increments, |U_m' Load_0| = {p2.residual:.2e} N; stability number "
             f"{extras['stability_number']:.4g}"
         )
+        for b, L in zip(scene.booms[1:], reached[1:]):
+            if L > b.length:  # the thesis's Part 1 stops on the first boom only
+                msg += (
+                    f"; boom {b.id!r} pushed on past its {b.length:g} to {L:.6g} (the thesis's "
+                    f"Part 1 stops when {scene.booms[0].id!r} reaches its length)"
+                )
         if not ok:
             msg = f"Part 2 did not settle in {self.max_increments} increments; " + msg
         return self._solution(scene, chain, p1, p2, "converged" if ok else "failed", msg, extras)
@@ -455,7 +522,6 @@ class ThesisForceMethod:
         extras: dict,
     ) -> Solution:
         """Steps: Part 1 at ``steps`` + 1 report points of boom extension, then Part 2."""
-        boom = scene.booms[0]
         L0, Lend = p1.boom_lengths[0], chain.length
         prog = (np.array(p1.boom_lengths) - L0) / (Lend - L0)
         picks = []
@@ -464,15 +530,15 @@ class ThesisForceMethod:
             picks.append(int(hit[0]) if hit.size else len(prog) - 1)
         steps = []
         for k in dict.fromkeys(picks):
-            steps.append(self._step(scene, chain, p1.positions[k], float(prog[k]), boom.id))
+            steps.append(self._step(scene, chain, p1.positions[k], float(prog[k])))
         if p2 is not None:
-            st = self._step(scene, chain, p2.positions[-1], 2.0, boom.id)
+            st = self._step(scene, chain, p2.positions[-1], 2.0)
             stable = extras["stability_number"] > 0
             steps.append(Step(st.factor, st.outputs, stable=bool(stable), info=st.info))
         return Solution(scene.name, self.name, status, msg, tuple(steps), extras)
 
     @staticmethod
-    def _step(scene: Scene, chain: Chain, pos: np.ndarray, factor: float, boom_id: str) -> Step:
+    def _step(scene: Scene, chain: Chain, pos: np.ndarray, factor: float) -> Step:
         where = dict(zip(chain.nodes, pos))
         turn = angles(pos) - angles(
             np.array([[scene.node(j).x, scene.node(j).y] for j in chain.nodes])
@@ -485,7 +551,8 @@ class ThesisForceMethod:
             # rot: the first member listed at the node (schema convention)
             first = next(i for i, m in enumerate(scene.members) if o.node in (m.a, m.b))
             out |= {f"{o.name}.x": x, f"{o.name}.y": y, f"{o.name}.ux": x - n.x}
-            out |= {f"{o.name}.uy": y - n.y, f"{o.name}.rot": float(turn[first])}
-        tip = pos[chain.tip]
-        out[f"{boom_id}.length"] = float(math.hypot(tip[0] - chain.base[0], tip[1] - chain.base[1]))
+            rot = float(turn[chain.bars.index(first)])
+            out |= {f"{o.name}.uy": y - n.y, f"{o.name}.rot": rot}
+        for b, L in zip(scene.booms, boom_lengths(chain, pos)):
+            out[f"{b.id}.length"] = L
         return Step(factor=factor, outputs=out)

@@ -141,6 +141,15 @@ _JSON_EXTRAS = (
     "mobility",
     "mobility_rank",
     "range",
+    # deploy: the thesis's load totals (Tables 4-5 .. 4-10), its stability number, the booms
+    "load_total_rows",
+    "part1_load_total",
+    "part2_load_total",
+    "part1_increments",
+    "part2_increments",
+    "stability_number",
+    "boom_reached",
+    "boom_bar_force",
 )
 
 

@@ -29,7 +29,7 @@ import scipy.linalg as sla
 import scipy.optimize as so
 
 from cases.schema import Scene
-from reduced_models.base import Solution
+from reduced_models.base import Solution, not_applicable
 from reduced_models.mechanism.analyses import Run
 from reduced_models.mechanism.newton import SolveError, Solver, State
 from reduced_models.mechanism.system import MechanismSystem
@@ -126,6 +126,10 @@ def hold(sysm: MechanismSystem, length: BoomLength, on: bool, push: float) -> No
     sysm.rscale = np.where(kind == "r", sysm.fscale * sysm.lay.Lref, sysm.fscale)
 
 
+class NotStaged(Exception):
+    """Several booms whose proportional Part 1 path is not physical (message = why)."""
+
+
 class Deploy(Run):
     """Part 1 (boom length as path parameter, stall located) then Part 2 (locked)."""
 
@@ -211,7 +215,14 @@ class Deploy(Run):
     def stall(self, path: list, st: State, ell_a: np.ndarray, ell_b: np.ndarray) -> str:
         """Locate where the surplus first vanishes, then solve the free equilibrium there."""
         if len(ell_a) != 1:
-            raise SolveError("stall of one of several booms: not located (one boom only)")
+            low = self.surplus(self.follow(st, ell_a, ell_b))
+            k = int(np.argmin(low))
+            raise NotStaged(
+                f"several booms: the one-parameter Part 1 path (lengths held proportionally) "
+                f"would pull boom {self.ids[k]!r} (surplus {low[k]:.4g} at length "
+                f"{ell_b[k]:.6g}); staging several booms (each pushing until it locks at its "
+                "own length) is not implemented here: the replay does it"
+            )
         base = st
 
         def g(s: float) -> float:
@@ -252,6 +263,8 @@ def deploy(sysm: MechanismSystem, name: str) -> Solution:
     r = Deploy(sysm)
     try:
         msg = r.run_deploy()
+    except NotStaged as why:
+        return not_applicable(scene, name, str(why))
     except (SolveError, ValueError, np.linalg.LinAlgError) as err:
         return Solution(scene.name, name, "failed", str(err), tuple(r.steps), r.extras)
     return Solution(scene.name, name, "converged", msg, tuple(r.steps), r.extras)

@@ -1,0 +1,85 @@
+"""Two booms (thesis Configuration 6, Table 5-1: 0.30 and 0.28 m from the base pin J6): no
+model may drop one.  Each boom pushes until it reaches its own length, then locks (the
+physical staging); a model that cannot stage declines with the reason."""
+
+from __future__ import annotations
+
+import pytest
+
+import cases
+from reports import api
+
+LENGTHS = {"boom1.length": 0.30, "boom2.length": 0.28}  # Table 5-1
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return cases.load("thesis-sixbar-config6")
+
+
+@pytest.fixture(scope="module")
+def kinetostatic(scene):
+    return api.solve(scene, "kinetostatic")
+
+
+@pytest.fixture(scope="module")
+def replay(scene):
+    return api.solve(scene, "replay")
+
+
+@pytest.mark.parametrize("model", ["kinetostatic", "replay"])
+def test_every_boom_locks_at_its_own_length(model, kinetostatic, replay):
+    sol = {"kinetostatic": kinetostatic, "replay": replay}[model]
+    assert sol.status == "converged", sol.message
+    last = sol.steps[-1]
+    assert last.factor == 2.0 and "stalled" not in sol.message
+    for key, length in LENGTHS.items():
+        assert last.outputs[key] == pytest.approx(length, abs=1e-6)
+
+
+def test_replay_locks_both_booms_in_turn(replay):
+    locks = [e for e in replay.extras["events"] if e["kind"] == "lock"]
+    assert [e["ends"] for e in locks] == ["J6 - J4", "J6 - J3"]  # the shorter one first
+    assert locks[0]["t"] < locks[1]["t"]
+
+
+def test_replay_settles_where_kinetostatic_does(kinetostatic, replay):
+    ref, got = kinetostatic.steps[-1].outputs, replay.steps[-1].outputs
+    for key in ("J2.x", "J2.y", "J3.x", "J3.y", "J4.x", "J4.y", "J5.x", "J5.y"):
+        assert got[key] == pytest.approx(ref[key], abs=1e-5)  # 0.01 mm
+
+
+@pytest.mark.parametrize("model", ["fem-auto"])
+def test_models_that_drive_one_boom_decline(model, scene):
+    sol = api.solve(scene, model)
+    assert sol.status == "not-applicable" and "one boom" in sol.message
+
+
+def test_thesis_force_method_pushes_on_as_the_thesis(scene, kinetostatic):
+    # the thesis's Part 1 stops on boom1 alone: boom2 is pushed past its 0.28 m; Part 1's
+    # load totals are then Table 4-10's (printed again as Table 4-5), F2x .. F5y
+    from reports.thesis_identify import TABLES, digits
+
+    sol = api.solve(scene, "thesis-force-method")
+    assert sol.status == "converged", sol.message
+    assert digits(sol.extras["part1_load_total"], TABLES["4-10"][0]) >= 8.0
+    assert sol.extras["part1_boom_lengths_end"]["boom2"] > 0.28 + 2e-3
+    assert "'boom2' pushed on past its 0.28" in sol.message
+    assert sol.extras["stability_number"] < 0  # the thesis: Configuration 6 is unstable
+    # the difference the physical staging makes: boom2 locked 2.5 mm longer, J4 2.5 mm higher
+    diff = sol.steps[-1].outputs["J4.y"] - kinetostatic.steps[-1].outputs["J4.y"]
+    assert 1e-3 < diff < 5e-3
+
+
+def test_kinetostatic_declines_a_two_boom_path_that_would_pull_a_boom(scene):
+    # the J3 spring at rest 20 deg: holding both lengths proportionally needs boom1 pulled
+    # (the replay deploys it: boom2 locks, then boom1); kinetostatic says why it cannot
+    from dataclasses import replace
+
+    springs = tuple(
+        replace(t, free_angle_deg=t.free_angle_deg - 10.0) if t.id == "S3" else t
+        for t in scene.torsion_springs
+    )
+    sol = api.solve(replace(scene, torsion_springs=springs), "kinetostatic")
+    assert sol.status == "not-applicable"
+    assert "would pull boom 'boom1'" in sol.message and "replay" in sol.message
