@@ -47,7 +47,6 @@ from reports import predict_table as PT
 THRESHOLD = 0.01
 # table states are ~0.05-0.3 apart (L units / rad) in (ux, uy, rot); farther is off the table
 MATCH_MAX = 0.3
-FLOOR = 1e-12  # errors are interpolated in log10; an exact 0 reads as this
 ANGLE_MAX = float(PT.ANGLES[-1])
 
 
@@ -58,6 +57,7 @@ def table() -> dict[str, np.ndarray]:
         return {k: z[k] for k in z.files}
 
 
+@functools.lru_cache(maxsize=256)
 def table_model(name: str | None) -> str | None:
     """The table's entry for a model name: itself, or for ``linear-N``, ``cbcm-N``,
     ``prb-fsm-N`` the table's member of that family with the largest N <= the given one (a
@@ -79,8 +79,8 @@ def _channels(model: str, family: str) -> np.ndarray:
     """(4, angles[, betas], rhos) grids of one model: log10 error of the translations and of
     the rotation, the exact tip's largest displacement and rotation on the ramp so far."""
     t = table()
-    i = [str(n) for n in t["models"]].index(model)
-    err = np.log10(np.fmax(t[f"{family}_error"][i].astype(float), FLOOR))
+    i = list(t["models"]).index(model)
+    err = t[f"{family}_error"][i].astype(float)  # log10 already (predict_table.stored)
     ref = t[f"{family}_ref"].astype(float)
     move = np.fmax.accumulate(np.hypot(ref[..., 0], ref[..., 1]), axis=-1)
     turn = np.fmax.accumulate(np.abs(ref[..., 2]), axis=-1)
@@ -117,9 +117,9 @@ def lookup(
     else:
         coords = [ia, _index(t["betas"], np.degrees(np.arctan2(m, p))), ir]
     grids = _channels(model, "follower" if follower else "dead")
-    out = np.array(
-        [map_coordinates(g, coords, order=1, mode="nearest", prefilter=False) for g in grids]
-    )
+    k = ia.size  # one call for the four channels: the channel is an exact integer coordinate
+    coords = [np.repeat(np.arange(4.0), k)] + [np.tile(c, 4) for c in coords]
+    out = map_coordinates(grids, coords, order=1, mode="nearest", prefilter=False).reshape(4, k)
     out[:2] = 10.0 ** out[:2]
     return out
 
@@ -166,17 +166,16 @@ def _tip_vectors(sol: Solution, beam: Cantilever) -> np.ndarray:
     """(k, 2) beam-frame root-to-tip vectors of each step (the model's own shape; the
     undeformed (L, 0) where a step has none)."""
     c, s = math.cos(beam.angle), math.sin(beam.angle)
-    root = np.asarray(beam.origin)
-    out = np.tile([beam.L, 0.0], (len(sol.steps), 1))
+    ends = np.full((len(sol.steps), 2, 2), np.nan)
     for i, st in enumerate(sol.steps):
         pts = st.shapes.get(beam.member) if st.shapes else None
-        if pts is None or len(pts) < 2:
-            continue
-        pts = np.asarray(pts)
-        far = pts[-1] if np.hypot(*(pts[0] - root)) < np.hypot(*(pts[-1] - root)) else pts[0]
-        d = far - root
-        out[i] = [c * d[0] + s * d[1], -s * d[0] + c * d[1]]
-    return out
+        if pts is not None and len(pts) >= 2:
+            ends[i] = pts[0], pts[-1]
+    d = ends - np.asarray(beam.origin)  # (k, end, 2): the tip is the end farther from the root
+    first_is_tip = np.hypot(*d[:, 0].T) > np.hypot(*d[:, 1].T)
+    d = np.where(first_is_tip[:, None], d[:, 0], d[:, 1])
+    out = np.column_stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]])
+    return np.where(np.isnan(out), [beam.L, 0.0], out)
 
 
 def beam_states(model: str, sol: Solution, beam: Cantilever) -> States:
