@@ -205,3 +205,29 @@ def test_the_timed_solve_carries_no_prediction():
 def test_exact_references_get_no_prediction():
     sol = reports.solve(cases.load("cantilever-tip-load"), "elastica")
     assert "predicted_error" not in sol.extras
+
+
+def test_effectivity_summary_and_figure(tmp_path):
+    """Four pairs of effectivity 1, 2, 1/4 and 4: median 1.5; two within the factor-3 band,
+    three not optimistic by more than 3; of the two measured above 1 % one was warned."""
+    from reports.render import effectivity as EF
+
+    def rec(model, pred, meas):
+        return {"case": "c", "model": model, "error_rel": meas, "extras": {"predicted_error": pred}}
+
+    payload = {
+        "results": [
+            rec("a", 0.02, 0.02),
+            rec("b", 0.004, 0.002),
+            rec("c", 0.005, 0.02),
+            rec("d", 0.004, 0.001),
+            {**rec("ref", 0.0, 0.0), "is_reference": True},
+        ]
+    }
+    s = EF.summary(EF.pairs(payload))
+    assert s["pairs"] == 4 and s["median"] == pytest.approx(1.5)
+    assert s["within_band"] == 0.5 and s["not_optimistic"] == 0.75
+    assert s["warned_when_over"] == 0.5 and s["quiet_when_under"] == 1.0
+    blocks = EF.blocks(payload, tmp_path)
+    assert (tmp_path / "figures" / "effectivity.png").is_file()
+    assert "median effectivity (predicted / measured) 1.5" in blocks[-1][1]
