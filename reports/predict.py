@@ -234,9 +234,7 @@ def shape_states(
     values = vals[:, j]
     values[2] = np.hypot(ux, uy)  # the member's own motion weighs its states along the path
     p, alpha, m = load[j].T
-    return States(
-        member_id, model, factor, p, alpha, m, values, dist > MATCH_MAX, False, True
-    )
+    return States(member_id, model, factor, p, alpha, m, values, dist > MATCH_MAX, False, True)
 
 
 def member_states(name: str, scene: Scene, sol: Solution) -> tuple[list[States], list[str]]:

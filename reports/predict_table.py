@@ -10,15 +10,15 @@ atlases' yardstick) at
 
 * ``dead``: dead force plus moment on the polar grid ``PL^2/EI = rho cos beta``,
   ``ML/EI = rho sin beta``, rho in (0, 10] (``N_RHO`` = 20 values), mixing angle beta in
-  [-90, 90] deg in 11.25 deg steps (``BETAS``: 0 is the ``force`` atlas, 90 the ``moment`` atlas, atan(1/2) = 26.6
-  deg a transversely loaded fixed-guided beam), alpha in ``ANGLES``;
+  [-90, 90] deg in 11.25 deg steps (``BETAS``: 0 is the ``force`` atlas, 90 the ``moment``
+  atlas, atan(1/2) = 26.6 deg a transversely loaded fixed-guided beam), alpha in ``ANGLES``;
 * ``follower``: follower force (alpha from the tip tangent), no moment, rho in (0, 10].
 
 Arrays: ``dead_error`` (models, alpha, beta, rho, 2) and ``follower_error`` (models, alpha,
-rho, 2), log10 of the errors (``stored``), the last axis the error of the tip translations and of the tip rotation, each on its
-own excursion (a guided end is judged on the first alone); ``dead_ref`` (alpha, beta, rho, 3)
-and ``follower_ref`` the exact tip (ux, uy, rot), from which a deformed member's end state is
-looked up (``reports.predict``).
+rho, 2), log10 of the errors (``stored``), the last axis the error of the tip translations and
+of the tip rotation, each on its own excursion (a guided end is judged on the first alone);
+``dead_ref`` (alpha, beta, rho, 3) and ``follower_ref`` the exact tip (ux, uy, rot), from which
+a deformed member's end state is looked up (``reports.predict``).
 
 The last angle is 179.9 deg, not 180: an exactly axial compression stays straight in every
 model (error 0) while any real column (the catalog's has a 1e-3 imperfection, 0.057 deg) takes
