@@ -213,7 +213,14 @@ def test_effectivity_summary_and_figure(tmp_path):
     from reports.render import effectivity as EF
 
     def rec(model, pred, meas):
-        return {"case": "c", "model": model, "error_rel": meas, "extras": {"predicted_error": pred}}
+        extras = {"predicted_error": pred}
+        return {
+            "case": "c",
+            "model": model,
+            "status": "converged",
+            "error_rel": meas,
+            "extras": extras,
+        }
 
     payload = {
         "results": [
@@ -222,12 +229,15 @@ def test_effectivity_summary_and_figure(tmp_path):
             rec("c", 0.005, 0.02),
             rec("d", 0.004, 0.001),
             {**rec("ref", 0.0, 0.0), "is_reference": True},
-        ]
+            {**rec("e", 1e-6, 0.5), "status": "failed"},
+        ],
+        "cases": {"c": {"tags": ["single-beam"]}},
     }
     s = EF.summary(EF.pairs(payload))
     assert s["pairs"] == 4 and s["median"] == pytest.approx(1.5)
     assert s["within_band"] == 0.5 and s["not_optimistic"] == 0.75
     assert s["warned_when_over"] == 0.5 and s["quiet_when_under"] == 1.0
+    assert s["by_kind"]["single beam"]["pairs"] == 4 and not s["by_kind"]["mechanism"]
     blocks = EF.blocks(payload, tmp_path)
     assert (tmp_path / "figures" / "effectivity.png").is_file()
     assert "median effectivity (predicted / measured) 1.5" in blocks[-1][1]
