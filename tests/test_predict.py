@@ -241,3 +241,23 @@ def test_effectivity_summary_and_figure(tmp_path):
     blocks = EF.blocks(payload, tmp_path)
     assert (tmp_path / "figures" / "effectivity.png").is_file()
     assert "median effectivity (predicted / measured) 1.5" in blocks[-1][1]
+
+
+def test_units_do_not_change_the_state():
+    """A 100 mm steel cantilever (E = 200 GPa, I = 10 mm^4) under 1600 N: PL^2/EI = 8 in
+    any units; bcm answers it "converged" with a tip far off, and the prediction says so."""
+    base = cases.load("cantilever-tip-load")
+    a, b = base.nodes
+    scene = dataclasses.replace(
+        base,
+        units="mm-N-MPa",
+        nodes=(a, dataclasses.replace(b, x=100.0)),
+        members=(dataclasses.replace(base.members[0], E=200e3, I=10.0, A=1e6),),
+        loads=(dataclasses.replace(base.loads[0], fy=-1600.0),),
+        references=(),
+    )
+    sol = reports.solve(scene, "bcm")
+    assert sol.ok
+    assert sol.extras["predicted_error_at"]["PL^2/EI"] == pytest.approx(8.0)
+    assert sol.extras["predicted_error"] > 1.0  # more than the deflection itself
+    assert sol.extras["validity_warning"].startswith("predicted error")
