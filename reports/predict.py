@@ -49,6 +49,7 @@ from reports import predict_table as PT
 THRESHOLD = 0.01
 # table states are ~0.05-0.3 apart (L units / rad) in (ux, uy, rot); farther is off the table
 MATCH_MAX = 0.3
+RING = 0.1  # |(uy/L, rot)| below which a member's state is matched on its direction only
 ANGLE_MAX = float(PT.ANGLES[-1])
 
 
@@ -228,11 +229,16 @@ def shape_states(
     c, s = np.cos(ang[:, 0]), np.sin(ang[:, 0])
     ux = (c * chord[:, 0] + s * chord[:, 1]) / length - 1.0
     uy = (-s * chord[:, 0] + c * chord[:, 1]) / length
-    # a barely bent member is matched on its direction: scaled up to the table's first ring
+    # the table's members are inextensible: a member's axial stretch (ux > 0, or a
+    # shortening larger than its bending explains) is not part of its state.  A barely bent
+    # member is matched on its direction (uy : rot) scaled up to the table's first ring,
+    # where the geometric shortening is second order (ux -> 0).
     size = np.hypot(uy, rot)
-    f = np.where((size > 0) & (size < 0.1), 0.1 / np.where(size > 0, size, 1.0), 1.0)
+    small = size < RING
+    f = np.where(small, RING / np.where(size > 0, size, 1.0), 1.0)
+    qx = np.where(small, 0.0, np.fmin(ux, 0.0))
     tree, vals, load = _tree(model)
-    dist, j = tree.query(np.column_stack([ux * f**2, uy * f, rot * f]))
+    dist, j = tree.query(np.column_stack([qx, uy * f, rot * f]))
     values = vals[:, j]
     values[2] = np.hypot(ux, uy)  # the member's own motion weighs its states along the path
     p, alpha, m = load[j].T
