@@ -137,8 +137,9 @@ def card_of(name: str) -> ModelCard | None:
 
 
 def run_model(model: Model, scene: Scene, *, catch: bool = True, post: bool = True) -> Solution:
-    """Ask ``applies_to`` then ``solve`` (then ``postprocess`` when ``post``); an exception
-    becomes a ``failed`` Solution.
+    """Ask ``applies_to`` then ``solve`` (then ``postprocess`` and the predicted error of a
+    reduced model, ``reports.predict``, when ``post``); an exception becomes a ``failed``
+    Solution.
 
     The traceback is kept in ``extras["traceback"]`` (``catch=False`` re-raises instead).
     """
@@ -150,7 +151,7 @@ def run_model(model: Model, scene: Scene, *, catch: bool = True, post: bool = Tr
         sol = model.solve(scene)
         if not isinstance(sol, Solution):
             raise TypeError(f"solve() returned {type(sol).__name__}, not Solution")
-        return post_process(model, scene, sol) if post else sol
+        return _predicted(name, scene, post_process(model, scene, sol)) if post else sol
     except Exception as exc:
         if not catch:
             raise
@@ -164,13 +165,23 @@ def run_model(model: Model, scene: Scene, *, catch: bool = True, post: bool = Tr
 
 
 def finish(model: Model, scene: Scene, sol: Solution) -> Solution:
-    """``sol`` with the model's post-processing (shapes, stress) added; an exception there
-    leaves the answer as it was and is named in ``extras["postprocess_error"]``."""
+    """``sol`` with the model's post-processing (shapes, stress) and predicted error added; an
+    exception there leaves the answer as it was and is named in
+    ``extras["postprocess_error"]``."""
     try:
-        return post_process(model, scene, sol)
+        name = getattr(model, "name", type(model).__name__)
+        return _predicted(name, scene, post_process(model, scene, sol))
     except Exception as exc:
         extras = dict(sol.extras, postprocess_error=f"{type(exc).__name__}: {exc}")
         return dataclasses.replace(sol, extras=extras)
+
+
+def _predicted(name: str, scene: Scene, sol: Solution) -> Solution:
+    """``sol`` with a reduced model's predicted error (``reports.predict``), after the timed
+    solve: the table is a file a report may read and a model may not."""
+    from reports import predict  # lazy: scipy.ndimage/spatial only when a solve finishes
+
+    return predict.attach(name, scene, sol)
 
 
 def solve(

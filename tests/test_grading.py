@@ -38,7 +38,9 @@ def test_prb1r_warns_past_howells_theta_max():
     far = solve(cases.load("cantilever-tip-load"), "prb-1r")  # Theta reaches ~71 deg
     assert far.extras["validity_warning"] and "64.3 deg" in far.extras["validity_message"]
     near = solve(atlas.scene_for("force", 2.0, 90.0, 10), "prb-1r")  # Theta ~ 35 deg
-    assert near.ok and not near.extras.get("validity_warning")
+    # inside Howell's range no range warning; the predicted error (3.1 %, measured 3.2 % on
+    # the tip rotation) still warns (reports.predict)
+    assert near.ok and "64.3 deg" not in near.extras.get("validity_message", "")
 
 
 @pytest.fixture(scope="module")

@@ -145,6 +145,7 @@ def _model_rows(case: Mapping, recs: Sequence[Mapping]) -> tuple[list[str], list
         "vs ref",
         "error_rel",
         "error_L",
+        "predicted (eff.)",
         "grade",
         *(f"error_rel {k}" for k in keys),
         "equilibria stable / unstable",
@@ -193,6 +194,7 @@ def _model_rows(case: Mapping, recs: Sequence[Mapping]) -> tuple[list[str], list
                     FP.error_class(e) if e is not None else None,
                 ),
                 FP.fmt_err(r.get("error_L")),
+                predicted_cell(r),
                 grading.label(r.get("grade")),
                 *(FP.fmt_err(per.get(k)) for k in keys),
                 stability(r),
@@ -200,6 +202,17 @@ def _model_rows(case: Mapping, recs: Sequence[Mapping]) -> tuple[list[str], list
             ]
         )
     return head, rows
+
+
+def predicted_cell(rec: Mapping) -> str:
+    """A reduced model's predicted error_rel (``reports.predict``) and its effectivity
+    (predicted / measured) in brackets, as fem-auto's estimate is shown in its note."""
+    pred = (rec.get("extras") or {}).get("predicted_error")
+    if pred is None:
+        return "–"
+    meas = rec.get("error_rel")
+    eff = f" ({pred / meas:.2g}x)" if meas else ""
+    return FP.fmt_err(pred) + eff
 
 
 def _reference_blocks(case: Mapping, recs: Sequence[Mapping]) -> list[Block]:
