@@ -25,6 +25,8 @@ import math
 import re
 from collections.abc import Sequence
 
+from cases.schema import Member, Scene
+
 TIE = 0.10  # least relative cost difference that decides (see module docstring)
 # exact where they run and are the case's reference: beam theory for single beams, rigid-body
 # kinematics with springs (kinetostatic declines any compliant member): candidates with error 0
@@ -65,7 +67,7 @@ class Pick:
         if self.decided_by == "only qualifying":
             return "decided by: the only qualifying model"
         if self.decided_by == "cost":
-            ok = sorted((o for o in options if o.qualifies), key=_by_cost)
+            ok = sorted((o for o in options if o.qualifies), key=by_cost)
             nxt = next(o for o in ok if o.model != self.model)
             return (
                 f"decided by cost: {_ms(p)} against {nxt.model} {_ms(nxt)}, apart by more "
@@ -94,7 +96,7 @@ def _cost(o: Option) -> float:
     return math.inf if o.cost_s is None else o.cost_s
 
 
-def _by_cost(o: Option) -> tuple:
+def by_cost(o: Option) -> tuple:
     return (_cost(o), _order(o))
 
 
@@ -111,7 +113,7 @@ def band(cheapest: Option, other_noise_s: float = 0.0) -> float:
 
 def choose(options: Sequence[Option]) -> Pick:
     """The pick among ``options`` (module docstring); independent of their order."""
-    ok = sorted((o for o in options if o.qualifies), key=_by_cost)
+    ok = sorted((o for o in options if o.qualifies), key=by_cost)
     if not ok:
         return Pick(None, None)
     if len(ok) == 1:
@@ -134,7 +136,7 @@ def cannot_tie(bound_s: float, cheapest: Option) -> bool:
 
 
 # -- a-priori unknowns -------------------------------------------------------------------------
-def unknowns(name: str, scene) -> int | None:
+def unknowns(name: str, scene: Scene) -> int | None:
     """Unknowns a model solves for on ``scene``, counted from its definition (None: not known).
 
     Per flexible member: PRB models one per revolute joint of their PRB matrix (prb-short and
@@ -171,7 +173,7 @@ def unknowns(name: str, scene) -> int | None:
     return None if None in per or not per else sum(per)
 
 
-def _member_unknowns(spec, member) -> int | None:
+def _member_unknowns(spec: tuple | str, member: Member) -> int | None:
     import numpy as np
 
     from reduced_models.mechanism import elastica_member
