@@ -9,8 +9,8 @@ a fixed model such as ``prb-3r`` is a ladder of one), cheapest first:
   of unknowns the model has a priori);
 * a ladder ends at its first qualifying member (a larger N costs more) or when a model
   declines the scene;
-* once a model qualifies at cost c, every ladder whose bound is at least c is dropped: none of
-  its members can be cheaper (early exit);
+* once a model qualifies at cost c, every ladder whose bound cannot tie with c
+  (``pick.cannot_tie``) is dropped: none of its members can be cheaper or tied (early exit);
 * a self-refining ``family-auto`` (target: the smallest tolerance) joins once its family's
   N0, 2 N0, 4 N0 members are measured, with their summed cost as its bound
   (``auto_candidates``).
@@ -30,9 +30,9 @@ costs within their measured noise or ``pick.TIE`` of each other are a tie broken
 a-priori unknowns (``pick.unknowns``), then name; ``decided_by`` names the rule that decided.
 The reference model is what the others are measured against and no candidate, except where it
 is exact (``pick.EXACT``: the elastica on a single beam, kinetostatic on rigid links and
-springs): it then joins with error 0 at its own cost.  ``from_records`` applies the same
-judgement and pick to the records of a ``flexbench run`` (``reports.advice``: the report's
-front page and the teaching page).
+springs): it then joins with error 0 at its own cost.  ``reports.advice.from_records`` applies
+the same judgement and pick to the records of a ``flexbench run`` (the report's front page and
+the teaching page).
 """
 
 from __future__ import annotations
@@ -290,8 +290,9 @@ def recommend(
     ----------
     scene : Scene or catalog name / path.
     tol : ``"1%"``, ``1e-3``, ``"tip.uy=0.5%,tip.rot=1e-3"`` or a Tolerance.
-    cost : ``(model name, measured CPU s) -> cost`` to rank by (default: the CPU time, the
-        median of repeats); tests pass a deterministic cost (each model is then solved once).
+    cost : ``(model name, measured CPU s) -> cost`` to rank by (default: the CPU time
+        estimate of ``reports.cost``, cached); tests pass a deterministic cost (each model is
+        then solved once and nothing is sampled or cached).
     brute_force : run every ladder member (no early exit), for verification.
 
     Raises
