@@ -183,7 +183,7 @@ def pick_table(payload: Mapping) -> tuple[list[str], list[list]]:
         "reference",
         "pick",
         "its error",
-        "its time",
+        "its CPU time",
         "vs reference",
         "good enough / solved",
         "most accurate approximate model",
