@@ -102,6 +102,7 @@ def _cost(o: Option) -> float:
 
 
 def by_cost(o: Option) -> tuple:
+    """Sort key: cost, then the tie-break order (unmeasured costs last)."""
     return (_cost(o), _order(o))
 
 
