@@ -9,8 +9,8 @@ a fixed model such as ``prb-3r`` is a ladder of one), cheapest first:
   of unknowns the model has a priori);
 * a ladder ends at its first qualifying member (a larger N costs more) or when a model
   declines the scene;
-* once a model qualifies at cost c, every ladder whose bound is at least c is dropped: none of
-  its members can be cheaper (early exit);
+* once a model qualifies at cost c, every ladder whose bound cannot tie with c
+  (``pick.cannot_tie``) is dropped: none of its members can be cheaper or tied (early exit);
 * a self-refining ``family-auto`` (target: the smallest tolerance) joins once its family's
   N0, 2 N0, 4 N0 members are measured, with their summed cost as its bound
   (``auto_candidates``).
@@ -23,21 +23,23 @@ tolerance.  Judged outputs: the case's ``[[tolerances]]`` when it names them (me
 user's ``--tol``), else displacements and rotations of the case's named outputs (``.ux``,
 ``.uy``, ``.rot``), the load factor of path analyses and any non-node output.
 
-Cost is measured on this scene: the median ``time.process_time`` of repeated solves (BLAS
-pinned to one thread).  Costs within ``TIE`` of the cheapest are a tie (the resolution of a
-timing on a shared machine), broken by the a-priori number of unknowns.  The reference model
-itself (the elastica for single beams, ``fem-auto`` otherwise) is not a candidate: it is what
-the others are measured against.
+Cost is the model's own solve on this scene, estimated by ``reports.cost`` (CPU time, BLAS
+pinned, sampled until the median is stable, cached per code version: the runner reads the same
+numbers).  The pick among the qualifying models is ``reports.pick.choose``: the cheapest, where
+costs within their measured noise or ``pick.TIE`` of each other are a tie broken by fewer
+a-priori unknowns (``pick.unknowns``), then name; ``decided_by`` names the rule that decided.
+The reference model is what the others are measured against and no candidate, except where it
+is exact (``pick.EXACT``: the elastica on a single beam, kinetostatic on rigid links and
+springs): it then joins with error 0 at its own cost.  ``reports.advice.from_records`` applies
+the same judgement and pick to the records of a ``flexbench run`` (the report's front page and
+the teaching page).
 """
 
 from __future__ import annotations
 
-import contextlib
-import gc
+import functools
 import heapq
 import math
-import re
-import statistics
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -45,7 +47,9 @@ from typing import Any
 
 from cases.schema import Scene
 from reduced_models.base import Solution
-from reports import api, errors
+from reports import api, errors, pick
+from reports import cost as costing
+from reports.pick import EXACT, EXCLUDED
 from reports.tolerance import (
     Tolerance,
     ToleranceError,
@@ -63,12 +67,7 @@ LADDER_N: dict[str, tuple[int, ...]] = {
     "fem-N": (2, 4, 8, 16, 32, 64, 128),
 }
 DEFAULT_N = (1, 2, 4, 8, 16, 32)  # a parametrised family registered by another package
-# never candidates: baselines and the dynamic reference (``*-auto`` join through
-# ``auto_candidates``, not as ladders of their own)
-EXCLUDED = ("elastica-bvp", "replay")
-# a-priori unknowns of fixed models (tie-break only; measured cost decides)
-RANK = {"prb-short": 1, "prb-1r": 1, "bcm": 3, "prb-2r": 2, "prb-3r": 3, "prb-2rpr": 3}
-TIE = 0.10
+YARDSTICK = "error_rel"  # the errors' yardstick (reports.errors), named in the JSON
 
 
 @dataclass
@@ -83,11 +82,12 @@ class Candidate:
     at_factor: float | None = None
     tolerance: float | None = None
     cpu_s: float | None = None
+    noise_s: float = 0.0
     ratio_to_reference: float | None = None
     qualifies: bool = False
     warning: str = ""
-    yardstick: str = "error_rel"
-    rank: int = 0
+    yardstick: str = YARDSTICK  # or "abs": an absolute tolerance in case units
+    unknowns: int | None = None
     errors: dict[str, float] = field(default_factory=dict)
     profile: list[tuple[float, float]] = field(default_factory=list)  # (factor, error / tol)
 
@@ -117,6 +117,8 @@ class Candidate:
             tolerance=_finite(self.tolerance),
             yardstick=self.yardstick,
             qualifies=self.qualifies,
+            noise_s=_finite(self.noise_s),
+            unknowns=self.unknowns,
             message=self.message,
             validity_warning=self.warning or None,
         )
@@ -140,52 +142,41 @@ class Recommendation:
     candidates: list[Candidate]
     skipped: list[str] = field(default_factory=list)
     elapsed_s: float = 0.0
+    decided_by: str | None = None
 
     def as_json(self) -> dict[str, Any]:
-        """``{"case", "tolerance", "recommended", "reason", "candidates": [...]}`` + extras."""
+        """``{"case", "tolerance", "recommended", "reason", "yardstick", "decided_by",
+        "candidates": [...]}`` + extras."""
         return {
             "case": self.case,
             "tolerance": self.tolerance.as_json(),
             "recommended": self.recommended,
             "reason": self.reason,
+            "yardstick": YARDSTICK,
+            "decided_by": self.decided_by,
             "candidates": [c.as_json() for c in self.candidates],
             "reference": self.reference,
             "reference_cpu_s": _finite(self.reference_cpu_s),
-            "yardstick": "error_rel",
             "not_run": self.skipped,
         }
 
 
 # -- cost --------------------------------------------------------------------------------------
-def _one_thread() -> contextlib.AbstractContextManager:
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:
-        return contextlib.nullcontext()
-    return threadpool_limits(1)
-
-
-def timed(
-    run: Callable[[], Solution], min_total: float = 0.03, max_runs: int = 5
-) -> tuple[Solution, float]:
-    """(first Solution, median CPU seconds of the repeats): at least 3 runs unless the
-    first took longer than ``10 * min_total`` or ``max_runs`` is 0 (then its own time)."""
-    t0 = time.process_time()
-    sol = run()
-    first = time.process_time() - t0
-    if first > 10 * min_total or max_runs == 0:
-        return sol, first
-    times, enabled = [], gc.isenabled()
-    gc.disable()  # as timeit: a collection belongs to no particular solve
-    try:
-        while len(times) < max_runs and (len(times) < 3 or sum(times) < min_total):
-            t0 = time.process_time()
-            run()
-            times.append(time.process_time() - t0)
-    finally:
-        if enabled:
-            gc.enable()
-    return sol, statistics.median(times)
+def measured(
+    model: Any, scene: Scene, name: str, options: Mapping, sample: bool = True
+) -> tuple[Solution, costing.Estimate | None]:
+    """(the model's solution, its cost estimate: cached or sampled; None when it declined).
+    ``sample=False``: the one solve's CPU time, noise 0 (a caller ranking by its own cost)."""
+    with costing.quiet_process():
+        t0 = time.process_time()
+        sol = api.run_model(model, scene, post=False)
+        first = time.process_time() - t0
+    if sol.status == "not-applicable":
+        return sol, None
+    if not sample:
+        return sol, costing.Estimate(first, 0.0, 1)
+    again = lambda: api.run_model(model, scene, post=False)  # noqa: E731
+    return sol, costing.estimate(scene, name, options, again, first)
 
 
 # -- candidates --------------------------------------------------------------------------------
@@ -210,13 +201,6 @@ def _options(name: str, scene: Scene, tol: Tolerance) -> dict:
     if name.endswith("-auto"):
         opts.setdefault("target", min(tol.values(), default=0.01))
     return opts
-
-
-def _rank(name: str) -> int:
-    m = re.fullmatch(r"(.+)-(\d+)", name)
-    if name in RANK:
-        return RANK[name]
-    return 3 * int(m[2]) if m else 10
 
 
 def judge(
@@ -294,8 +278,10 @@ def _profile(
     return out if len(out) >= 2 else []
 
 
-def reference_of(scene: Scene) -> tuple[str | None, Solution | None, float | None, str]:
-    """(name, solution, CPU s, note) of the first converged reference for ``scene``."""
+def reference_of(
+    scene: Scene, sample: bool = True
+) -> tuple[str | None, Solution | None, costing.Estimate | None, str]:
+    """(name, solution, cost estimate, note) of the first converged reference for ``scene``."""
     names = [scene.reference_model] if scene.reference_model else []
     names += [n for n in errors.FALLBACK_REFERENCES if n not in names]
     notes = []
@@ -305,9 +291,9 @@ def reference_of(scene: Scene) -> tuple[str | None, Solution | None, float | Non
         except ValueError as exc:
             notes.append(str(exc))
             continue
-        sol, cpu = timed(lambda m=model: api.run_model(m, scene, post=False), max_runs=3)
+        sol, est = measured(model, scene, name, scene.model_options(name), sample)
         if sol.ok and sol.steps:
-            return name, sol, cpu, "; ".join(notes)
+            return name, sol, est, "; ".join(notes)
         notes.append(f"{name}: {sol.status} ({sol.message})")
     return None, None, None, "; ".join(notes)
 
@@ -327,8 +313,9 @@ def recommend(
     tol : ``"1%"``, ``1e-3``, ``"tip.uy=0.5%,tip.rot=abs:1e-3"`` or a Tolerance; None: the
         case's ``[[tolerances]]`` (1 % on every output when it names none).  Merged with the
         case's by ``reports.tolerance.for_case``.
-    cost : ``(model name, measured CPU s) -> cost`` to rank by (default: the CPU time, the
-        median of repeats); tests pass a deterministic cost (each model is then solved once).
+    cost : ``(model name, measured CPU s) -> cost`` to rank by (default: the CPU time
+        estimate of ``reports.cost``, cached); tests pass a deterministic cost (each model is
+        then solved once and nothing is sampled or cached).
     brute_force : run every ladder member (no early exit), for verification.
 
     Raises
@@ -356,52 +343,57 @@ def recommend(
             raise ToleranceError(
                 f"--tol: {scene.name} has no output {key!r} (outputs: {', '.join(sorted(known))})"
             )
-    repeats = 5 if cost is None else 0
+    sample = cost is None
     cost = cost or (lambda name, cpu: cpu)
-    with _one_thread():
-        ref_name, ref_sol, ref_cpu, ref_note = reference_of(scene)
-        if ref_sol is None:
-            reason = f"no reference path could be computed ({ref_note})"
-            return Recommendation(scene.name, tol, None, reason, None, None, [])
-        meta = case_meta(scene)
-        from reports import store
+    ref_name, ref_sol, ref_est, ref_note = reference_of(scene, sample)
+    if ref_sol is None:
+        reason = f"no reference path could be computed ({ref_note})"
+        return Recommendation(scene.name, tol, None, reason, None, None, [])
+    meta = case_meta(scene)
+    from reports import store
 
-        ref_steps, _, _ = store.steps_json(ref_sol)
-        est = ref_sol.extras.get("error_estimate")
-        stick = errors.reference_yardstick(meta, ref_steps)
-        unc = errors.estimate_scale(est, stick) if isinstance(est, Mapping) else 0
-        lad = ladders(scene, ref_name)
-        cands, skipped = _walk(
-            scene, lad, ref_steps, meta, tol, cost, brute_force, unc or 0.0, repeats
-        )
+    ref_steps, _, _ = store.steps_json(ref_sol)
+    est = ref_sol.extras.get("error_estimate")
+    stick = errors.reference_yardstick(meta, ref_steps)
+    unc = errors.estimate_scale(est, stick) if isinstance(est, Mapping) else 0
+    n_exact = pick.unknowns(ref_name, scene) if ref_name in EXACT else None
+    exact = exact_candidate(ref_name, ref_sol.status, ref_est.cpu_s, ref_est.noise_s, n_exact)
+    cands, skipped = _walk(
+        scene,
+        ladders(scene, ref_name),
+        ref_steps,
+        meta,
+        tol,
+        cost,
+        brute_force,
+        unc or 0.0,
+        sample,
+        exact,
+    )
     for c in cands:
-        c.ratio_to_reference = c.cpu_s / ref_cpu if c.cpu_s and ref_cpu else None
-    best, reason = _verdict(cands, tol, cost)
-    rigid_only = not any(m.kind == "flexible" for m in scene.members)
-    best_cpu = next((c.cpu_s for c in cands if c.model == best), None)
-    if (
-        ref_name == "kinetostatic"
-        and rigid_only
-        and (best is None or best_cpu is None or cost(ref_name, ref_cpu) <= cost(best, best_cpu))
-    ):
-        # no compliant member: rigid-body kinematics with springs is exact, not an approximation,
-        # so it is the pick unless another exact-within-tolerance model is measured cheaper
-        best = ref_name
-        reason = (
-            "no compliant member: kinetostatic (rigid links, springs) is exact here and no "
-            "measured model is cheaper; runner-up: " + reason
-        )
-        exact = Candidate(ref_name, ref_sol.status, "exact for rigid links and springs")
-        exact.worst_error, exact.cpu_s, exact.ratio_to_reference = 0.0, ref_cpu, 1.0
-        exact.qualifies = True
-        cands.insert(0, exact)
+        c.ratio_to_reference = c.cpu_s / ref_est.cpu_s if c.cpu_s and ref_est.cpu_s else None
+    best, reason, decided_by = _verdict(cands, tol, cost)
     if unc:
         reason += f"; the reference's own error estimate {pct(unc)} is added to every error"
     if ref_note:
         reason += f" (reference note: {ref_note})"
-    rec = Recommendation(scene.name, tol, best, reason, ref_name, ref_cpu, cands, skipped)
+    rec = Recommendation(scene.name, tol, best, reason, ref_name, ref_est.cpu_s, cands, skipped)
+    rec.decided_by = decided_by
     rec.elapsed_s = time.perf_counter() - t_start
     return rec
+
+
+def exact_candidate(
+    ref: str, status: str, cpu_s: float | None, noise_s: float, unknowns: int | None
+) -> Candidate | None:
+    """The reference as a candidate with error 0 where it is exact (``pick.EXACT``), else
+    None."""
+    if ref not in EXACT:
+        return None
+    why = "exact: rigid links and springs" if ref == "kinetostatic" else "exact: beam theory"
+    c = Candidate(ref, status, why, worst_error=0.0, cpu_s=cpu_s, noise_s=noise_s)
+    c.qualifies, c.ratio_to_reference, c.unknowns = True, 1.0, unknowns
+    return c
 
 
 def _walk(
@@ -413,15 +405,19 @@ def _walk(
     cost: Callable[[str, float], float],
     brute_force: bool = False,
     uncertainty: float = 0.0,
-    repeats: int = 5,
+    sample: bool = True,
+    exact: Candidate | None = None,
 ) -> tuple[list[Candidate], list[str]]:
-    """Run ladders cheapest-bound first with early exit; returns (tried, never run)."""
+    """Run ladders cheapest-bound first (ties: fewer unknowns) with early exit once a bound
+    cannot tie with the cheapest qualifying model (``pick.cannot_tie``); ``exact`` (the exact
+    reference) starts as that model.  Returns (tried, never run)."""
     ladder_list = [list(lad) for lad in ladder_list]
     autos = auto_candidates(scene, ladder_list, tol)
-    heap = [(0.0, _rank(lad[0]), i, 0) for i, lad in enumerate(ladder_list)]
+    size = functools.cache(lambda name: _unknowns(name, scene))
+    heap = [(0.0, size(lad[0]), i, 0) for i, lad in enumerate(ladder_list)]
     heapq.heapify(heap)
-    best = math.inf
-    tried: list[Candidate] = []
+    tried: list[Candidate] = [exact] if exact else []
+    best = _option(exact, cost) if exact else None
     costs: dict[str, float | None] = {}  # measured cost of every model run (None: declined)
     while True:
         for name, needs in list(autos.items()):  # *-auto: bound = its first solves' costs
@@ -430,18 +426,20 @@ def _walk(
                 if all(costs[n] is not None for n in needs):
                     ladder_list.append([name])
                     bound = sum(costs[n] for n in needs)
-                    heapq.heappush(heap, (bound, _rank(name), len(ladder_list) - 1, 0))
+                    heapq.heappush(heap, (bound, size(name), len(ladder_list) - 1, 0))
         if not heap:
             break
         bound, _, i, j = heapq.heappop(heap)
-        if bound >= best * (1.0 + TIE) and not brute_force:
+        if best is not None and pick.cannot_tie(bound, best) and not brute_force:
             heapq.heappush(heap, (bound, 0, i, j))
             break
         name = ladder_list[i][j]
-        cand = Candidate(name, "failed", rank=_rank(name))
+        n = size(name)
+        cand = Candidate(name, "failed", unknowns=None if math.isinf(n) else int(n))
         tried.append(cand)
+        opts = _options(name, scene, tol)
         try:
-            model = api.make_model(name, scene, _options(name, scene, tol))
+            model = api.make_model(name, scene, opts)
         except ValueError as exc:
             cand.message = str(exc)
             continue
@@ -450,21 +448,38 @@ def _walk(
             cand.status, cand.message = "not-applicable", str(why)
             costs[name] = None
             continue  # a larger N declines for the same reason
-        sol, cpu = timed(lambda m=model: api.run_model(m, scene, post=False), max_runs=repeats)
+        sol, est = measured(model, scene, name, opts, sample)
         cand.status, cand.message = sol.status, sol.message
-        if sol.status == "not-applicable":  # declined inside solve: no cost, no larger N
+        if est is None:  # declined inside solve: no cost, no larger N
             costs[name] = None
             continue
-        cand.cpu_s = cpu
+        cand.cpu_s, cand.noise_s = est.cpu_s, est.noise_s
         if sol.steps:
             judge(cand, sol, ref_steps, meta, tol, uncertainty)
-        c = costs[name] = cost(name, cpu)
+        costs[name] = cost(name, est.cpu_s)
         if cand.qualifies:
-            best = min(best, c)
+            option = _option(cand, cost)
+            best = option if best is None else min(best, option, key=pick.by_cost)
         elif j + 1 < len(ladder_list[i]):
-            heapq.heappush(heap, (c, _rank(ladder_list[i][j + 1]), i, j + 1))
+            nxt = ladder_list[i][j + 1]
+            heapq.heappush(heap, (costs[name], size(nxt), i, j + 1))
     skipped = [f"{ladder_list[i][j]}+" for _, _, i, j in sorted(heap)]
     return tried, skipped + sorted(autos)
+
+
+def _unknowns(name: str, scene: Scene) -> float:
+    """``pick.unknowns`` as a heap key (inf when not known)."""
+    try:
+        n = pick.unknowns(name, scene)
+    except ValueError:  # options the model rejects: it fails when built, ranked last
+        n = None
+    return math.inf if n is None else n
+
+
+def _option(c: Candidate, cost: Callable[[str, float], float]) -> pick.Option:
+    """A candidate as ``pick.choose`` sees it (cost in the caller's units)."""
+    value = None if c.cpu_s is None else cost(c.model, c.cpu_s)
+    return pick.Option(c.model, c.qualifies, value, c.noise_s, c.unknowns, c.worst_error)
 
 
 def auto_candidates(
@@ -496,44 +511,48 @@ def auto_candidates(
 
 def _verdict(
     cands: list[Candidate], tol: Tolerance, cost: Callable[[str, float], float]
-) -> tuple[str | None, str]:
-    """(recommended model or None, one-paragraph reason)."""
+) -> tuple[str | None, str, str | None]:
+    """(recommended model or None, one-paragraph reason, the rule that decided)."""
     ok = [c for c in cands if c.qualifies]
     ran = [c for c in cands if c.status != "not-applicable"]
     reduced = [c for c in ran if not c.model.startswith("fem-")]
     if not ran:
-        return None, (
-            f"every candidate model declines this scene ({_declines(cands)}); "
-            "no reduced model can represent it"
+        return (
+            None,
+            (
+                f"every candidate model declines this scene ({_declines(cands)}); "
+                "no reduced model can represent it"
+            ),
+            None,
         )
     if not ok:
         worst = min(ran, key=_closeness)
-        return None, f"no model qualifies at {tol.text()}; closest: {_miss(worst)}"
-    low = min(cost(c.model, c.cpu_s) for c in ok)
-    tied = [c for c in ok if cost(c.model, c.cpu_s) <= low * (1.0 + TIE)]
-    pick = min(tied, key=lambda c: (c.rank, cost(c.model, c.cpu_s)))
+        return None, f"no model qualifies at {tol.text()}; closest: {_miss(worst)}", None
+    options = [_option(c, cost) for c in ok]
+    chosen = pick.choose(options)
+    c = next(c for c in ok if c.model == chosen.model)
+    what = "an exact model" if c.model in EXACT and c.worst_error == 0.0 else "within"
     reason = (
-        f"{pick.model} is the cheapest model within {tol.text()}: worst error "
-        f"{pick.error_text()} ({pick.where()}), "
-        f"{pick.cpu_s * 1e3:.3g} ms CPU"
+        f"{c.model} is the cheapest model within {tol.text()}"
+        + (f" ({what}: {c.message})" if what != "within" else "")
+        + f": worst error {c.error_text()}"
+        + (f" ({c.where()})" if c.worst_output else "")
+        + f", {c.cpu_s * 1e3:.3g} ms CPU; {chosen.explain(options)}"
     )
-    if len(tied) > 1:
-        others = ", ".join(c.model for c in tied if c is not pick)
-        reason += f" (tied within {TIE:.0%} with {others}; fewer unknowns wins)"
-    if pick.model.startswith("fem-"):
-        miss = [c for c in reduced if not c.qualifies]
-        dearer = [c for c in reduced if c.qualifies]
+    if c.model.startswith("fem-"):
+        miss = [r for r in reduced if not r.qualifies]
+        dearer = [r for r in reduced if r.qualifies]
         if dearer:  # a reduced model is within tolerance but measured dearer than the FE
-            c = min(dearer, key=lambda c: cost(c.model, c.cpu_s))
+            r = min(dearer, key=lambda r: cost(r.model, r.cpu_s))
             reason += (
-                f"; the cheapest reduced model within {tol.text()}, {c.model} "
-                f"({c.error_text()}), costs more here ({c.cpu_s * 1e3:.3g} ms CPU)"
+                f"; the cheapest reduced model within {tol.text()}, {r.model} "
+                f"({r.error_text()}), costs more here ({r.cpu_s * 1e3:.3g} ms CPU)"
             )
         elif miss:
             reason += f"; no reduced model qualifies: closest {_miss(min(miss, key=_closeness))}"
         elif not reduced:
             reason += f"; every reduced model declines this scene ({_declines(cands)})"
-    return pick.model, reason
+    return c.model, reason, chosen.decided_by
 
 
 def _closeness(c: Candidate) -> float:
@@ -566,17 +585,20 @@ def format_text(rec: Recommendation) -> str:
         f"{rec.case}: tolerance {rec.tolerance.text()} (error_rel: each output's error "
         f"over its own excursion along the reference path); reference {rec.reference} "
         f"({(rec.reference_cpu_s or math.nan) * 1e3:.3g} ms CPU)",
-        f"recommended: {rec.recommended or 'none'}",
+        f"recommended: {rec.recommended or 'none'}"
+        + (f" (decided by: {rec.decided_by})" if rec.decided_by else ""),
         f"  {rec.reason}",
         "",
         f"{'model':<14} {'status':<15} {'worst error':>11} {'output':<12} {'at factor':>9} "
-        f"{'CPU ms':>8} {'x ref':>7}  verdict",
+        f"{'CPU ms':>8} {'+/- ms':>7} {'unknowns':>8} {'x ref':>7}  verdict",
     ]
     order = sorted(rec.candidates, key=lambda c: (not c.qualifies, c.cpu_s or math.inf))
     for c in order:
         err = "-" if c.worst_error is None else c.error_text()
         at = "-" if c.at_factor is None else f"{c.at_factor:.3g}"
         ms = "-" if c.cpu_s is None else f"{c.cpu_s * 1e3:.3g}"
+        noise = "-" if c.cpu_s is None else f"{c.noise_s * 1e3:.2g}"
+        unk = "-" if c.unknowns is None else str(c.unknowns)
         ratio = "-" if c.ratio_to_reference is None else f"{c.ratio_to_reference:.3g}"
         verdict = "within" if c.qualifies else ("declines" if c.status == "not-applicable" else "")
         if c.model == rec.recommended:
@@ -587,7 +609,7 @@ def format_text(rec: Recommendation) -> str:
             verdict += " (validity warning)"
         lines.append(
             f"{c.model:<14} {c.status:<15} {err:>11} {c.worst_output or '-':<12} {at:>9} "
-            f"{ms:>8} {ratio:>7}  {verdict}"
+            f"{ms:>8} {noise:>7} {unk:>8} {ratio:>7}  {verdict}"
         )
     if rec.skipped:
         lines.append(f"not run (cannot be cheaper): {', '.join(rec.skipped)}")

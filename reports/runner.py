@@ -49,7 +49,19 @@ from pathlib import Path
 from typing import Any
 
 from cases.schema import Scene
-from reports import api, errors, journal, limits, overlap, store, sweep, teach_run, timing
+from reports import (
+    api,
+    cost,
+    errors,
+    journal,
+    limits,
+    overlap,
+    pick,
+    store,
+    sweep,
+    teach_run,
+    timing,
+)
 from reports.exports import (
     DEFAULT_EXPORT,
     NO_EXPORT,  # noqa: F401  (re-exported)
@@ -280,6 +292,7 @@ def solve_task(task: dict) -> dict:
             deadline = t_start + 0.8 * limit if limit else math.inf
             solve_again = lambda: api.run_model(model, scene, post=False)  # noqa: E731
             times = timing.repeat(solve_again, first, task["timing"], deadline)
+            more = pick_inputs(task, solve_again, first[1])
             sol, post_s, post_cpu_s = timing.timed(lambda: api.finish(model, scene, sol))
             times.update(post_s=post_s, post_cpu_s=post_cpu_s)
     except limits.LimitExceeded as exc:
@@ -287,9 +300,10 @@ def solve_task(task: dict) -> dict:
             return store.record(base, "failed", str(exc), card=card, retry=True)
         policy = dataclasses.replace(task["timing"], cold_cap_s=0)
         times = timing.repeat(lambda: None, first, policy)
+        more = {}
     trace = sol.extras.get("traceback") if isinstance(sol.extras, Mapping) else None
     steps, shapes, warnings = store.steps_json(sol)
-    more = {"shape_steps": store.jsonable(step_shapes(sol))}  # report: shapes along the path
+    more["shape_steps"] = store.jsonable(step_shapes(sol))  # report: shapes along the path
     exports, export_warnings = export_outputs(task, sol)
     return store.record(
         base,
@@ -305,6 +319,21 @@ def solve_task(task: dict) -> dict:
         exports=store.jsonable(exports),
         **more,
     )
+
+
+def pick_inputs(task: dict, solve_again: Any, first_cpu_s: float) -> dict:
+    """A pick candidate's ``cost`` (``reports.cost``: the estimate ``flexbench recommend``
+    reads and writes, so the front page ranks by the same numbers) and a-priori
+    ``unknowns``; {} for other pairs.  Sweep points (hundreds, timed once) get no estimate:
+    their pick ranks by the one CPU time."""
+    scene, name = task["scene"], task["model"]
+    if task["role"] != "model" and name not in pick.EXACT:
+        return {}
+    out: dict[str, Any] = {"unknowns": pick.unknowns(name, scene)}
+    if scene.sweep_parent is None:
+        est = cost.estimate(scene, name, task["options"], solve_again, first_cpu_s)
+        out["cost"] = est.as_json()
+    return out
 
 
 def solve_and_trim(task: dict) -> dict:

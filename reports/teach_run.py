@@ -10,10 +10,11 @@ every catalog case).  A run already holds most of what the page needs, so here:
   hashing the solver packages' sources (``runner.code_hash``), the atlas and page modules,
   the model list and the grid: a rerun (``--fresh`` included: the key already says when a
   result is stale) or a resumed run with the same code reuses it;
-* the **worked advice** per case is the recommender's judgement (``recommend.judge``,
-  its verdict and text) applied to the models this run solved, at the run's measured CPU
-  times: no extra solve.  It differs from ``flexbench recommend`` where the recommender's
-  ladders try an N the run did not (e.g. ``prb-fsm-32``); the page says so.
+* the **worked advice** per case is the recommender's judgement and pick
+  (``reports.advice.from_records``: the front page's too) applied to the models this run
+  solved, at their shared cost estimates (``reports.cost``): no extra solve.  It differs
+  from ``flexbench recommend`` where the recommender's ladders try an N the run did not
+  (e.g. ``prb-fsm-32``); the page says so.
 
 Grid: ``GRID`` (40 magnitudes x 41 directions) by default, ``QUICK_GRID`` with ``--quick``.
 """
@@ -22,7 +23,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 import time
 import warnings
 from collections.abc import Mapping, Sequence
@@ -192,6 +192,7 @@ class TeachingJobs:
 # -- the page --------------------------------------------------------------------------------
 def advice(payload: Mapping, tolerances: Sequence[str] = TOLERANCES) -> list[dict]:
     """The recommender's verdict per (case, tolerance) over the models this run solved."""
+    from reports.advice import from_records
     from reports.recommend import format_text
     from reports.render import teaching
 
@@ -201,7 +202,7 @@ def advice(payload: Mapping, tolerances: Sequence[str] = TOLERANCES) -> list[dic
             continue  # a point of a sweep: its parent's scene is one of many
         recs = [r for r in payload["results"] if r["case"] == name]
         for tol in tolerances:
-            rec = run_recommendation(case, recs, tol)
+            rec = from_records(case, recs, tol)
             if rec is None:
                 continue
             curves = {c.model: c.profile for c in rec.candidates if c.profile}
@@ -215,55 +216,6 @@ def advice(payload: Mapping, tolerances: Sequence[str] = TOLERANCES) -> list[dic
                 }
             )
     return out
-
-
-def run_recommendation(case: Mapping, recs: Sequence[Mapping], tol: str) -> Any:
-    """A ``recommend.Recommendation`` from the run's records of one case (None without a
-    converged reference)."""
-    from reports import errors
-    from reports.recommend import EXCLUDED, Candidate, Recommendation, _rank, _verdict, judge
-    from reports.tolerance import parse_tolerance
-
-    tolerance = parse_tolerance(tol)
-    ref_name = case.get("reference")
-    ref = next((r for r in recs if r["model"] == ref_name), None)
-    if ref is None or ref["status"] != "converged" or not ref.get("steps"):
-        return None
-    ref_cpu = errors.cost_s(ref)
-    cands = []
-    for r in recs:
-        name = r["model"]
-        if r["role"] != "model" or name == ref_name or name in EXCLUDED or name.endswith("-auto"):
-            continue
-        cand = Candidate(name, r["status"], r.get("message") or "", rank=_rank(name))
-        cand.cpu_s = errors.cost_s(r)
-        if r.get("steps"):
-            judge(cand, _solution(r), ref["steps"], case, tolerance, case.get("uncertainty") or 0)
-        cand.ratio_to_reference = cand.cpu_s / ref_cpu if cand.cpu_s and ref_cpu else None
-        cands.append(cand)
-    best, reason = _verdict(cands, tolerance, lambda name, cpu: cpu or math.inf)
-    reason += " (from this run's models; `flexbench recommend` also tries other N)"
-    return Recommendation(case["name"], tolerance, best, reason, ref_name, ref_cpu, cands)
-
-
-def _solution(rec: Mapping) -> Any:
-    """A record's steps as a ``Solution`` (what ``recommend.judge`` reads)."""
-    from reduced_models.base import Solution, Step
-
-    def num(x: Any) -> float:  # JSON null (NaN or unknown) back to NaN
-        return math.nan if x is None else float(x)
-
-    steps = tuple(
-        Step(
-            num(s["factor"]),
-            {k: num(v) for k, v in s["outputs"].items()},
-            num(s.get("energy")),
-            int(s.get("iterations") or 0),
-        )
-        for s in rec["steps"]
-    )
-    message, extras = rec.get("message") or "", rec.get("extras") or {}
-    return Solution(rec["case"], rec["model"], rec["status"], message, steps, extras)
 
 
 def write_page(jobs: TeachingJobs, payload: Mapping, out_dir: Path) -> Path | None:
@@ -296,8 +248,8 @@ def write_page(jobs: TeachingJobs, payload: Mapping, out_dir: Path) -> Path | No
             f"at {mech_n_axis(jobs.grid)} second-axis values; atlases and costs "
             f"{source}"
             "; the worked advice judges the models this run solved with the recommender's rules "
-            "at their CPU times in this run (flexbench recommend CASE also tries other N)."
-            + (f" Missing: {jobs.errors}." if jobs.errors else "")
+            "and pick, at the cost estimates flexbench recommend uses (flexbench recommend "
+            "CASE also tries other N)." + (f" Missing: {jobs.errors}." if jobs.errors else "")
         ),
     }
     return teaching.write_page(data, Path(out_dir) / "teaching.html")

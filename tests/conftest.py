@@ -18,6 +18,16 @@ from reports import timing  # noqa: E402  (after the variables, so a BLAS loaded
 timing.pin_blas()
 
 
+@pytest.fixture(scope="session", autouse=True)
+def cost_cache(tmp_path_factory):
+    """Cost estimates (``reports.cost``) of the whole session go to a temporary directory,
+    never to the user's ``~/.cache/flexbench``."""
+    with pytest.MonkeyPatch.context() as mp:
+        path = tmp_path_factory.mktemp("flexbench-cache")
+        mp.setenv("FLEXBENCH_CACHE", str(path))
+        yield path
+
+
 @pytest.fixture(scope="session")
 def teaching_run(tmp_path_factory):
     """One small ``run_matrix`` with its teaching page (tiny atlas grid): (out dir, result,

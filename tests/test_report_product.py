@@ -245,14 +245,16 @@ def test_front_page_pick_and_overall_plot_over_common_cases(small):
     head, rows = FP.pick_table(data)
     picks = {str(r[0]): str(r[2]) for r in rows}
     recs = [r for r in data["results"] if r["case"] == "cantilever-tip-load"]
-    time = {r["model"]: r["timing"]["median_s"] for r in recs if r.get("timing")}
+    cost = {r["model"]: r["cost"]["cpu_s"] for r in recs if r.get("cost")}
     err = {
         r["model"]: (0.0 if r["model"] == "elastica" else r["error_rel"])
         for r in recs
         if r["model"] in SMALL_MODELS and r["status"] == "converged"
     }
     good = [m for m, e in err.items() if e <= FP.TOLERANCE]
-    assert picks["cantilever-tip-load"] == min(good, key=time.get)
+    cheapest = min(good, key=cost.get)  # the pick, or a model it ties with (pick rule)
+    tied = [m for m in good if cost[m] - cost[cheapest] <= FP.TIE * cost[cheapest]]
+    assert picks["cantilever-tip-load"] == cheapest or len(tied) > 1
     # bistable-toggle: prb-3r and linear-1 miss the tolerance; since the elastica member law
     # (issue 9) the elastica solves the mechanism and is the only model within it
     assert picks["bistable-toggle"] == "elastica"
@@ -291,5 +293,5 @@ def test_rigid_scene_pick_is_the_exact_kinetostatic_reference(tmp_path):
     )
     recs = [r for r in res.payload["results"] if r["case"] == "thesis-sixbar-config4"]
     assert {r["model"] for r in recs} >= {"kinetostatic", "thesis-force-method"}
-    got = frontpage.pick(recs)
+    got = frontpage.pick(res.payload["cases"]["thesis-sixbar-config4"], recs)
     assert got["model"] == "kinetostatic" and got["error"] == 0.0 and got["within"]

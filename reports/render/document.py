@@ -89,7 +89,7 @@ def _reference_line(case: Mapping, recs: Sequence[Mapping]) -> str:
 def verdict(case: Mapping, recs: Sequence[Mapping], tol: float = FP.TOLERANCE) -> list[Block]:
     """The case's answer in two or three lines: reference, pick, declines."""
     out: list[Block] = [("p", _reference_line(case, recs))]
-    p = FP.pick(recs, tol)
+    p = FP.pick(case, recs, tol)
     groups = FP.declines(recs)
     if p is None:
         n_na = sum(len(v) for v in groups.values())
@@ -109,8 +109,9 @@ def verdict(case: Mapping, recs: Sequence[Mapping], tol: float = FP.TOLERANCE) -
         if p["within"]:
             text = (
                 f"Pick: {p['model']} (error {FP.fmt_err(p['error'])}, "
-                f"{FP.fmt_time(p['time'])}{speed}); {p['n_good']} of {p['n_solved']} "
-                f"models that solved the case are within {tol:g}."
+                f"{FP.fmt_time(p['time'])} CPU{speed}; decided by {p['decided_by']}); "
+                f"{p['n_good']} of {p['n_solved']} models that solved the case are within "
+                f"{tol:g}."
             )
         else:
             text = (

@@ -1,10 +1,11 @@
 """The front page: which model to pick per case, which models are accurate where, how fast.
 
-Rules the page states (``pick_rule``): a model is *good enough* on a case when it converged
-over the whole reference path and its summary error (largest deviation over the path, as a
-fraction of the length scale L or in rad) is at most ``TOLERANCE``; the *pick* is the fastest
-good-enough model (median wall time); when none is good enough the most accurate one is named
-instead.  Errors below ``ROUNDOFF`` are round-off and shown as ``0 (< 1e-12)``.
+The pick of a case is the one ``flexbench recommend`` makes among the models of the run
+(``reports.advice.from_records``: the recommender's judgement of every record, the shared cost
+estimates of ``reports.cost``, ``reports.pick.choose``; ``pick_rule`` says it in words); when no
+model is good enough the most accurate one is named instead.  The accuracy map shows each
+record's ``ERROR`` field.  Errors below ``ROUNDOFF`` are round-off and shown as
+``0 (< 1e-12)``.
 """
 
 from __future__ import annotations
@@ -13,10 +14,12 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from reports.pick import TIE
 from reports.render.cells import Cell
 
 TOLERANCE = 1e-2
 ROUNDOFF = 1e-12
+ERROR = "error_rel"  # the records' error field shown in the map (yardstick: reports.yardstick)
 # exact where they apply: beam theory (closed form / BVP), and rigid-body kinematics with springs
 # (kinetostatic declines any scene with a compliant member, so where it runs it is exact)
 EXACT_MODELS = ("elastica", "elastica-bvp", "kinetostatic")
@@ -26,10 +29,15 @@ REFERENCE_PREFIXES = ("fem-", "replay")  # references, not candidates for the pi
 def pick_rule(tol: float = TOLERANCE) -> str:
     """The rule the front page applies, in words."""
     return (
-        f"Pick = the fastest model (median wall time) whose summary error is at most {tol:g} "
-        f"({tol * 100:g} % of the length scale L, or {tol:g} rad) over the whole reference "
-        "path; when no model meets it, the most accurate one is named. Colours in the accuracy "
-        f"map: green <= {tol:g}, amber <= {10 * tol:g}, red above; grey = not applicable."
+        f"Pick = what flexbench recommend --tol {tol:g} names among this run's models: the "
+        f"cheapest whose judged errors stay within {tol:g} over the whole reference path (the "
+        "exact reference counts with error 0). Cost = the CPU time of the model's own solve "
+        "(median of repeats until stable, cached per code version: the same numbers "
+        f"flexbench recommend ranks by); costs within their measured noise or {TIE:.0%} of "
+        "each other are a tie, which goes to the model with fewer a-priori unknowns, then to "
+        "the first name ('decided by'). When no model meets the tolerance, the most accurate "
+        f"one is named. Colours in the accuracy map: green <= {tol:g}, amber <= {10 * tol:g}, "
+        "red above; grey = not applicable."
     )
 
 
@@ -93,9 +101,7 @@ def _complete(rec: Mapping) -> bool:
 
 def judged(recs: Sequence[Mapping]) -> list[Mapping]:
     """Records with an error and a time that are not the case's reference."""
-    return [
-        r for r in recs if not r.get("is_reference") and r.get("error_rel") is not None and _time(r)
-    ]
+    return [r for r in recs if not r.get("is_reference") and r.get(ERROR) is not None and _time(r)]
 
 
 def is_reduced(model: str, role: str | None = "model") -> bool:
@@ -105,36 +111,45 @@ def is_reduced(model: str, role: str | None = "model") -> bool:
 
 
 def candidates(recs: Sequence[Mapping]) -> list[dict]:
-    """Pick candidates: complete reduced-model pairs with (error, time); the exact model
-    counts with error 0 where it is the case's reference."""
+    """Complete reduced-model pairs with (error, time); the exact model counts with error 0
+    where it is the case's reference (the "most accurate" column and the overall plot)."""
     out = []
     for r in recs:
         t = _time(r)
         if not t or not _complete(r) or not is_reduced(r["model"], r.get("role")):
             continue
         if r.get("is_reference") and r["model"] in EXACT_MODELS:
-            out.append({**r, "error_rel": 0.0, "speedup_vs_reference": 1.0})
-        elif not r.get("is_reference") and r.get("error_rel") is not None:
+            out.append({**r, ERROR: 0.0, "speedup_vs_reference": 1.0})
+        elif not r.get("is_reference") and r.get(ERROR) is not None:
             out.append(r)
     return out
 
 
-def pick(recs: Sequence[Mapping], tol: float = TOLERANCE) -> dict[str, Any] | None:
-    """The pick of one case (see ``pick_rule``): ``{"model", "error", "time", "ratio",
-    "within"}`` (``within``: good enough?) or None when no model has an error."""
-    cands = candidates(recs)
-    if not cands:
+def pick(case: Mapping, recs: Sequence[Mapping], tol: float = TOLERANCE) -> dict[str, Any] | None:
+    """The pick of one case (``reports.advice.from_records``): ``{"model", "error", "time"
+    (CPU s), "ratio" (reference / model CPU), "within" (good enough?), "n_good", "n_solved",
+    "decided_by"}``; None when no model could be judged."""
+    from reports.advice import from_records
+
+    rec = from_records(case, recs, tol)
+    judged = [c for c in rec.candidates if c.worst_error is not None] if rec else []
+    if not judged:
         return None
-    good = [r for r in cands if r["error_rel"] <= tol]
-    best = min(good, key=_time) if good else min(cands, key=lambda r: r["error_rel"])
+    good = [c for c in judged if c.qualifies]
+    if rec.recommended:
+        best = next(c for c in judged if c.model == rec.recommended)
+    else:
+        best = min(judged, key=lambda c: (c.worst_error / (c.tolerance or tol), c.model))
+    ratio = best.ratio_to_reference
     return {
-        "model": best["model"],
-        "error": best["error_rel"],
-        "time": _time(best),
-        "ratio": best.get("speedup_vs_reference"),
+        "model": best.model,
+        "error": best.worst_error,
+        "time": best.cpu_s,
+        "ratio": 1.0 / ratio if ratio else None,
         "within": bool(good),
         "n_good": len(good),
-        "n_solved": len(cands),
+        "n_solved": len(judged),
+        "decided_by": rec.decided_by,
     }
 
 
@@ -168,24 +183,25 @@ def pick_table(payload: Mapping) -> tuple[list[str], list[list]]:
         "reference",
         "pick",
         "its error",
-        "its time",
+        "its CPU time",
         "vs reference",
         "good enough / solved",
         "most accurate approximate model",
+        "decided by",
     ]
     rows = []
     tol = tolerance(payload)
     for name, case in payload["cases"].items():
         recs = [r for r in payload["results"] if r["case"] == name]
-        p = pick(recs, tol)
+        p = pick(case, recs, tol)
         ref = case.get("reference") or "–"
         link = Cell(name, href="#" + case_anchor(name, case), title=case.get("title"))
         if p is None:
             text = _no_pick(recs, case)
-            rows.append([link, ref, Cell(text, "na")] + [""] * 5)
+            rows.append([link, ref, Cell(text, "na")] + [""] * 6)
             continue
         approx = [r for r in candidates(recs) if r["model"] not in EXACT_MODELS]
-        acc = min(approx, key=lambda r: (r["error_rel"], _time(r))) if approx else None
+        acc = min(approx, key=lambda r: (r[ERROR], _time(r))) if approx else None
         label = p["model"] if p["within"] else f"none within {tol:g}"
         rows.append(
             [
@@ -196,7 +212,8 @@ def pick_table(payload: Mapping) -> tuple[list[str], list[list]]:
                 fmt_time(p["time"]),
                 fmt_speed(p["ratio"]),
                 f"{p['n_good']} / {p['n_solved']}",
-                "–" if acc is None else f"{acc['model']} ({fmt_err(acc['error_rel'])})",
+                "–" if acc is None else f"{acc['model']} ({fmt_err(acc[ERROR])})",
+                p["decided_by"] or "–",
             ]
         )
     return head, rows
@@ -222,7 +239,7 @@ def accuracy_map(payload: Mapping) -> tuple[list[str], list[list]]:
             elif r["status"] == "failed":
                 row.append(Cell("fail", "fail", title=r.get("message")))
             else:
-                e = r.get("error_rel")
+                e = r.get(ERROR)
                 tip = f"{fmt_time(_time(r))}; {r['status']}"
                 row.append(
                     Cell(fmt_err(e).replace(" (< 1e-12)", ""), error_class(e, tol), title=tip)
@@ -241,8 +258,8 @@ def solved_by_model(payload: Mapping) -> dict[str, dict[str, tuple[float, float]
             continue
         if r.get("is_reference") and r["model"] in EXACT_MODELS:
             out.setdefault(r["model"], {})[r["case"]] = (t, 0.0)
-        elif not r.get("is_reference") and r.get("error_rel") is not None:
-            out.setdefault(r["model"], {})[r["case"]] = (t, r["error_rel"])
+        elif not r.get("is_reference") and r.get(ERROR) is not None:
+            out.setdefault(r["model"], {})[r["case"]] = (t, r[ERROR])
     return out
 
 

@@ -51,17 +51,19 @@ def _r(a: Any, digits: int = 4) -> Any:
 
 
 def cost_scaling(case: str = "cantilever-tip-load", ns: Sequence[int] = COST_N) -> dict:
-    """Median CPU seconds of 3 solves vs N for each parametrised family, measured now."""
-    from reports.recommend import timed
+    """CPU seconds of a solve vs N for each parametrised family: the cost estimates
+    ``flexbench recommend`` ranks by (``reports.recommend.measured``, cached)."""
+    from reports.recommend import measured
 
     scene = cases.load(case)
     out = {}
     for fam in ("linear", "cbcm", "prb-fsm"):
         ms = []
         for n in ns:
-            model = api.make_model(f"{fam}-{n}", scene)
-            _, cpu = timed(lambda m=model: api.run_model(m, scene), min_total=0.0, max_runs=3)
-            ms.append(cpu * 1e3)
+            name = f"{fam}-{n}"
+            opts = scene.model_options(name)
+            _, est = measured(api.make_model(name, scene, opts), scene, name, opts)
+            ms.append(est.cpu_s * 1e3)
         out[fam] = {"N": list(ns), "ms": _r(ms)}
     return {"case": case, "families": out}
 

@@ -1,0 +1,199 @@
+"""The cost of a model on a scene: a CPU-time estimate that is stable, noisy-honest and cached.
+
+What is timed: the model's own solve, ``api.run_model(model, scene, post=False)`` (no shapes,
+no stress), in this process, with BLAS pinned to one thread and the garbage collector off (as
+``timeit``: a collection belongs to no particular solve), by ``time.process_time`` (CPU time:
+on a machine shared with other jobs wall time also counts the time the process was not
+scheduled).
+
+How long: the answer's own solve (cold caches) is not a sample.  Each sample runs the solve
+``k`` times, ``k`` chosen from the first solve so that a sample takes at least ``SAMPLE_S``
+(timer resolution and call overhead stay below 1e-3 of it).  Samples are taken until the 95 %
+confidence interval of their median (distribution-free, ``scipy.stats.quantile_test``; the
+range of the samples below 6 of them) has a half-width of at most ``REL`` of the median, or
+``MAX_SAMPLES`` samples, or ``BUDGET_S`` CPU seconds spent (at least ``MIN_SAMPLES``).  A
+solve slower than ``BUDGET_S`` is measured once (its first solve).  The estimate is the median
+per solve, its noise that half-width (s).
+
+Cache: one JSON file per code version, ``$FLEXBENCH_CACHE`` (default ``~/.cache/flexbench/``)
+``/costs-<version>.json``, keyed by the scene's content, the model name and its options.  The
+version hashes the sources of what the timed call runs (``cases``, ``reduced_models``,
+``fem_reference``, ``reports/api.py``) and of this module: a change to a report or a figure
+does not invalidate it, a change to a solver does.  ``flexbench recommend`` and the runner
+(``flexbench run``) read and write the same entries, so the CLI and the report rank the same
+models by the same numbers.  Writers lock the file (``fcntl.flock``): the runner's pool workers
+add entries concurrently.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import fcntl
+import functools
+import gc
+import hashlib
+import json
+import os
+import statistics
+import time
+from collections.abc import Callable, Iterator, Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+SAMPLE_S = 1e-3  # CPU s per sample at least (fast solves are batched)
+MIN_SAMPLES = 3
+MAX_SAMPLES = 20
+# stop when the median's 95 % interval half-width is within 5 % of it: well inside the pick's
+# 20 % tie band (reports.pick.TIE); a tighter target mostly buys samples on a loaded machine
+# (at load 12 on 2 cores most estimates ran into a 30-sample cap at 3 %)
+REL = 0.05
+BUDGET_S = 0.3  # CPU s of samples after which the estimate stands as it is
+_PACKAGES = ("cases", "reduced_models", "fem_reference")
+_FILES = ("reports/api.py", "reports/cost.py")
+
+
+@dataclasses.dataclass(frozen=True)
+class Estimate:
+    """CPU seconds per solve (median of samples), the half-width of its 95 % interval (s),
+    the number of samples and whether it came from the cache."""
+
+    cpu_s: float
+    noise_s: float
+    n: int
+    cached: bool = False
+
+    def as_json(self) -> dict[str, Any]:
+        """``{"cpu_s", "noise_s", "n", "cached"}``."""
+        return dataclasses.asdict(self)
+
+
+def cache_dir() -> Path:
+    """``$FLEXBENCH_CACHE``, else ``~/.cache/flexbench``."""
+    return Path(os.environ.get("FLEXBENCH_CACHE") or Path.home() / ".cache" / "flexbench")
+
+
+@functools.cache
+def code_version() -> str:
+    """Hash of the sources the timed solve runs and of this module (see module docstring)."""
+    import importlib
+
+    root = Path(__file__).resolve().parent.parent
+    files = [root / f for f in _FILES]
+    for name in _PACKAGES:
+        for base in getattr(importlib.import_module(name), "__path__", []):
+            files += sorted(Path(base).rglob("*.py"))
+    h = hashlib.sha1()
+    for f in files:
+        h.update(f.name.encode())
+        h.update(f.read_bytes())
+    return h.hexdigest()[:12]
+
+
+def key(scene: Any, name: str, options: Mapping | None) -> str:
+    """Cache key: scene content (its file path left out), model name, options."""
+    content = repr(dataclasses.replace(scene, path=""))
+    opts = json.dumps(dict(options or {}), sort_keys=True, default=repr)
+    return hashlib.sha1(f"{content}|{name}|{opts}".encode()).hexdigest()[:16]
+
+
+def _path() -> Path:
+    return cache_dir() / f"costs-{code_version()}.json"
+
+
+def lookup(k: str) -> Estimate | None:
+    """The cached estimate under key ``k`` (None: absent or unreadable)."""
+    try:
+        entry = json.loads(_path().read_text(encoding="utf-8"))[k]
+        return Estimate(float(entry["cpu_s"]), float(entry["noise_s"]), int(entry["n"]), True)
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def store(k: str, est: Estimate) -> None:
+    """Add an estimate to the cache file (locked read-modify-write; never raises)."""
+    path = _path()
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with open(path.with_suffix(".lock"), "w") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            try:
+                table = json.loads(path.read_text(encoding="utf-8"))
+            except (OSError, ValueError):
+                table = {}
+            table[k] = {"cpu_s": est.cpu_s, "noise_s": est.noise_s, "n": est.n}
+            tmp = path.with_suffix(f".{os.getpid()}.tmp")
+            tmp.write_text(json.dumps(table, sort_keys=True), encoding="utf-8")
+            tmp.replace(path)
+    except OSError:
+        pass  # not cached: measured again next time
+
+
+@contextlib.contextmanager
+def quiet_process() -> Iterator[None]:
+    """BLAS pinned to one thread and the garbage collector off while timing."""
+    from threadpoolctl import threadpool_limits
+
+    was_on = gc.isenabled()
+    gc.disable()
+    try:
+        with threadpool_limits(1):
+            yield
+    finally:
+        if was_on:
+            gc.enable()
+
+
+def half_width(samples: list[float]) -> float:
+    """Half-width of the 95 % distribution-free interval of the samples' median (their
+    range below 6 samples, where no such interval reaches 95 %)."""
+    if len(samples) < 6:
+        return (max(samples) - min(samples)) / 2
+    from scipy.stats import quantile_test
+
+    ci = quantile_test(np.asarray(samples), p=0.5).confidence_interval(0.95)
+    return float(ci.high - ci.low) / 2
+
+
+def measure(call: Callable[[], object], first_cpu_s: float) -> Estimate:
+    """Sample ``call`` until its median is stable (module docstring); ``first_cpu_s`` is the
+    CPU time of the answer's own (untimed) solve."""
+    if first_cpu_s >= BUDGET_S:
+        return Estimate(first_cpu_s, 0.0, 1)
+    k = max(1, int(np.ceil(SAMPLE_S / max(first_cpu_s, 1e-7))))
+    samples: list[float] = []
+    with quiet_process():
+        while True:
+            t0 = time.process_time()
+            for _ in range(k):
+                call()
+            samples.append((time.process_time() - t0) / k)
+            if len(samples) < MIN_SAMPLES:
+                continue
+            mid, half = statistics.median(samples), half_width(samples)
+            spent = sum(samples) * k
+            if len(samples) >= 6 and half <= REL * mid:
+                break
+            if len(samples) >= MAX_SAMPLES or spent >= BUDGET_S:
+                break
+    return Estimate(mid, half, len(samples))
+
+
+def estimate(
+    scene: Any,
+    name: str,
+    options: Mapping | None,
+    call: Callable[[], object],
+    first_cpu_s: float,
+) -> Estimate:
+    """The cached estimate of ``name`` on ``scene`` (with ``options``), else measured by
+    sampling ``call`` (the model's solve) and cached."""
+    k = key(scene, name, options)
+    hit = lookup(k)
+    if hit is not None:
+        return hit
+    est = measure(call, first_cpu_s)
+    store(k, est)
+    return est
