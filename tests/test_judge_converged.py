@@ -3,6 +3,7 @@ answer was wrong or a snap went unreported, each checked against an exact answer
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -42,3 +43,68 @@ def test_slider_driven_past_reach_keeps_rigid_links_or_fails_with_the_reason(mod
     reach = (R3 - R2) - X_C
     assert reach <= min(st.factor for st in sol.steps) <= reach + 2.5  # fails at the reach
     assert math.isfinite(sol.steps[-1].outputs["driver.force"])
+
+
+def column(multiple: float, imperfection: float, steps: int = 40) -> object:
+    """The catalog's cantilever column (EI = L = 1) loaded to ``multiple`` x Euler, with a
+    transverse tip force ``imperfection`` x P."""
+    base = cases.load("column-postbuckling")
+    P = multiple * math.pi**2 / 4.0
+    load = dataclasses.replace(base.loads[0], fx=-P, fy=imperfection * P)
+    a = dataclasses.replace(base.analysis, steps=steps)
+    return dataclasses.replace(base, loads=(load,), analysis=a, references=())
+
+
+def test_elastica_on_a_column_with_a_tiny_imperfection_has_no_nan_step():
+    """Below Euler the exact answer of the imperfect column is linear in the imperfection Q:
+    v(L) = Q (tan kL - kL) / (P k), v'(L) = Q (sec kL - 1) / P, k = sqrt(P/EI) (Timoshenko &
+    Gere 1961, Sec. 1.11); at 2 x Euler the post-buckled elastica, tip angle 2 asin k."""
+    sol = reports.solve(column(2.0, 1e-9), "elastica")
+    assert sol.status == "converged"
+    assert all(math.isfinite(v) for st in sol.steps for v in st.outputs.values())
+    for st in sol.steps:
+        P = st.factor * 2.0 * math.pi**2 / 4.0
+        if 0.0 < P < 0.9 * math.pi**2 / 4.0:
+            k, Q = math.sqrt(P), 1e-9 * P
+            assert st.outputs["tip.uy"] == pytest.approx(Q * (math.tan(k) - k) / (P * k), 1e-6)
+            assert st.outputs["tip.rot"] == pytest.approx(Q * (1 / math.cos(k) - 1) / P, 1e-6)
+    assert sol.steps[-1].outputs["tip.rot"] == pytest.approx(2.1738542409403347, rel=1e-6)
+
+
+class _NaNModel:
+    """A model that reports ``converged`` with a NaN output at its second step."""
+
+    name = "nan-model"
+
+    def applies_to(self, scene):  # noqa: ANN001, ANN201
+        return None
+
+    def solve(self, scene):  # noqa: ANN001, ANN201
+        from reduced_models.base import Solution, Step
+
+        steps = tuple(Step(f, {"tip.ux": v}) for f, v in ((0.0, 0.0), (0.5, math.nan)))
+        return Solution(scene.name, self.name, "converged", "", steps)
+
+
+def test_a_converged_solution_with_a_nan_output_is_failed_with_the_reason():
+    sol = reports.solve("cantilever-tip-load", _NaNModel())
+    assert sol.status == "failed"
+    assert "tip.ux" in sol.message and "0.5" in sol.message
+    assert [st.factor for st in sol.steps] == [0.0]  # the states up to the bad one
+
+
+@pytest.mark.parametrize("model", ["elastica", "replay", "cbcm-4", "linear-8", "bcm", "fem-8"])
+def test_tip_driven_to_six_lengths_is_declined_by_every_model_with_the_reason(model):
+    """A cantilever of length 1 whose tip is driven 5 along its axis: the chord root-tip is 6,
+    so the member is stretched by at least 500 %, far beyond the 20 % of any elastic model
+    here (``cases.limits.STRAIN_MAX``).  States up to 20 % may be returned, none beyond."""
+    from cases.schema import Driver
+    from tests.test_verify_linear_bcm import beam_scene
+
+    scene = beam_scene(1.0, 0.0, A=1.0, steps=4)
+    drive = Driver("displacement", 0.0, 5.0, node="B", direction="x")
+    a = dataclasses.replace(scene.analysis, kind="distance", driver=drive)
+    sol = reports.solve(dataclasses.replace(scene, analysis=a), model)
+    assert sol.status == "failed"
+    assert "strained by" in sol.message and "bound 0.2" in sol.message
+    assert all(st.outputs["tip.ux"] <= 0.2 for st in sol.steps)
