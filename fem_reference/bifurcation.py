@@ -284,6 +284,6 @@ class Watch:
                 w = (target - prev.lam) / (cur.lam - prev.lam) if cur.lam != prev.lam else 1.0
                 land = S.newton(sysm, prev.u + w * (cur.u - prev.u), target, opts)
                 land.iterations += cur.iterations
-                return land
+                return S.unwrap(sysm, land, st.u, opts)  # not the turns the arc went round
             prev = cur
         raise S.SolveError(f"new branch did not reach factor {target:.6g}")

@@ -108,3 +108,26 @@ def test_tip_driven_to_six_lengths_is_declined_by_every_model_with_the_reason(mo
     assert sol.status == "failed"
     assert "strained by" in sol.message and "bound 0.2" in sol.message
     assert all(st.outputs["tip.ux"] <= 0.2 for st in sol.steps)
+
+
+def pinned_root_beam() -> object:
+    """A beam pinned (end 'pin') to its clamped root, a tip force straight down: it hangs."""
+    base = cases.load("cantilever-tip-load")
+    beam = dataclasses.replace(base.members[0], end_a="pin")  # L = E = I = 1, A = 1e4
+    load = dataclasses.replace(base.loads[0], fx=0.0, fy=-1.0)
+    a = dataclasses.replace(base.analysis, kind="load", steps=10)
+    return dataclasses.replace(
+        base, members=(beam,), loads=(load,), analysis=a, references=(), models=()
+    )
+
+
+@pytest.mark.parametrize("model", ["fem-2", "fem-16"])
+def test_a_pinned_root_beam_hangs_at_minus_a_quarter_turn_not_24_turns_more(model):
+    """The pinned beam swings from horizontal to hanging straight down under any tip force:
+    tip rotation -pi/2 exactly (the force is then axial: no bending), continuous from the
+    initial 0 -- not -pi/2 + 2 pi k of an arc-length that went round the circle of
+    equilibria at factor ~0 before landing (the branch switch past the bifurcation at 0)."""
+    sol = reports.solve(pinned_root_beam(), model)
+    assert sol.status == "converged"
+    for st in sol.steps[1:]:
+        assert st.outputs["tip.rot"] == pytest.approx(-math.pi / 2, abs=1e-6)
