@@ -47,6 +47,7 @@ from fem_reference.rigid import stability_view
 KIND_TOL = 1e-3
 SWITCH_AMPLITUDE = 1e-2
 DENSE_MAX = 800
+NATURAL_STEPS = 32  # arc-length steps (to start with) retracing a load step that lost stability
 
 
 def is_conservative(system: object) -> bool:
@@ -137,8 +138,40 @@ class Watch:
             return cur
         if cur.info.get("snap"):
             return cur  # a limit point crossed by arc-length: the snapped-to state is judged
+        smooth = None if path else self.natural(prev, target)
+        if smooth is not None:  # load control jumped the knee of a smooth path
+            return smooth
         lam_c, crit, phi, located = self.locate(prev, cur)
         return self._act(lam_c, crit, phi, located, cur, target, path)
+
+    def natural(self, prev: S.State, target: float) -> S.State | None:
+        """The state at ``target`` on the path traced from the stable ``prev`` by arc-length
+        (initial step ``1 / NATURAL_STEPS`` of the load step's tangent increment), if that
+        path stays stable with the factor rising monotonically: load control jumped across
+        the knee of an imperfect structure's natural path onto the complementary branch (a
+        step too large, not a critical point).  None when the traced path loses stability
+        or turns back (a bifurcation or a limit point: located as before)."""
+        sysm, opts = self.sys, self.opts
+        sgn = 1.0 if target >= prev.lam else -1.0
+        try:
+            t = S.tangent_lu(sysm, prev.u, prev.lam).solve(sysm.external(prev.u))
+            ds = S.Scaler.of(sysm).unorm(t) * abs(target - prev.lam) / NATURAL_STEPS
+            arc = S.ArcLength(sysm, prev, ds, opts, direction=sgn, ds_max=max(8 * ds, 0.1))
+            last, its = prev, 0
+            for _ in range(opts.arc_max_steps):
+                cur = arc.step()
+                its += cur.iterations
+                if sgn * (cur.lam - last.lam) <= 0.0 or not self.stable(cur):
+                    return None
+                if sgn * (cur.lam - target) >= 0.0:
+                    w = (target - last.lam) / (cur.lam - last.lam)
+                    land = S.newton(sysm, last.u + w * (cur.u - last.u), target, opts)
+                    land.iterations += its
+                    return land if self.stable(land) else None
+                last = cur
+        except S.SolveError:
+            return None
+        return None
 
     def locate(self, prev: S.State, cur: S.State) -> tuple:
         """``(lam_c, critical state, mode, located)`` of the stability loss between a stable

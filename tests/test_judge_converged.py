@@ -131,3 +131,28 @@ def test_a_pinned_root_beam_hangs_at_minus_a_quarter_turn_not_24_turns_more(mode
     assert sol.status == "converged"
     for st in sol.steps[1:]:
         assert st.outputs["tip.rot"] == pytest.approx(-math.pi / 2, abs=1e-6)
+
+
+@pytest.mark.parametrize(
+    ("multiple", "imperfection", "area"),
+    [(6.0, 1e-3, 1e4), (3.0, 1e-4, 1e4), (2.0, 1e-2, 1e4), (6.0, 1e-3, 1e5), (4.0, 1e-5, 1e3)],
+)
+@pytest.mark.parametrize("model", ["fem-16", "fem-auto"])
+def test_an_imperfect_column_stays_on_its_natural_path(model, multiple, imperfection, area):
+    """The natural path of an imperfect column has no limit point: it bends smoothly through
+    the Euler load onto the post-buckled elastica.  A load step across the Euler load that
+    lands on the complementary (unstable, nearly straight) branch is a step too large, not a
+    limit point.  The FE ends where the exact elastica of the same imperfect scene ends
+    (6 x Euler, 1e-3: tip uy 0.518, rot 2.97), within its axial stretch P/EA and mesh error."""
+    base = column(multiple, imperfection)
+    scene = dataclasses.replace(base, members=(dataclasses.replace(base.members[0], A=area),))
+    exact = reports.solve(scene, "elastica").steps[-1].outputs
+    sol = reports.solve(scene, model)
+    assert sol.status == "converged", sol.message
+    assert sol.extras.get("reference_usable", True) is True, sol.message
+    assert all(st.stable for st in sol.steps)
+    last = sol.steps[-1].outputs
+    mesh = {"fem-16": 5e-3, "fem-auto": 1e-4}[model]  # fem-16: 2.5e-3 measured at 1e5
+    tol = 2 * multiple * math.pi**2 / 4 / area + mesh  # + the stretch P/EA the elastica lacks
+    assert last["tip.uy"] == pytest.approx(exact["tip.uy"], rel=tol)
+    assert last["tip.rot"] == pytest.approx(exact["tip.rot"], rel=tol)
