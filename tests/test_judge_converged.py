@@ -156,3 +156,44 @@ def test_an_imperfect_column_stays_on_its_natural_path(model, multiple, imperfec
     tol = 2 * multiple * math.pi**2 / 4 / area + mesh  # + the stretch P/EA the elastica lacks
     assert last["tip.uy"] == pytest.approx(exact["tip.uy"], rel=tol)
     assert last["tip.rot"] == pytest.approx(exact["tip.rot"], rel=tol)
+
+
+def test_a_load_ramp_past_the_limit_of_a_von_mises_arch_reports_the_snap():
+    """Shallow arch (von Mises truss, EA 1000, half-span 1, rise 0.1) loaded past its limit
+    load: the snap is reported at the exact limit load P(w1) = max P, from the apex
+    deflection w1 to the far branch's w at the same load (closed form P(w))."""
+    from scipy.optimize import brentq
+
+    from fem_reference.models import FEM
+    from tests.test_verify_fem_hard import arch_P
+
+    base = cases.load("shallow-arch-snap")
+    a = dataclasses.replace(base.analysis, kind="load", steps=5, factor_end=0.5)
+    sol = FEM(8).solve(dataclasses.replace(base, analysis=a))
+    assert sol.ok
+    (snap,) = [p for p in sol.extras["critical_points"] if p["kind"] == "snap"]
+    dP = lambda w: (arch_P(w + 1e-7) - arch_P(w - 1e-7)) / 2e-7  # noqa: E731
+    w1 = brentq(dP, 1e-3, 0.099)
+    w_far = brentq(lambda w: arch_P(w) - arch_P(w1), 0.2, 0.3)
+    assert snap["factor"] == pytest.approx(arch_P(w1), rel=1e-8)
+    assert -snap["from"]["apex.uy"] == pytest.approx(w1, rel=1e-5)
+    assert -snap["to"]["apex.uy"] == pytest.approx(w_far, rel=1e-6)
+    assert "snap at factor" in sol.message
+
+
+@pytest.mark.parametrize("model", ["fem-8", "fem-auto"])
+def test_das2d_ex3_ramped_to_15_n_says_where_it_snaps(model):
+    """DAS-2D Ex. 3 as the seed runs it (Fx ramped to 15 N, shuttle unguided): the shuttle
+    snaps at the largest load of its force-travel curve (the catalog's distance sweep of the
+    same scene; the guide there keeps that symmetric path unchanged) from ~3.9 mm of travel to
+    the far branch beyond the second stable position (15.25 mm)."""
+    ramp = cases.load(str(FIXTURES / "das2d-ex3-load-ramp.toml"))
+    sol = reports.solve(ramp, model)
+    assert sol.status == "converged"
+    (snap,) = [p for p in sol.extras["critical_points"] if p["kind"] == "snap"]
+    sweep = reports.solve("das2d-ex3-bistable-switch", model)
+    peak = max(st.factor for st in sweep.steps)  # grid 0.48 mm: at most ~1e-4 below the max
+    assert peak <= snap["factor"] <= peak * (1 + 1e-4)
+    assert 3.0 < snap["from"]["shuttle_top.ux"] < 5.0
+    assert snap["to"]["shuttle_top.ux"] > 15.25
+    assert "snap at factor" in sol.message
