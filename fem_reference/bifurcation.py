@@ -25,8 +25,18 @@ reported state of ``Runner.run_load`` (``models.py``):
    carries no imperfection).  Subcritical bifurcations (no stable state next to the
    critical one) are not switched: the path ends there with the reason.
 
+5. *Natural path* (``natural``): when the fundamental path cannot be re-solved inside the
+   bracket, the load step is retraced by arc-length from its last stable state; a traced
+   path that stays stable with the factor rising to the target is the smooth path of an
+   imperfect structure whose knee load control jumped (onto the complementary branch): a
+   step too large, not a critical point, and its state at the target is kept.
+6. *Snaps* (``snap``): a load step that moved ``JUMP_RATIO`` x more per unit factor than the
+   one before (or passed a limit point by arc-length) is retraced likewise; where the
+   traced factor turns back, the limit point is refined and reported as a snap with the
+   states before and after the jump at that factor.
+
 Reported in ``extras['critical_points']``: factor, kind, n_neg after it, the mode's largest
-component and whether the branch was switched.
+component and whether the branch was switched (snaps: ``from`` / ``to`` outputs).
 
 Reference: Wriggers, Nonlinear Finite Element Methods (2008), Sec. 7.4 (stability points,
 branch switching by eigenvector perturbation); Riks (1979) for the kind test.
