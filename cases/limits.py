@@ -14,6 +14,10 @@ never in a crash, a hang or an exhausted memory.  The rules are general, not per
   analysis step counts (``MAX_STEPS``): the solvers' work grows with them.
 
 Every bound is named in the message, so a user who really needs more knows what to change.
+
+The same holds for answers: ``state_violation`` is the check every model's returned states
+pass (``reports.api.run_model``): finite outputs, rigid links at their lengths and flexible
+members within ``STRAIN_MAX`` -- the bounds ``fem_reference.integrity`` applies to the FE.
 """
 
 from __future__ import annotations
@@ -21,6 +25,8 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from typing import Any
+
+from cases.arc import arc_length
 
 MAX_FILE_BYTES = 1_000_000  # the largest catalog case is ~5 kB
 MAX_DEPTH = 16  # nesting of tables and arrays (a case needs 4)
@@ -42,6 +48,10 @@ MAX_ARRAY = 10_000  # entries of any other array (tags, sweep values, option lis
 MAX_GRID_POINTS = 2_000  # scenes of one sweep grid (the product of its axes; catalog: 125)
 
 Fail = Callable[[str, str], Exception]
+
+# -- what a returned state must satisfy, whichever model made it --------------------------------
+STRAIN_MAX = 0.2  # axial strain of a flexible member: the elastic models' range (integrity.py)
+RIGID_STRETCH_MAX = 1e-4  # relative length error of a rigid link (100 x a stiff link's)
 
 
 def check_size(text: str, fail: Fail) -> None:
@@ -92,3 +102,41 @@ def check_steps(v: int, path: str, fail: Fail) -> None:
     """A step count: 1 <= v <= MAX_STEPS."""
     if v > MAX_STEPS:
         raise fail(path, f"{v} exceeds the limit of {MAX_STEPS} steps")
+
+
+def state_violation(scene: Any, outputs: dict[str, float]) -> str | None:
+    """None, or why a model's state (its ``Step.outputs``) of ``scene`` is not an answer.
+
+    A non-finite output; a rigid link or a flexible member between two nodes whose positions
+    are known (output nodes, clamped or pinned nodes) with a rigid link off its length by more
+    than ``RIGID_STRETCH_MAX`` or a member stretched beyond ``STRAIN_MAX`` -- the chord over
+    the undeformed length bounds the member's mean strain from below, whatever its shape.
+    """
+    for key, v in outputs.items():
+        if not math.isfinite(v):
+            return f"output {key!r} is {v}: not an answer"
+    nodes = {n.id: (n.x, n.y) for n in scene.nodes}
+    pos = {s.node: nodes[s.node] for s in scene.supports if s.type in ("clamp", "pin")}
+    for o in scene.outputs:
+        if f"{o.name}.ux" in outputs and f"{o.name}.uy" in outputs and o.node in nodes:
+            x, y = nodes[o.node]
+            pos[o.node] = (x + outputs[f"{o.name}.ux"], y + outputs[f"{o.name}.uy"])
+    for m in scene.members:
+        if m.kind not in ("rigid", "flexible") or m.a not in pos or m.b not in pos:
+            continue
+        chord0 = math.dist(nodes[m.a], nodes[m.b])
+        if chord0 == 0.0:
+            continue
+        chord = math.dist(pos[m.a], pos[m.b])
+        if m.kind == "rigid" and abs(chord / chord0 - 1.0) > RIGID_STRETCH_MAX:
+            return (
+                f"rigid link {m.id!r} is {chord:.6g} long instead of {chord0:.6g} (bound "
+                f"{RIGID_STRETCH_MAX:g} relative): not a state of the scene"
+            )
+        e = chord / arc_length(chord0, m.sweep_deg) - 1.0
+        if m.kind == "flexible" and e > STRAIN_MAX:
+            return (
+                f"member {m.id!r} strained by at least {e:.2g} (bound {STRAIN_MAX:g}): beyond "
+                "the moderate-strain elastic models"
+            )
+    return None

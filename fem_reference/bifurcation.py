@@ -25,8 +25,18 @@ reported state of ``Runner.run_load`` (``models.py``):
    carries no imperfection).  Subcritical bifurcations (no stable state next to the
    critical one) are not switched: the path ends there with the reason.
 
+5. *Natural path* (``natural``): when the fundamental path cannot be re-solved inside the
+   bracket, the load step is retraced by arc-length from its last stable state; a traced
+   path that stays stable with the factor rising to the target is the smooth path of an
+   imperfect structure whose knee load control jumped (onto the complementary branch): a
+   step too large, not a critical point, and its state at the target is kept.
+6. *Snaps* (``snap``): a load step that moved ``JUMP_RATIO`` x more per unit factor than the
+   one before (or passed a limit point by arc-length) is retraced likewise; where the
+   traced factor turns back, the limit point is refined and reported as a snap with the
+   states before and after the jump at that factor.
+
 Reported in ``extras['critical_points']``: factor, kind, n_neg after it, the mode's largest
-component and whether the branch was switched.
+component and whether the branch was switched (snaps: ``from`` / ``to`` outputs).
 
 Reference: Wriggers, Nonlinear Finite Element Methods (2008), Sec. 7.4 (stability points,
 branch switching by eigenvector perturbation); Riks (1979) for the kind test.
@@ -47,6 +57,9 @@ from fem_reference.rigid import stability_view
 KIND_TOL = 1e-3
 SWITCH_AMPLITUDE = 1e-2
 DENSE_MAX = 800
+NATURAL_STEPS = 32  # arc-length steps (to start with) retracing a load step that lost stability
+TRACE_STEPS = 8 * NATURAL_STEPS  # the most arc-length steps spent retracing one load step
+JUMP_RATIO = 4.0  # a load step moving this much more than the previous one (per unit factor)
 
 
 def is_conservative(system: object) -> bool:
@@ -96,6 +109,7 @@ class Watch:
         self._cache: tuple = (None, None, None)  # (id, stability dict, state kept alive)
         self.dense_max = 60
         self._fast: tuple = (None, False)  # (state, positive definite) of the last fast check
+        self._step: tuple | None = None  # (|du|_W, |dlam|) of the last load step
 
     def _eig(self, st: S.State, scale: np.ndarray | None = None) -> float:
         return lowest_mode(self.sys, st.u, st.lam, scale)[0]
@@ -138,7 +152,95 @@ class Watch:
         if cur.info.get("snap"):
             return cur  # a limit point crossed by arc-length: the snapped-to state is judged
         lam_c, crit, phi, located = self.locate(prev, cur)
+        # not re-solvable inside the bracket: load control may have jumped the knee of an
+        # imperfect structure's smooth path onto the complementary branch
+        smooth = None if located or path else self.natural(prev, cur, target)
+        if smooth is not None:
+            return smooth
         return self._act(lam_c, crit, phi, located, cur, target, path)
+
+    def snap(self, prev: S.State, cur: S.State) -> None:
+        """Record a snap passed within the load step ``prev -> cur``: a limit point that load
+        control jumped over (or arc-length passed, ``info['snap']``).  A step that moved more
+        than ``JUMP_RATIO`` x the previous one per unit factor is retraced by arc-length from
+        ``prev``; where its factor turns back, the limit point is refined (``refine_extremum``)
+        and the state at that factor on the branch load control landed on is solved:
+        ``{"kind": "snap", "factor", "from": outputs at the limit point, "to": outputs on the
+        landed branch at the same factor, "switched": True}`` (the path goes on from there)."""
+        if not self.active:
+            return
+        du = S.Scaler.of(self.sys).unorm(cur.u - prev.u)
+        dl = abs(cur.lam - prev.lam)
+        last, self._step = self._step, (du, dl)
+        jumped = last is not None and du * last[1] > JUMP_RATIO * last[0] * dl
+        if not (jumped or cur.info.get("snap")):
+            return
+        lim = self._limit(prev, cur)
+        if lim is None:
+            return
+        try:
+            to = S.newton(self.sys, cur.u, lim.lam, self.opts)
+        except S.SolveError:
+            to = cur
+        out = self.sys.outputs
+        point = {"factor": float(lim.lam), "kind": "snap", "switched": True}
+        self.points.append({**point, "from": out(lim.u), "to": out(to.u)})
+
+    def _trace(self, prev: S.State, cur: S.State):  # noqa: ANN202 - a generator of S.State
+        """States of the path traced by arc-length from ``prev`` towards ``cur.lam``: initial
+        step ``1 / NATURAL_STEPS`` of the load step's tangent increment (at least of the
+        distance to ``cur`` over ``NATURAL_STEPS**2``: a path that does not move under load),
+        at most ``TRACE_STEPS`` steps; a failed step ends it."""
+        sysm, sc = self.sys, S.Scaler.of(self.sys)
+        sgn = 1.0 if cur.lam >= prev.lam else -1.0
+        try:
+            t = S.tangent_lu(sysm, prev.u, prev.lam).solve(sysm.external(prev.u))
+            ds = sc.unorm(t) * abs(cur.lam - prev.lam) / NATURAL_STEPS
+            ds = max(ds, sc.unorm(cur.u - prev.u) / NATURAL_STEPS**2)
+            arc = S.ArcLength(sysm, prev, ds, self.opts, direction=sgn, ds_max=max(8 * ds, 0.1))
+            for _ in range(TRACE_STEPS):
+                yield arc.step()
+        except S.SolveError:
+            return
+
+    def _limit(self, prev: S.State, cur: S.State) -> S.State | None:
+        """The first limit point on the path traced from ``prev`` towards ``cur.lam`` (None
+        if the factor reaches it monotonically or tracing fails)."""
+        sgn = 1.0 if cur.lam >= prev.lam else -1.0
+        a, b = None, prev
+        for c in self._trace(prev, cur):
+            if sgn * (c.lam - b.lam) < 0.0 and a is not None:
+                try:
+                    return S.refine_extremum(self.sys, a, b, c, self.opts)
+                except S.SolveError:
+                    return None
+            if sgn * (c.lam - cur.lam) >= 0.0:
+                return None
+            a, b = b, c
+        return None
+
+    def natural(self, prev: S.State, cur: S.State, target: float) -> S.State | None:
+        """The state at ``target`` on the path traced from the stable ``prev``, if that path
+        stays stable with the factor rising monotonically: load control jumped across the
+        knee of an imperfect structure's natural path onto the complementary branch ``cur``
+        (a step too large, not a critical point).  None when the traced path loses
+        stability or turns back (a bifurcation or a limit point: judged as before)."""
+        sgn = 1.0 if target >= prev.lam else -1.0
+        last, its = prev, 0
+        for st in self._trace(prev, cur):
+            its += st.iterations
+            if sgn * (st.lam - last.lam) <= 0.0 or not self.stable(st):
+                return None
+            if sgn * (st.lam - target) >= 0.0:
+                w = (target - last.lam) / (st.lam - last.lam)
+                try:
+                    land = S.newton(self.sys, last.u + w * (st.u - last.u), target, self.opts)
+                except S.SolveError:
+                    return None
+                land.iterations += its
+                return land if self.stable(land) else None
+            last = st
+        return None
 
     def locate(self, prev: S.State, cur: S.State) -> tuple:
         """``(lam_c, critical state, mode, located)`` of the stability loss between a stable
@@ -284,6 +386,6 @@ class Watch:
                 w = (target - prev.lam) / (cur.lam - prev.lam) if cur.lam != prev.lam else 1.0
                 land = S.newton(sysm, prev.u + w * (cur.u - prev.u), target, opts)
                 land.iterations += cur.iterations
-                return land
+                return S.unwrap(sysm, land, st.u, opts)  # not the turns the arc went round
             prev = cur
         raise S.SolveError(f"new branch did not reach factor {target:.6g}")

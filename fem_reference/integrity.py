@@ -18,11 +18,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from cases.limits import RIGID_STRETCH_MAX, STRAIN_MAX  # the bounds every model is held to
 from fem_reference import corotational as cr
 
-RIGID_STRETCH_MAX = 1e-4  # 100x the stiff-link compliance of the default rigid_factor
 LINK_ERROR_MAX = 1e-9  # exact links: far above round-off, far below any output tolerance
-STRAIN_MAX = 0.2
 
 
 def strains(system: object, u: np.ndarray) -> dict[str, tuple[str, float]]:

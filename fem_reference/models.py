@@ -214,10 +214,18 @@ class Runner:
         self.watch = watch
         for prev, fk in zip(f[:-1], f[1:]):
             new = S.reach_factor(self.system, st, float(fk), float(fk - prev), self.opts)
+            if watch:
+                watch.snap(st, new)
             st = watch.check(st, new, float(fk)) if watch else new
             self._push(st, float(fk))
         if watch:
             self.extras["critical_points"] = watch.points
+            self.notes += [
+                f"snap at factor {p['factor']:.8g}: a limit point passed, the path jumps to "
+                "another branch (critical_points: from, to)"
+                for p in watch.points
+                if p["kind"] == "snap"
+            ]
             if not watch.note and watch.active and not watch.stable(st):
                 watch.note = f"the path ends on an unstable equilibrium (factor {st.lam:.6g})"
             if watch.note:  # the runner does not score models against such a path

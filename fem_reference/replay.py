@@ -27,6 +27,7 @@ from cases.schema import Scene
 from fem_reference import replay_events as ev
 from fem_reference import replay_honesty as honest
 from fem_reference.assembly import ModelError, build
+from fem_reference.integrity import violation
 from reduced_models.base import ModelCard, Solution, Step, load_factors, not_applicable
 
 
@@ -376,6 +377,15 @@ def _stability(run: _Run, s: ev.State, chk: dict, want: bool, scene: Scene | Non
     return eig, pr
 
 
+def _integrity(system: object, s: ev.State) -> str | None:
+    """None, or why settled state ``s`` is outside the FE model (``integrity.violation``):
+    a system with a prescribed coordinate (driver, servo) is checked on its full state."""
+    full_state = getattr(system, "full_state", None)
+    if full_state is None:
+        return violation(system, s.q)
+    return violation(system.full, full_state(s.q, s.lam)[0])
+
+
 def replay_system(
     system: object,
     factors: np.ndarray,
@@ -424,6 +434,10 @@ def replay_system(
             eig, pr = stability(run, s, chk, want, scene)
         except (ev.ReplayError, RuntimeError, ValueError, np.linalg.LinAlgError) as exc:
             status, message = "failed", f"factor {lam:.6g}: {exc}"
+            break
+        why = _integrity(system, s)  # a settled state the FE model cannot stand behind
+        if why:
+            status, message = "failed", f"factor {lam:.6g}: {why}"
             break
         pr.update(factor=float(lam), eigenvalue=eig, tangent_stable=bool(eig > 0))
         probes.append(pr)

@@ -78,6 +78,10 @@ class DrivenSystem:
         d[self.i] = lam / self.c
         return d
 
+    def full_state(self, u: np.ndarray, lam: float) -> tuple[np.ndarray, float]:
+        """State of the full system (driver DOF at ``lam``) and its load factor (0)."""
+        return self._d(u, lam), 0.0
+
     def residual(self, u: np.ndarray, lam: float) -> np.ndarray:
         self._lam = lam
         return np.asarray(self.full.residual(self._d(u, lam), 0.0))[self.keep]

@@ -66,6 +66,7 @@ __all__ = [
     "stability",
     "tangent_lu",
     "Scaler",
+    "unwrap",
 ]
 
 # names of the former single-module layout, kept for callers and tests
@@ -200,6 +201,29 @@ def displacement_control(
     return State(u, lam, iters, cuts, res)
 
 
+def unwrap(system: DiscreteSystem, st: State, ref: np.ndarray, opts: Options) -> State:
+    """``st`` with every rotation DOF moved by the whole turns that bring it within pi of
+    ``ref`` (the state before a jump), if the moved state is still converged.
+
+    An arc-length past a bifurcation or limit point may go round a circle of equilibria
+    (a pinned beam at factor ~0) several times before it crosses the target factor: its
+    landing is the right configuration with 2 pi k added to the rotations (24 turns,
+    -pi/2 - 24 pi).  The load path from ``ref`` does not turn through them.  Element rotations
+    are wrapped, so only a torsion spring (which counts whole turns) can tell the two apart:
+    then the residual changes and ``st`` is kept.
+    """
+    rot = np.asarray(system.is_rotation, dtype=bool)
+    k = np.where(rot, np.round((st.u - ref) / (2.0 * math.pi)), 0.0)
+    if not k.any():
+        return st
+    u = st.u - 2.0 * math.pi * k
+    sc = Scaler.of(system)
+    rn = sc.rnorm(ops(system).evaluate(u, st.lam).r)
+    if not rn <= max(sc.ftol(st.lam, opts), 2.0 * st.residual):
+        return st
+    return replace(st, u=u, residual=rn, lu=None, prev=None)
+
+
 def reach_factor(
     system: DiscreteSystem,
     st: State,
@@ -240,6 +264,7 @@ def reach_factor(
                     land = newton(system, guess, target, opts)
                 except SolveError:
                     continue
+                land = unwrap(system, land, base.u, opts)
                 land.iterations += iters
                 land.cuts = cuts
                 land.info = {"arc_steps": float(n + 1), "snap": 1.0}

@@ -252,7 +252,10 @@ def closed_form_dead(L: float, EI: float, fx: float, fy: float) -> tuple[Equilib
         raise ElasticaError(f"closed form did not converge (residual {g:.3g})")
     d2 = e * (2.0 * zmax - e) if e is not None else (zmax - z) * (zmax + z)
     p0 = math.copysign(2.0 * lam * c / s * z, u0)  # |u| grows from the root: inflection-free
-    return Equilibrium(L=L, lam=lam, phi=phi, u_start=u0, p_start=p0, m1=d2 / (s * s)), it
+    # 1 - m = d2 / s^2 rounds above 1 when m = c^2 / s^2 < eps (a column with a 1e-9
+    # imperfection below Euler): a negative m makes every Jacobi function NaN
+    m1 = min(d2 / (s * s), 1.0)
+    return Equilibrium(L=L, lam=lam, phi=phi, u_start=u0, p_start=p0, m1=m1), it
 
 
 def equilibrium(

@@ -15,6 +15,7 @@ import importlib
 import time
 import traceback
 
+from cases.limits import state_violation
 from cases.schema import Scene
 from reduced_models import registry as _registry
 from reduced_models.base import Model, ModelCard, Solution, not_applicable, post_process
@@ -151,6 +152,7 @@ def run_model(model: Model, scene: Scene, *, catch: bool = True, post: bool = Tr
         sol = model.solve(scene)
         if not isinstance(sol, Solution):
             raise TypeError(f"solve() returned {type(sol).__name__}, not Solution")
+        sol = checked(scene, sol)
         return _predicted(name, scene, post_process(model, scene, sol)) if post else sol
     except Exception as exc:
         if not catch:
@@ -162,6 +164,20 @@ def run_model(model: Model, scene: Scene, *, catch: bool = True, post: bool = Tr
             message=f"{type(exc).__name__}: {exc}".splitlines()[0][:500],
             extras={"traceback": traceback.format_exc(limit=8)},
         )
+
+
+def checked(scene: Scene, sol: Solution) -> Solution:
+    """``sol``, or, when converged, failed at its first state that is no answer (a NaN output,
+    a rigid link off its length, a member stretched beyond the elastic models: the shared
+    ``cases.limits.state_violation``) with the states before it."""
+    if sol.status != "converged":
+        return sol
+    for k, st in enumerate(sol.steps):
+        why = state_violation(scene, st.outputs)
+        if why:
+            msg = f"at factor {st.factor:.6g}: {why}"
+            return dataclasses.replace(sol, status="failed", message=msg, steps=sol.steps[:k])
+    return sol
 
 
 def finish(model: Model, scene: Scene, sol: Solution) -> Solution:

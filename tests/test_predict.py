@@ -54,10 +54,11 @@ def moment_scene(m: float, steps: int = 1) -> object:
 
 def test_prediction_at_a_table_state_is_the_closed_form_error_of_linear_1():
     """linear-1 under an end moment m: uy = m/2, ux = 0, rot = m (linear theory); the exact
-    tip is on the circular arc (sin m / m, (1 - cos m) / m), rot = m.  At m = 3 (a table
-    state, the arc tip's distance from its start still rising) the prediction is
+    tip is on the circular arc (sin m / m, (1 - cos m) / m), rot = m.  At m = 0.5 (a table
+    state, the arc tip's distance from its start still rising; at m = 3 linear theory puts
+    the tip 1.8 L from the clamp and the shared strain bound fails it) the prediction is
     max(|d ux|, |d uy|) over that distance."""
-    m = 3.0
+    m = 0.5
     ux, uy = math.sin(m) / m - 1.0, (1.0 - math.cos(m)) / m
     expected = max(abs(ux), abs(m / 2 - uy)) / math.hypot(ux, uy)
     sol = reports.solve(moment_scene(m), "linear-1")
@@ -122,7 +123,9 @@ def test_large_tip_force_is_outside_the_atlas():
 def test_silent_errors_now_warn(case, model):
     """The issue's silent cases: a predicted error above 1 %, named in the warning."""
     sol = reports.solve(cases.load(case), model)
-    assert sol.ok
+    if not sol.ok:  # bcm's 15 L tip now fails the shared strain bound: a verdict, not silence
+        assert "strained" in sol.message, sol.message
+        return
     assert sol.extras["predicted_error"] > 0.01
     assert sol.extras["validity_warning"].startswith("predicted error")
 
@@ -178,7 +181,9 @@ def test_cell_centres_are_read_within_the_resolution_claim():
             vals = predict.lookup(model, p, np.full(p.size, a), m)
             st = predict.States("beam", model, PT.RHOS, p, np.full(p.size, a), m, vals, p < 0)
             ratios.append(np.max(st.path_error()) / direct)
-    assert 0.9 < np.median(ratios) < 1.1, ratios
+    # a ramp a model fails on (NaN: cbcm-2 stretched past the strain bound) has no ratio
+    ratios = [r for r in ratios if np.isfinite(r)]
+    assert len(ratios) >= 4 and 0.9 < np.median(ratios) < 1.1, ratios
     assert all(1 / 1.6 < r < 1.6 for r in ratios), ratios
 
 
@@ -245,7 +250,8 @@ def test_effectivity_summary_and_figure(tmp_path):
 
 def test_units_do_not_change_the_state():
     """A 100 mm steel cantilever (E = 200 GPa, I = 10 mm^4) under 1600 N: PL^2/EI = 8 in
-    any units; bcm answers it "converged" with a tip far off, and the prediction says so."""
+    any units; prb-3r's prediction reads that state and warns; bcm's far-off tip (once
+    answered "converged") fails the shared strain bound."""
     base = cases.load("cantilever-tip-load")
     a, b = base.nodes
     scene = dataclasses.replace(
@@ -256,8 +262,10 @@ def test_units_do_not_change_the_state():
         loads=(dataclasses.replace(base.loads[0], fy=-1600.0),),
         references=(),
     )
-    sol = reports.solve(scene, "bcm")
+    sol = reports.solve(scene, "prb-3r")
     assert sol.ok
     assert sol.extras["predicted_error_at"]["PL^2/EI"] == pytest.approx(8.0)
-    assert sol.extras["predicted_error"] > 1.0  # more than the deflection itself
+    assert sol.extras["predicted_error"] > 0.01
     assert sol.extras["validity_warning"].startswith("predicted error")
+    bcm = reports.solve(scene, "bcm")
+    assert not bcm.ok and "strained" in bcm.message
