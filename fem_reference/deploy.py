@@ -15,8 +15,6 @@ about that relative level.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import scipy.linalg as sla
 import scipy.optimize as so
@@ -198,52 +196,3 @@ def _stall(
 
 
 __all__ = ["booms_as_locks", "solve_deploy"]
-
-
-def replay_deploy(scene: Scene, model: object) -> Solution:
-    """``replay`` on a deploy scene: the booms (``booms_as_locks``) push from t = 0 (ramped
-    in), lock exactly when they reach their length, the mechanism settles; the settled state
-    is probed (kick along the lowest mode, or the case's ``probe_node`` impulse).  One step:
-    factor 2 (Part 2) when every boom locked, else the stall's extension progress."""
-    from dataclasses import replace
-
-    from fem_reference.replay import replay_system
-
-    locks = tuple(model.options.locks) + booms_as_locks(scene)
-    opts = replace(model.options, locks=locks, probe="last")
-    system = build(scene, model.n_elements)
-    sol = replay_system(system, np.array([0.0]), scene=scene, case=scene.name, options=opts)
-    if sol.status == "failed" and "locating the boom lock" in sol.message:
-        # the lock search re-integrates one step at fractions of it; a step that large can
-        # fail Newton there: once more with ten times tighter local error (smaller steps)
-        opts = replace(opts, lte_tol=opts.lte_tol / 10)
-        sol = replay_system(system, np.array([0.0]), scene=scene, case=scene.name, options=opts)
-        sol = replace(sol, message=sol.message + " (retried with lte_tol / 10)")
-    if not sol.steps:
-        return Solution(scene.name, model.name, sol.status, sol.message, (), sol.extras)
-    boom = scene.booms[0]
-    last = sol.steps[-1]
-    pair = ev.resolve_locks(system, scene, booms_as_locks(scene))[0]
-    q = _settled_q(sol, system, pair, last)
-    ell = pair.geometry(q)[0] if q is not None else math.nan
-    locked = len(sol.extras.get("events", [])) >= len(scene.booms)
-    ell0 = pair.geometry(np.zeros(system.ndof))[0]
-    factor = 2.0 if locked else (ell - ell0) / (boom.length - ell0)
-    out = {**last.outputs, f"{boom.id}.length": ell}
-    step = Step(
-        factor, out, last.energy, last.iterations, last.stable, last.shapes, None, last.info
-    )
-    msg = sol.message + ("" if locked else f"; boom {boom.id!r} stalled at length {ell:.6g}")
-    extras = {**sol.extras, "boom_reached": locked}
-    return Solution(scene.name, model.name, sol.status, msg, (step,), extras)
-
-
-def _settled_q(sol: Solution, system: object, pair: object, last: Step) -> np.ndarray | None:
-    """The settled state's DOFs: the history frame whose outputs match the settled step."""
-    frames = sol.extras.get("frames", {})
-    qs = frames.get("q") if isinstance(frames, dict) else None
-    if qs is None or not len(qs):
-        return None
-    keys = [k for k in last.outputs if k.endswith((".x", ".y"))]
-    best = min(qs, key=lambda q: max(abs(system.outputs(q)[k] - last.outputs[k]) for k in keys))
-    return np.asarray(best)

@@ -14,6 +14,7 @@ carries over to the next step of the same size.  Convergence is judged by the sa
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -105,6 +106,4 @@ def step_band(integ: GenAlpha, s: State, h: float, lam: float) -> State | None:
     fe_new = lam * np.asarray(integ.sys.external(q), dtype=float)
     # the tangent for current-stiffness damping of the next step, only when it is used
     K = integ.sys.tangent_csr(ev_) if integ.a1 != 0.0 and integ.K0 is None else None
-    from fem_reference.replay_events import State  # that module imports this one
-
-    return State(s.t + h, lam, q, v, acc, a, s.mu.copy(), fe_new, K)
+    return replace(s, t=s.t + h, lam=lam, q=q, v=v, acc=acc, a=a, mu=s.mu.copy(), f_ext=fe_new, K=K)

@@ -444,13 +444,3 @@ def chain_shape(nodes: np.ndarray, xl: np.ndarray, yl: np.ndarray, h: float) -> 
     npts = xl.shape[-2] * (xl.shape[-1] - 1)
     pts = np.stack([X[..., :-1], Y[..., :-1]], axis=-1).reshape(lead + (npts, 2))
     return np.concatenate([pts, nodes[..., -1:, :2]], axis=-2)
-
-
-def __getattr__(name: str) -> object:
-    # ``ChainModel`` moved to ``chain_model`` (which imports this module); re-exported lazily
-    # so that ``from reduced_models.chain import ChainModel`` keeps working without a cycle.
-    if name == "ChainModel":
-        from reduced_models.chain_model import ChainModel
-
-        return ChainModel
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

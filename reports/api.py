@@ -150,7 +150,7 @@ def run_model(model: Model, scene: Scene, *, catch: bool = True, post: bool = Tr
         sol = model.solve(scene)
         if not isinstance(sol, Solution):
             raise TypeError(f"solve() returned {type(sol).__name__}, not Solution")
-        return post_process(model, scene, sol) if post else sol
+        return _post_process(model, scene, sol) if post else sol
     except Exception as exc:
         if not catch:
             raise
@@ -163,11 +163,24 @@ def run_model(model: Model, scene: Scene, *, catch: bool = True, post: bool = Tr
         )
 
 
+def _post_process(model: Model, scene: Scene, sol: Solution) -> Solution:
+    """The model's ``postprocess`` (shapes, stress), then, for a synthesis the assembler ran,
+    the fem-auto re-solve of the synthesised scene (``reports.fecheck``)."""
+    if getattr(model, "postprocess", None) is None or not sol.steps:
+        return sol
+    sol = post_process(model, scene, sol)
+    if scene.analysis.kind != "synthesis":
+        return sol
+    from reports.fecheck import fe_check
+
+    return fe_check(scene, sol)
+
+
 def finish(model: Model, scene: Scene, sol: Solution) -> Solution:
     """``sol`` with the model's post-processing (shapes, stress) added; an exception there
     leaves the answer as it was and is named in ``extras["postprocess_error"]``."""
     try:
-        return post_process(model, scene, sol)
+        return _post_process(model, scene, sol)
     except Exception as exc:
         extras = dict(sol.extras, postprocess_error=f"{type(exc).__name__}: {exc}")
         return dataclasses.replace(sol, extras=extras)

@@ -3,7 +3,8 @@ the import rules of ``../shared/DESIGN.md`` ("A module map").
 
 The graph is read from the source with :mod:`ast` (nothing is imported), so an import
 inside a function counts like one at the top of a module: a lazy import only hides a
-circle from the interpreter, not from a reader.
+circle from the interpreter, not from a reader.  Imports under ``if TYPE_CHECKING:`` do not
+count: they name a type for an annotation and never run.
 
 The rules, one room at a time (a room is a top-level package):
 
@@ -69,7 +70,17 @@ def _imports(module: str, path: Path, modules: dict[str, Path]) -> set[str]:
     is_package = path.name == "__init__.py"
     package = module if is_package else module.rpartition(".")[0]
     targets = set()
-    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+    tree = ast.parse(path.read_text(), filename=str(path))
+    type_only = {
+        id(inner)
+        for node in ast.walk(tree)
+        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test)
+        for stmt in node.body
+        for inner in ast.walk(stmt)
+    }
+    for node in ast.walk(tree):
+        if id(node) in type_only:
+            continue
         if isinstance(node, ast.Import):
             names = [alias.name for alias in node.names]
         elif isinstance(node, ast.ImportFrom):

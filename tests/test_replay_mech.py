@@ -17,7 +17,7 @@ from fem_reference import replay_servo
 from fem_reference import static as S
 from fem_reference.assembly import build
 from fem_reference.models import FEM
-from fem_reference.replay import Replay
+from fem_reference.replay_model import Replay
 
 
 def _scene(name: str, **analysis: object) -> cases.Scene:

@@ -28,7 +28,8 @@ from cases.schema import (
 )
 from fem_reference import static as S
 from fem_reference.assembly import build
-from fem_reference.models import FEM, MODELS, FEMAuto, Runner
+from fem_reference.auto import FEMAuto
+from fem_reference.models import FEM, MODELS, Runner
 from reduced_models.elastica import tip_dead_force
 
 # -- scene builders ----------------------------------------------------------------------------
@@ -525,8 +526,8 @@ def test_failed_is_honest_for_a_mechanism_without_stiffness():
 def test_registry_and_not_applicable():
     assert MODELS == {
         "fem-N": "fem_reference.models:FEM",
-        "fem-auto": "fem_reference.models:FEMAuto",
-        "replay": "fem_reference.replay:Replay",
+        "fem-auto": "fem_reference.auto:FEMAuto",
+        "replay": "fem_reference.replay_model:Replay",
     }
     sc = cantilever(fy=-1.0)
     sweep = Scene(

@@ -14,7 +14,8 @@ import cases
 from cases.schema import Analysis
 from fem_reference import static as S
 from fem_reference.assembly import build
-from fem_reference.models import FEM, FEMAuto
+from fem_reference.auto import FEMAuto
+from fem_reference.models import FEM
 from reduced_models.base import load_factors
 from reduced_models.elastica import tip_dead_force
 

@@ -19,14 +19,9 @@ import cases
 from fem_reference import static
 from fem_reference.assembly import build
 from fem_reference.models import FEM
-from fem_reference.replay import (
-    Replay,
-    ReplayOptions,
-    replay_system,
-    write_animation,
-    write_vtu_series,
-)
+from fem_reference.replay import ReplayOptions, replay_system
 from fem_reference.replay_events import GenAlpha, ramp
+from fem_reference.replay_model import Replay, write_animation, write_vtu_series
 from reduced_models.base import Step
 
 # --------------------------------------------------------------------------------------------

@@ -302,10 +302,6 @@ class _Post:
 def postprocess(scene: Scene, sol: Solution) -> Solution:
     """Shapes and bending stress of every step from the states the solve kept (outside the
     timed solve); ``sol`` unchanged when it kept none."""
-    if scene.analysis.kind == "synthesis":  # the synthesised scene re-solved by fem-auto
-        from reduced_models.mechanism.fecheck import fe_check
-
-        sol = fe_check(scene, sol)
     post = sol.extras.get("_post")
     if not isinstance(post, _Post):
         return sol

@@ -1,7 +1,8 @@
 """Synthesised scenes re-solved with ``fem-auto`` (issue 9: "Synthesised scenes are re-solved
 with fem-auto in the report").
 
-``fe_check(scene, sol)`` runs outside the timed solve (the assembler's ``postprocess``): the
+``fe_check(scene, sol)`` runs outside the timed solve, after the model's ``postprocess``
+(``reports.api``; it lives in ``reports`` because it needs both the models and the FE): the
 scene with the synthesised EI (``synthesis.synthesised_scene``) or, for the ``bistable`` search,
 the driver sweep itself, is solved by ``fem-auto`` and the FE's own measure of the goal is put
 beside the model's in ``extras["synthesis"]["fem-auto"]`` / ``extras["bistable"]["fem-auto"]``:
@@ -20,6 +21,7 @@ import dataclasses
 import numpy as np
 
 from cases.schema import Scene
+from fem_reference.auto import FEMAuto
 from reduced_models.base import Solution, post_process
 from reduced_models.mechanism.bistable import energy_scene
 from reduced_models.mechanism.synthesis import synthesised_scene
@@ -29,8 +31,6 @@ _CACHE: dict[tuple, Solution] = {}
 
 
 def _fe(scene: Scene) -> Solution:
-    from fem_reference.models import FEMAuto  # the FE package sits above reduced_models
-
     model = FEMAuto()
     reason = model.applies_to(scene)
     if reason:
@@ -112,6 +112,9 @@ def fe_check(scene: Scene, sol: Solution) -> Solution:
     if sol.status != "converged" or a.kind != "synthesis" or a.synthesis is None:
         return sol
     goal = a.synthesis.goal
+    slot = "bistable" if goal == "bistable" else "synthesis"
+    if slot not in sol.extras:  # not a synthesis the assembler ran
+        return sol
     extras = dict(sol.extras)
     if goal == "bistable":  # the same sweep for every model: solved once per scene
         key = ("bistable", scene.name, repr(scene))
@@ -119,9 +122,7 @@ def fe_check(scene: Scene, sol: Solution) -> Solution:
             _CACHE[key] = _fe(energy_scene(scene))
         fe, fac = _CACHE[key], 1.0
     else:
-        syn = extras.get("synthesis")
-        if syn is None:
-            return sol
+        syn = extras["synthesis"]
         fe, fac = (
             _scaled_fe(scene, syn["scale"])
             if goal == "critical-load"
@@ -145,7 +146,6 @@ def fe_check(scene: Scene, sol: Solution) -> Solution:
             check.update(
                 achieved=v, relative_error=abs(v - a.synthesis.target) / a.synthesis.target
             )
-    slot = "bistable" if goal == "bistable" else "synthesis"
     extras[slot] = {**extras[slot], FE_MODEL: check}
     return dataclasses.replace(sol, extras=extras)
 
