@@ -8,7 +8,7 @@ exceptions (a missing image logs ``Failed to load resource``), no request leaves
 resolves, every image has loaded (``naturalWidth > 0``).  A screenshot of the first screen
 is saved and the page height measured.
 
-``python -m reports.browser DIR`` checks ``DIR/report.html``, writes
+``python -m reports.bench.browser DIR`` checks ``DIR/report.html``, writes
 ``DIR/report-screenshot.png`` and exits 1 when anything is wrong.
 """
 
@@ -280,10 +280,10 @@ def check_report(
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m reports.browser DIR``: check DIR/report.html, keep a screenshot."""
+    """``python -m reports.bench.browser DIR``: check DIR/report.html, keep a screenshot."""
     argv = sys.argv[1:] if argv is None else argv
     if len(argv) != 1:
-        print("usage: python -m reports.browser RUN_DIR", file=sys.stderr)
+        print("usage: python -m reports.bench.browser RUN_DIR", file=sys.stderr)
         return 2
     out = Path(argv[0])
     html = out / "report.html" if out.is_dir() else out

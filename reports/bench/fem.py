@@ -36,7 +36,7 @@ Debian's ``libblas3 liblapack3``)::
 
     python3 -m venv --system-site-packages /tmp/benchenv
     /tmp/benchenv/bin/pip install openseespy
-    /tmp/benchenv/bin/python -m reports.bench_fem --elements 64 1000 --steps 20 --repeats 5
+    /tmp/benchenv/bin/python -m reports.bench.fem --elements 64 1000 --steps 20 --repeats 5
 """
 
 from __future__ import annotations
@@ -484,10 +484,10 @@ def _import_opensees() -> Any:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m reports.bench_fem [--elements 64 1000] [--steps 20] [--repeats N]
+    """``python -m reports.bench.fem [--elements 64 1000] [--steps 20] [--repeats N]
     [--cases ...] [--system auto|BandGen|...] [--json OUT]``; exit 2 without OpenSeesPy."""
     p = argparse.ArgumentParser(
-        prog="python -m reports.bench_fem",
+        prog="python -m reports.bench.fem",
         description=__doc__.split("\n\n")[0],
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )

@@ -7,7 +7,7 @@
 * the dense and the sparse KKT path of the assembler side by side at rising N on the guide
   (``mechanism.kkt.SPARSE_FROM`` chooses between them).
 
-Every figure is the solve's CPU time as the runner times it (``bench.solve_cost``: median
+Every figure is the solve's CPU time as the runner times it (``measure.solve_cost``: median
 over the rounds after a warm-up, BLAS on one thread, post-processing excluded).
 """
 
@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import cases
 from reduced_models.mechanism import kkt
+from reports.bench.measure import ms, solve_cost, verdict
 
 GUIDE = "das2d-parallel-guide-26dof"
 EX4 = "das2d-ex4-bistable-fourbar"
@@ -24,7 +25,6 @@ PATHS = ("cbcm-16", "cbcm-32", "prb-fsm-128")  # dense vs sparse on the guide (2
 
 def mechanism_table(rounds: int) -> tuple[list[str], list[str]]:
     """Rows (guide, fem-auto, ratio, Ex. 4) and the target verdicts."""
-    from reports.bench import _ms, _verdict, solve_cost
 
     guide = cases.load(GUIDE)
     t_c = solve_cost(guide, "cbcm-2", rounds)
@@ -45,19 +45,19 @@ def mechanism_table(rounds: int) -> tuple[list[str], list[str]]:
     if med["c"] is not None:
         c = med["c"] * 1e3
         verdicts.append(
-            f"- 26-DOF guide cbcm-2 <= {GUIDE_MS:g} ms: {c:.3g} ms, {_verdict(c, GUIDE_MS)}"
+            f"- 26-DOF guide cbcm-2 <= {GUIDE_MS:g} ms: {c:.3g} ms, {verdict(c, GUIDE_MS)}"
         )
     if ratio:
         met = "met" if ratio >= GUIDE_RATIO else f"missed ({ratio / GUIDE_RATIO:.2g} of it)"
         verdicts.append(
             f"- 26-DOF guide >= {GUIDE_RATIO:g}x faster than fem-auto: {ratio:.1f}x "
-            f"(fem-auto {_ms(med['f'])} ms), {met}"
+            f"(fem-auto {ms(med['f'])} ms), {met}"
         )
     if med["4"] is not None:
         e = med["4"] * 1e3
         verdicts.append(
             f"- Ex. 4 energy plot (121 points, linear-4) < {EX4_MS:g} ms: {e:.3g} ms, "
-            f"{_verdict(e, EX4_MS)}"
+            f"{verdict(e, EX4_MS)}"
         )
     return lines, verdicts
 
@@ -65,7 +65,6 @@ def mechanism_table(rounds: int) -> tuple[list[str], list[str]]:
 def kkt_path_table(rounds: int) -> list[str]:
     """Dense against sparse KKT on the guide at rising N (the crossover behind
     ``SPARSE_FROM``)."""
-    from reports.bench import _ms, solve_cost
 
     guide = cases.load(GUIDE)
     lines = [
@@ -81,7 +80,7 @@ def kkt_path_table(rounds: int) -> list[str]:
             for sf in (10**9, 0):
                 kkt.SPARSE_FROM = sf
                 t = solve_cost(guide, name, max(3, rounds // 3))
-                cells.append(_ms(t[1] if t else None))
+                cells.append(ms(t[1] if t else None))
             lines.append(f"| {name} | {cells[0]} | {cells[1]} |")
     finally:
         kkt.SPARSE_FROM = keep

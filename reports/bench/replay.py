@@ -28,7 +28,7 @@ Run (Exudyn is not a FlexBench dependency)::
 
     python3 -m venv --system-site-packages /tmp/exuenv
     /tmp/exuenv/bin/pip install exudyn
-    /tmp/exuenv/bin/python -m reports.bench_replay --elements 100 --repeats 7
+    /tmp/exuenv/bin/python -m reports.bench.replay --elements 100 --repeats 7
 """
 
 from __future__ import annotations

@@ -10,14 +10,13 @@ same mesh.  Scaling exponents are least-squares slopes of log(time) against log(
 larger N of each family.  Targets (issue 12) are printed beside each figure with met/missed.
 
 ``--suite`` also runs the default matrix (no report) and gives each model family's share of
-its CPU time.  OpenSeesPy (``reports.bench_fem``) is not a dependency; when it imports, the
+its CPU time.  OpenSeesPy (``reports.bench.fem``) is not a dependency; when it imports, the
 ``fem-16`` / ``fem-64`` comparison against its corotational ``elasticBeamColumn`` is added.
 """
 
 from __future__ import annotations
 
 import argparse
-import gc
 import math
 import os
 import platform
@@ -26,13 +25,14 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
 import cases
 from cases.schema import Scene
 from reports import api, timing
+from reports.bench.measure import fit_exponent, ms, post_cost, solve_cost, verdict
 
 SINGLE_BEAM = (
     "cantilever-tip-load",
@@ -50,62 +50,6 @@ SCALING = {
     "prb-fsm-N": (4, 16, 64, 256),
     "linear-N": (4, 16, 64, 256),
 }
-
-
-def cpu_median(call: Callable[[], object], rounds: int) -> tuple[float, float, float]:
-    """(min, median, max) CPU seconds of ``call`` over ``rounds`` calls after one warm-up."""
-    call()
-    ts = []
-    gc.disable()
-    try:
-        for _ in range(rounds):
-            c0 = time.process_time()
-            call()
-            ts.append(time.process_time() - c0)
-    finally:
-        gc.enable()
-    return min(ts), statistics.median(ts), max(ts)
-
-
-def solve_cost(scene: Scene, name: str, rounds: int) -> tuple[float, float, float] | None:
-    """CPU (min, median, max) seconds of one model's solve on a scene; None if it declines
-    or fails."""
-    model = api.make_model(name, scene)
-    sol = api.run_model(model, scene, post=False)
-    if sol.status != "converged":
-        return None
-    # long solves: fewer rounds (the spread says how noisy)
-    n = rounds if sol_cost_guess(model, scene) < 0.2 else max(3, rounds // 3)
-    return cpu_median(lambda: api.run_model(model, scene, post=False), n)
-
-
-def sol_cost_guess(model: object, scene: Scene) -> float:
-    """CPU seconds of one solve (one call)."""
-    c0 = time.process_time()
-    api.run_model(model, scene, post=False)
-    return time.process_time() - c0
-
-
-def post_cost(scene: Scene, name: str, rounds: int) -> float | None:
-    """Median CPU seconds of a model's post-processing of its own solution."""
-    model = api.make_model(name, scene)
-    sol = api.run_model(model, scene, post=False)
-    if not sol.steps:
-        return None
-    return cpu_median(lambda: api.finish(model, scene, sol), rounds)[1]
-
-
-def fit_exponent(ns: Sequence[int], ts: Sequence[float]) -> float:
-    """Least-squares slope of log t against log N."""
-    return float(np.polyfit(np.log(ns), np.log(ts), 1)[0])
-
-
-def _ms(t: float | None) -> str:
-    return "n/a" if t is None else f"{t * 1e3:.3g}"
-
-
-def _verdict(value: float, limit: float) -> str:
-    return "met" if value <= limit else f"missed by {value / limit:.2f}x"
 
 
 # why a small model costs what it costs (printed next to a missed target; the figures beside
@@ -156,7 +100,7 @@ def single_beam_table(rounds: int, cases_: Sequence[str]) -> tuple[list[str], li
                 cells.append("n/a")
                 continue
             ratio = f" ({r[1] / t_el:.2f})" if t_el else ""
-            cells.append(f"{_ms(r[1])}{ratio}")
+            cells.append(f"{ms(r[1])}{ratio}")
             if r[1] > worst.get(m, (0.0, ""))[0]:
                 worst[m] = (r[1], case)
             if m == "prb-1r" and t_el and r[1] >= t_el:
@@ -171,7 +115,7 @@ def single_beam_table(rounds: int, cases_: Sequence[str]) -> tuple[list[str], li
         w = t * 1e3
         text = (
             f"- {m} <= {limit} ms: worst {w:.3g} ms ({case}; {its} Newton iterations, "
-            f"{t / max(its, 1) * 1e6:.0f} us per iteration all included), {_verdict(w, limit)}"
+            f"{t / max(its, 1) * 1e6:.0f} us per iteration all included), {verdict(w, limit)}"
         )
         verdicts.append(text + ("" if w <= limit else f": {COST_NOTES[m]}"))
     verdicts.append(
@@ -187,7 +131,7 @@ def post_table(rounds: int) -> list[str]:
     lines = ["| model | solve ms | post-processing ms |", "|---|---|---|"]
     for m in ("elastica", "prb-1r", "prb-3r", "bcm", "fem-16"):
         r = solve_cost(scene, m, rounds)
-        lines.append(f"| {m} | {_ms(r[1] if r else None)} | {_ms(post_cost(scene, m, rounds))} |")
+        lines.append(f"| {m} | {ms(r[1] if r else None)} | {ms(post_cost(scene, m, rounds))} |")
     return lines
 
 
@@ -204,12 +148,12 @@ def scaling_table(rounds: int, quick: bool) -> tuple[list[str], list[str]]:
             ts.append(r[1] if r else math.nan)
         ok = [i for i, t in enumerate(ts) if math.isfinite(t)]
         k = fit_exponent([ns[i] for i in ok[-3:]], [ts[i] for i in ok[-3:]]) if len(ok) > 1 else 0
-        cells = ", ".join(f"{n}: {_ms(t)}" for n, t in zip(ns, ts))
+        cells = ", ".join(f"{n}: {ms(t)}" for n, t in zip(ns, ts))
         lines.append(f"| {fam} | {cells} | {k:.2f} |")
         if fam == "fem-N":
             per = [t / n for n, t in zip(ns, ts)]
             verdicts.append(
-                f"- fem-N linear in N (exponent <= 1.15): {k:.2f}, {_verdict(k, 1.15)}; "
+                f"- fem-N linear in N (exponent <= 1.15): {k:.2f}, {verdict(k, 1.15)}; "
                 f"time per element {ns[-1]} vs {ns[0]}: {per[-1] / per[0]:.2f}x"
             )
     return lines, verdicts
@@ -222,7 +166,7 @@ def small_fem_table(rounds: int) -> tuple[list[str], list[str]]:
     lines = [
         "| fem-16 ms | fem-32 ms | fem-64 ms | fem-16 / fem-64 |",
         "|---|---|---|---|",
-        f"| {_ms(t[16])} | {_ms(t[32])} | {_ms(t[64])} | {t[16] / t[64]:.2f} |",
+        f"| {ms(t[16])} | {ms(t[32])} | {ms(t[64])} | {t[16] / t[64]:.2f} |",
     ]
     return lines, [f"- fem-16 no slower than fem-64: {t[16] / t[64]:.2f}x"]
 
@@ -237,7 +181,7 @@ def replay_table(rounds: int) -> list[str]:
     return [
         "| replay ms | static fem-N ms (same mesh) | replay / static |",
         "|---|---|---|",
-        f"| {_ms(r[1] if r else None)} | {_ms(f[1] if f else None)} (N = {n}) | {ratio} |",
+        f"| {ms(r[1] if r else None)} | {ms(f[1] if f else None)} (N = {n}) | {ratio} |",
     ]
 
 
@@ -297,7 +241,7 @@ def suite_shares() -> tuple[list[str], list[str]]:
     share = {fam: 100 * total.get(fam, 0.0) / t_all for fam in ("replay", "elastica-bvp")}
     verdicts = [
         f"- replay share of the default matrix < 20 %: {share['replay']:.1f} %, "
-        f"{_verdict(share['replay'], 20.0)}",
+        f"{verdict(share['replay'], 20.0)}",
         f"- elastica-bvp (speed baseline at tol 1e-10) share of the default matrix: "
         f"{share['elastica-bvp']:.1f} %",
     ]
@@ -306,11 +250,11 @@ def suite_shares() -> tuple[list[str], list[str]]:
 
 def opensees_lines(rounds: int) -> list[str]:
     """fem-16 and fem-64 against OpenSeesPy when it is installed (else a note)."""
-    from reports import bench_fem
+    from reports.bench import fem as bench_fem
 
     ops = bench_fem._import_opensees()
     if isinstance(ops, Exception):  # optional: not a FlexBench dependency
-        return [f"OpenSeesPy not available ({type(ops).__name__}); see reports/bench_fem.py."]
+        return [f"OpenSeesPy not available ({type(ops).__name__}); see reports/bench/fem.py."]
     lines = []
     scene = bench_fem.bench_scene("cantilever-tip-load", 20)
     cfg = bench_fem.OSConfig()
@@ -324,7 +268,7 @@ def opensees_lines(rounds: int) -> list[str]:
             r = t_fb / statistics.median(os_().cpu_s for _ in range(rounds))
             lines.append(
                 f"- fem-{n} / OpenSeesPy ({mode}): {r:.2f}x, fem-{n} {t_fb * 1e3:.3g} ms "
-                f"({_verdict(r, 2.0)} for <= 2x)"
+                f"({verdict(r, 2.0)} for <= 2x)"
             )
     return lines
 
@@ -386,7 +330,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     verdicts.append(
         f"- `solve --model prb-3r` <= 0.3 s wall: {wall:.2f} s ({cpu:.2f} s CPU), "
-        f"{_verdict(wall, 0.3)} (`python -c 'import numpy'` alone: {floor:.2f} s wall, "
+        f"{verdict(wall, 0.3)} (`python -c 'import numpy'` alone: {floor:.2f} s wall, "
         f"{floor_cpu:.2f} s CPU in the same run){why}"
     )
     if args.suite:
@@ -405,7 +349,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def _mech_rows(rounds: int) -> tuple[list[str], list[str]]:
     """The mechanism section (``reports.bench_mech``) and its verdicts."""
-    from reports.bench_mech import kkt_path_table, mechanism_table
+    from reports.bench.mech import kkt_path_table, mechanism_table
 
     rows, v = mechanism_table(rounds)
     return ["## Mechanisms (issue 9)", ""] + rows + [""] + kkt_path_table(rounds) + [""], v

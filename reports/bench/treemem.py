@@ -1,4 +1,4 @@
-"""``python -m reports.treemem COMMAND ...``: wall, CPU and peak memory of a process tree.
+"""``python -m reports.bench.treemem COMMAND ...``: wall, CPU and peak memory of a process tree.
 
 Runs COMMAND and samples it and all its descendants every ``INTERVAL_S`` with psutil: the
 summed RSS (pages shared by forked pool workers counted once per process) and the summed PSS
@@ -54,7 +54,7 @@ def measure(cmd: list[str]) -> tuple[int, dict[str, float]]:
 
 def main(argv: list[str]) -> int:
     if not argv:
-        print("usage: python -m reports.treemem COMMAND [ARG ...]", file=sys.stderr)
+        print("usage: python -m reports.bench.treemem COMMAND [ARG ...]", file=sys.stderr)
         return 2
     code, f = measure(argv)
     print(
