@@ -59,7 +59,7 @@ from reports.exports import (
     start_render_probe,
 )
 from reports.progress import Progress, stage
-from reports.tables import previous_records, scene_drawing, step_shapes, write_errors_csv
+from reports.tables import case_meta, previous_records, step_shapes, write_errors_csv
 from reports.timing import DEFAULT_TIME_LIMIT, QUICK_TIME_LIMIT
 
 
@@ -112,11 +112,6 @@ def quick_scene(scene: Scene, divisor: int = 4, min_steps: int = 4) -> Scene:
     return scene
 
 
-def scene_hash(scene: Scene) -> str:
-    """Content hash of a scene (its repr covers every field, options included)."""
-    return hashlib.sha1(repr(scene).encode()).hexdigest()[:12]
-
-
 def code_hash() -> str:
     """Hash of the solver packages' sources: a resumed run never reuses stale answers."""
     import importlib
@@ -132,33 +127,6 @@ def code_hash() -> str:
                 h.update(str(f.relative_to(base)).encode())
                 h.update(f.read_bytes())
     return h.hexdigest()[:12]
-
-
-def case_meta(scene: Scene) -> dict[str, Any]:
-    """What the report and ``compare`` need to know about a case without loading it."""
-    lengths = [scene.member_length(m.id) for m in scene.members]
-    length = max(lengths, default=0.0) or 1.0
-    undeformed = {}
-    for m in scene.members:
-        a, b = scene.node(m.a), scene.node(m.b)
-        undeformed[m.id] = [[a.x, a.y], [b.x, b.y]]
-    return {
-        "name": scene.name,
-        "title": scene.title,
-        "units": scene.units,
-        "tags": list(scene.tags),
-        "description": scene.description,
-        "path": scene.path,
-        "reference_model": scene.reference_model,
-        "length_scale": length,
-        "analysis": dataclasses.asdict(scene.analysis),
-        "outputs": [dataclasses.asdict(o) for o in scene.outputs],
-        "primary_output": scene.outputs[0].name if scene.outputs else None,
-        "references": [dataclasses.asdict(r) for r in scene.references],
-        "undeformed": undeformed,
-        **scene_drawing(scene),
-        "scene_hash": scene_hash(scene),
-    }
 
 
 def model_list(scene: Scene, models: Sequence[str] | None, table: dict[str, str]) -> list:
