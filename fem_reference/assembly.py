@@ -491,7 +491,6 @@ def build(
         con_X=np.array(con_X, dtype=float).reshape(-1, 2),
         con_kappa=Kref / Lref**2,
         is_multiplier=is_multiplier,
-        n_per_member={m.id: per.get(m.id, n_default) for m in flex},
         extra={
             "Kref": Kref,
             "end_rot": end_rot,

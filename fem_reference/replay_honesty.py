@@ -2,8 +2,9 @@
 
 * ``mesh_error``: the replay settles on a fixed mesh (``n_elements``, default 32), so it
   differs from ``fem-auto`` by that mesh's discretisation error.  The static FE on the same
-  mesh and on half of it gives the Richardson estimate ``|f_n - f_{n/2}| / (2^2 - 1)`` per
-  output at the last factor (order 2 of the corotational element); the replay states it.
+  mesh and on half of it gives the two-mesh estimate per output at the last factor, by the
+  same rule as ``fem-auto``'s (``richardson.gci``: ``3 |f_n - f_{n/2}| / (2^2 - 1)``, order 2
+  of the corotational element assumed, Roache's safety factor 3); the replay states it.
 * ``static_limit``: a snap-through is reported at the factor where the *static* path loses
   stability (load control from the settled state before the jump stalls at the limit point);
   the dynamic onset seen in the transient lags behind by the ramp rate and is kept alongside.
@@ -21,13 +22,15 @@ import numpy as np
 
 from cases.schema import Scene
 from fem_reference import static as S
+from fem_reference.richardson import gci
 
 JUMP_MIN_DISTANCE = 1e-4  # fraction of the length scale
 
 
 def mesh_error(scene: Scene, n: int) -> dict[str, float] | None:
-    """Richardson estimate of the n-element discretisation error of every output at the last
-    load factor, from static FE solves on n and n // 2 elements (None if either fails)."""
+    """Estimate (``richardson.gci``) of the n-element discretisation error of every output at
+    the last load factor, from static FE solves on n and n // 2 elements (None if either
+    fails)."""
     from fem_reference.models import FEM
 
     if n < 2:
@@ -38,7 +41,7 @@ def mesh_error(scene: Scene, n: int) -> dict[str, float] | None:
     if any(r.status != "converged" or not r.steps for r in runs):
         return None
     coarse, fine = runs[0].steps[-1].outputs, runs[1].steps[-1].outputs
-    return {k: abs(fine[k] - coarse[k]) / 3.0 for k in fine if k in coarse}
+    return {k: float(gci(coarse[k], fine[k], n / (n // 2))) for k in fine if k in coarse}
 
 
 def worst_mesh_error(est: dict[str, float], length: float) -> float:

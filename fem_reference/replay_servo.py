@@ -45,6 +45,7 @@ from cases.schema import Scene
 from fem_reference import replay_events as ev
 from fem_reference.assembly import build
 from fem_reference.driver_post import post_process
+from fem_reference.richardson import gci
 from reduced_models.base import Solution, Step, not_applicable
 
 #: a report point's target coordinate is landed to this fraction of the sweep's range (the
@@ -370,8 +371,8 @@ def _run(scene: Scene, full: object, i: int, func: tuple, values: np.ndarray, op
 
 
 def factor_mesh_error(scene: Scene, n: int) -> float | None:
-    """Richardson estimate of the n-element error of the last load factor (static FE on n and
-    n // 2 elements), None if either fails."""
+    """Estimate (``richardson.gci``) of the n-element error of the last load factor (static FE
+    on n and n // 2 elements), None if either fails."""
     from fem_reference.models import FEM
 
     if n < 2:
@@ -383,7 +384,7 @@ def factor_mesh_error(scene: Scene, n: int) -> float | None:
     runs = [FEM(m, stability=False, bifurcation=False).solve(sc) for m in (n // 2, n)]
     if any(r.status != "converged" or not r.steps for r in runs):
         return None
-    return abs(runs[1].steps[-1].factor - runs[0].steps[-1].factor) / 3.0
+    return float(gci(runs[0].steps[-1].factor, runs[1].steps[-1].factor, n / (n // 2)))
 
 
 def solve_checked(scene: Scene, n: int, options: object) -> Solution:

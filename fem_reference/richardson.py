@@ -46,6 +46,15 @@ FS_ASSUMED = 3.0  # Roache's GCI safety factor when the order is assumed, not ob
 FS_EXTRAPOLATED = 3.0  # same factor on the assumed next order of the extrapolated values
 
 
+def gci(coarse: float | np.ndarray, fine: float | np.ndarray, ratio: float) -> float | np.ndarray:
+    """Grid Convergence Index of the ``fine`` value from two meshes whose element counts differ
+    by ``ratio`` (> 1), the order assumed (``P_FORMAL``), not observed:
+    ``FS_ASSUMED |fine - coarse| / (ratio^P_FORMAL - 1)`` (Roache 1998, Sec. 5.9).  The one
+    rule for a two-mesh error estimate: ``fem-auto`` outside the asymptotic range and the
+    replay's stated mesh error (``replay_honesty``, ``replay_servo``)."""
+    return FS_ASSUMED * np.abs(np.subtract(fine, coarse)) / (ratio**P_FORMAL - 1.0)
+
+
 @dataclass(frozen=True)
 class Extrapolation:
     """Result for one quantity: the reported value, the error estimate *of that value*
@@ -110,8 +119,7 @@ def extrapolate(f: np.ndarray, n: np.ndarray, scale: float = 0.0) -> Extrapolati
     rr = float(n[-1] / n[-2])
     star, p = _richardson(f, n) if f.size >= 3 else (math.nan, math.nan)
     if math.isnan(star):  # outside the asymptotic range: the finest value with its GCI
-        gci = FS_ASSUMED * abs(d32) / (rr**P_FORMAL - 1.0)
-        return Extrapolation(f3, gci, p, True, "finest")
+        return Extrapolation(f3, float(gci(f2, f3, rr)), p, True, "finest")
     if f.size >= 4:
         prev, _ = _richardson(f[:-1], n[:-1])
         if not math.isnan(prev):

@@ -27,7 +27,6 @@ from scipy.optimize import minimize_scalar
 from fem_reference.arclength import ArcLength
 from fem_reference.banded import (
     BAND_MAX,
-    BandedLU,
     SingularTangent,
     _dpbtrf,
     band_stability,
@@ -44,8 +43,6 @@ from fem_reference.newton import (
     SolveError,
     State,
     bordered_solve,
-    converged,
-    lu_of,
     newton,
     ops,
     tangent_lu,
@@ -68,25 +65,12 @@ __all__ = [
     "Scaler",
 ]
 
-# names of the former single-module layout, kept for callers and tests
-_Scaler = Scaler
-_converged = converged
-_lu = lu_of
-
 
 def _factor(K: sp.csr_matrix, bw: int | None = None) -> object:
     """LU of a csr tangent: banded LAPACK when the (RCM-ordered) band is narrow, else SuperLU;
     ``SolveError`` if singular."""
     try:
         return _band_factor(K, bw)
-    except SingularTangent as err:
-        raise SolveError(str(err)) from None
-
-
-def _BandedLU(K: sp.csr_matrix, bw: int) -> BandedLU:  # noqa: N802 - former class name
-    """Banded LU of a csr matrix; ``SolveError`` if singular."""
-    try:
-        return BandedLU.from_csr(K, bw)
     except SingularTangent as err:
         raise SolveError(str(err)) from None
 

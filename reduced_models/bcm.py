@@ -96,7 +96,7 @@ def shape_functions(p: np.ndarray, sigma: np.ndarray) -> tuple[np.ndarray, ...]:
     p = np.asarray(p, dtype=float)[:, None]
     s = np.asarray(sigma, dtype=float)[None, :]
     C1, S1, _, _ = _cosh_sqrt(p)  # cosh r, sinh r / r at the segment end
-    Cx, Sx, c1x, s1x = _cosh_sqrt(p * s**2)
+    _, Sx, c1x, s1x = _cosh_sqrt(p * s**2)
     T = S1 / C1  # tanh(r)/r
     k11 = T * s**2 * c1x - s**3 * s1x
     k12 = s**2 * c1x / C1

@@ -394,19 +394,6 @@ class ChainProblem:
         R.fix(rfixed)
         return lapack.dpbtrf(R.ab)[1] == 0
 
-    def tip_loads(self, X: np.ndarray) -> np.ndarray:
-        """Loads (fX, fY, m) the last segment carries at the tip, from its constitutive law.
-
-        ``X``: one state (n,) or a stack (m, n); result (3,) or (m, 3).  Normalised, beam
-        frame.  At equilibrium they equal the applied tip loads (and the guided-tip reaction
-        moment).
-        """
-        Xs = np.atleast_2d(X)
-        nodes, p = self.split(Xs)
-        coords = (v[:, 0] for v in local_coords(nodes[:, -2:], self.h))
-        out = self.tip_loads_of(*coords, p[:, -1])
-        return out if np.ndim(X) == 2 else out[0]
-
     def tip_loads_of(
         self,
         xi: np.ndarray,
@@ -416,8 +403,10 @@ class ChainProblem:
         s: np.ndarray,
         p: np.ndarray,
     ) -> np.ndarray:
-        """``tip_loads`` (m, 3) from the last segment's ``local_coords`` (each (m,)) and axial
-        force p (m,), for a caller that has them already."""
+        """Loads (fX, fY, m), (m, 3), the last segment carries at the tip, from its
+        constitutive law, given its ``local_coords`` (each (m,)) and axial force p (m,).
+        Normalised, beam frame; at equilibrium they equal the applied tip loads (and the
+        guided-tip reaction moment)."""
         B = self.law.block(xi - 1.0, eta, a, p, self.k)
         pl, fl, ml = B[:, 0, 4], B[:, 1, 4], B[:, 2, 4]
         N2 = self.N**2

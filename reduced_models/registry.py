@@ -85,13 +85,6 @@ class UnknownModelError(ValueError):
     """A model name the registry does not know (message names it and lists valid names)."""
 
 
-def register(name: str, target: str, default_names: tuple[str, ...] = ()) -> None:
-    """Add an entry (used by sibling packages' registries and by tests)."""
-    MODELS[name] = target
-    global DEFAULT_NAMES
-    DEFAULT_NAMES = tuple(dict.fromkeys(DEFAULT_NAMES + default_names))
-
-
 def parse(name: str, table: dict[str, str] | None = None) -> tuple[str, int | None]:
     """Split ``"cbcm-4"`` into ``("cbcm-N", 4)``; plain names give ``(name, None)``.
 

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import dataclasses
 import importlib
-import time
 import traceback
 
 from cases.schema import Scene
@@ -204,10 +203,3 @@ def solve(
         scene = cases.load(scene)
     m = make_model(model, scene, options) if isinstance(model, str) else model
     return run_model(m, scene, catch=catch)
-
-
-def timed_solve(scene: Scene, model: Model) -> tuple[Solution, float]:
-    """``run_model`` and its wall time in seconds (perf_counter)."""
-    t0 = time.perf_counter()
-    sol = run_model(model, scene)
-    return sol, time.perf_counter() - t0

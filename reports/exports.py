@@ -59,7 +59,6 @@ class ExportPolicy:
 
 DEFAULT_EXPORT = ExportPolicy()
 QUICK_EXPORT = ExportPolicy(replay_frames=False, animation=False)
-NO_EXPORT = ExportPolicy(paraview=False, replay_frames=False, animation=False)
 
 
 def _slug(name: str) -> str:

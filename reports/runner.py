@@ -52,7 +52,6 @@ from cases.schema import Scene
 from reports import api, errors, journal, limits, overlap, store, sweep, teach_run, timing
 from reports.exports import (
     DEFAULT_EXPORT,
-    NO_EXPORT,  # noqa: F401  (re-exported)
     QUICK_EXPORT,
     ExportPolicy,
     export_outputs,

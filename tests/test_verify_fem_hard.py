@@ -12,10 +12,10 @@ from scipy.optimize import brentq
 
 import cases
 from cases.schema import Analysis
-from fem_reference import static as S
 from fem_reference.assembly import build
 from fem_reference.auto import FEMAuto
 from fem_reference.models import FEM
+from fem_reference.newton import lu_of
 from reduced_models.base import load_factors
 from reduced_models.elastica import tip_dead_force
 
@@ -106,7 +106,7 @@ def plain_newton_diverges(system, steps=10, max_iter=60):
                 return True
             if np.linalg.norm(r) < 1e-6 * np.linalg.norm(system.external(u)):
                 break
-            u = u + S._lu(system, K).solve(-r)
+            u = u + lu_of(system, K).solve(-r)
         else:
             return True
     return False
