@@ -13,10 +13,10 @@ sweep_key
 gout
 Hout
 
-# reduced_models/prb.py: the prepared-scene cache, read back through self.__dict__.get
+# reduced_models/beam/prb.py: the prepared-scene cache, read back through self.__dict__.get
 _ready
 
-# reduced_models/prb_tables.py: the settings the 2R fit was made with (documentation data,
+# reduced_models/beam/prb_tables.py: the settings the 2R fit was made with (documentation data,
 # named in the prb-2r card; tests/test_verify_prb.py re-measures the fit)
 PRB_2R_FIT
 

@@ -4,10 +4,10 @@ scenes with several flexible members meshed per member (``adaptive.py``)."""
 from __future__ import annotations
 
 from cases.schema import Scene
-from fem_reference.adaptive import flexible_ids, relative_estimate, solve_per_member
-from fem_reference.driver_post import post_process
+from fem_reference.error.adaptive import flexible_ids, relative_estimate, solve_per_member
+from fem_reference.error.richardson import combine
 from fem_reference.models import _REFS, FEM, FEM_OPTIONS
-from fem_reference.richardson import combine
+from fem_reference.statics.driver_post import post_process
 from reduced_models.base import ModelCard, Solution, not_applicable
 
 
@@ -61,7 +61,7 @@ class FEMAuto:
         if reason:
             return not_applicable(scene, self.name, reason)
         if scene.analysis.kind == "deploy":  # no Richardson: the finest mesh of the sequence
-            from fem_reference.deploy import solve_deploy
+            from fem_reference.statics.deploy import solve_deploy
 
             return solve_deploy(scene, self.name, self.sequence[-1])
         if len(flexible_ids(scene)) >= 2:  # each member meshed as its error needs

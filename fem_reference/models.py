@@ -25,17 +25,17 @@ from dataclasses import replace
 import numpy as np
 
 from cases.schema import Scene
-from fem_reference import static as S
 from fem_reference.assembly import FEMSystem, ModelError, build
-from fem_reference.bifurcation import Watch, is_conservative
-from fem_reference.driver_post import post_process
-from fem_reference.integrity import violation
+from fem_reference.statics import static as S
+from fem_reference.statics.bifurcation import Watch, is_conservative
+from fem_reference.statics.driver_post import post_process
+from fem_reference.statics.integrity import violation
 from reduced_models.base import ModelCard, Solution, Step, load_factors, not_applicable
 
 MODELS: dict[str, str] = {
     "fem-N": "fem_reference.models:FEM",
     "fem-auto": "fem_reference.auto:FEMAuto",
-    "replay": "fem_reference.replay_model:Replay",
+    "replay": "fem_reference.replay.model:Replay",
 }
 DEFAULT_NAMES: tuple[str, ...] = ("fem-auto", "replay")
 
@@ -406,7 +406,7 @@ class FEM:
         if reason:
             return not_applicable(scene, self.name, reason)
         if scene.analysis.kind == "deploy":
-            from fem_reference.deploy import solve_deploy
+            from fem_reference.statics.deploy import solve_deploy
 
             return solve_deploy(scene, self.name, self.n)
         r, status, message = self.runner(scene)

@@ -15,9 +15,9 @@ from cases.schema import Analysis
 from fem_reference.assembly import build
 from fem_reference.auto import FEMAuto
 from fem_reference.models import FEM
-from fem_reference.newton import lu_of
+from fem_reference.statics.newton import lu_of
 from reduced_models.base import load_factors
-from reduced_models.elastica import tip_dead_force
+from reduced_models.beam.elastica import tip_dead_force
 
 # Lee's frame, first limit load P L^2/EI as commonly quoted for the 120 x 120 frame
 # (E = 720, A = 6, I = 2): 18.5 (e.g. Schweizerhof & Wriggers, CMAME 59:261, 1986; the 3-digit

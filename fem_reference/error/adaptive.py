@@ -140,8 +140,8 @@ def solve_per_member(
     scene: Scene, name: str, sequence: tuple[int, ...], options: dict, target: float | None
 ) -> Solution:
     """``fem-auto`` with per-member meshes (module docstring)."""
+    from fem_reference.error.richardson import combine
     from fem_reference.models import FEM
-    from fem_reference.richardson import combine
 
     ind = indicators(scene, options)
     note = ""

@@ -51,7 +51,7 @@ def gci(coarse: float | np.ndarray, fine: float | np.ndarray, ratio: float) -> f
     by ``ratio`` (> 1), the order assumed (``P_FORMAL``), not observed:
     ``FS_ASSUMED |fine - coarse| / (ratio^P_FORMAL - 1)`` (Roache 1998, Sec. 5.9).  The one
     rule for a two-mesh error estimate: ``fem-auto`` outside the asymptotic range and the
-    replay's stated mesh error (``replay_honesty``, ``replay_servo``)."""
+    replay's stated mesh error (``replay.honesty``, ``replay.servo``)."""
     return FS_ASSUMED * np.abs(np.subtract(fine, coarse)) / (ratio**P_FORMAL - 1.0)
 
 
@@ -164,8 +164,8 @@ def _scale(key: str, L: float, steps: list) -> float:
 def _retrace(runner: Runner, key: str, values: np.ndarray) -> bool:
     """Re-solve a coarse mesh by displacement control through the finest path's values of the
     (monotone) stop output; replaces ``runner.steps``.  False if a step fails."""
-    from fem_reference import static as S
     from fem_reference.models import _rec
+    from fem_reference.statics import static as S
 
     sysm = runner.system
     func = sysm.output_functional(key)

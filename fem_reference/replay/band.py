@@ -23,7 +23,7 @@ from scipy.linalg.blas import dgbmv as _dgbmv
 from fem_reference.banded import BAND_MAX, BandedLU, csr_to_band
 
 if TYPE_CHECKING:
-    from fem_reference.replay_events import GenAlpha, State
+    from fem_reference.replay.integrator import GenAlpha, State
 
 REFRESH = 0.1  # modified Newton: refactorise when an update is above this ratio of the last
 

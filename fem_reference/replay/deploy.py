@@ -9,10 +9,10 @@ from dataclasses import replace
 import numpy as np
 
 from cases.schema import Scene
-from fem_reference import replay_events as ev
 from fem_reference.assembly import build
-from fem_reference.deploy import booms_as_locks
-from fem_reference.replay import replay_system
+from fem_reference.replay import integrator as ev
+from fem_reference.replay.run import replay_system
+from fem_reference.statics.deploy import booms_as_locks
 from reduced_models.base import Solution, Step
 
 

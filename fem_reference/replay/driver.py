@@ -12,7 +12,7 @@ driver held, the same condition as the FE tangent test of the energy analysis.
 Deleting one row and column of a banded matrix keeps it within the band, so ``DrivenSystem``
 offers the fast path of ``FEMSystem`` (``evaluate`` / ``tangent_band``): the replay's
 generalised-alpha steps then run in LAPACK band storage with factorisation reuse
-(``replay_band.step_band``) instead of slicing a csr tangent and calling SuperLU per iteration.
+(``band.step_band``) instead of slicing a csr tangent and calling SuperLU per iteration.
 
 The driver's work is not in the replay's energy books (it acts on the removed DOF), so the
 energy-balance figure of ``extras["settle"]`` is NaN and snap-through jumps (judged from that
@@ -30,7 +30,7 @@ import scipy.sparse as sp
 
 from cases.schema import Scene
 from fem_reference.assembly import build
-from fem_reference.driver_post import post_process
+from fem_reference.statics.driver_post import post_process
 from reduced_models.base import Solution, Step
 
 #: settling tolerance of driver replays (see ``solve_energy``)
@@ -145,7 +145,7 @@ def applies(scene: Scene) -> str | None:
 
 def solve_energy(scene: Scene, n_elements: int, options: object) -> Solution:
     """Replay the energy analysis of ``scene`` (module doc)."""
-    from fem_reference.replay import ReplayOptions, replay_system
+    from fem_reference.replay.run import ReplayOptions, replay_system
 
     a = scene.analysis
     full = build(scene, n_elements, driver_load=True)

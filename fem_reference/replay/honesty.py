@@ -21,8 +21,8 @@ import time
 import numpy as np
 
 from cases.schema import Scene
-from fem_reference import static as S
-from fem_reference.richardson import gci
+from fem_reference.error.richardson import gci
+from fem_reference.statics import static as S
 
 JUMP_MIN_DISTANCE = 1e-4  # fraction of the length scale
 
@@ -54,7 +54,7 @@ def static_limit(system: object, q: np.ndarray, lam: float, target: float) -> fl
     """Factor at which the static path from the equilibrium ``(q, lam)`` towards ``target``
     loses stability: a bifurcation on the way (``bifurcation.Watch.locate``) or else the
     limit point where load control stalls; None if it gets there stably (no static snap)."""
-    from fem_reference.bifurcation import Watch
+    from fem_reference.statics.bifurcation import Watch
 
     opts = S.Options()
     start = S.State(np.array(q, float), lam)

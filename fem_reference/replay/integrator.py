@@ -46,7 +46,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from fem_reference.banded import BAND_MAX, BandedLU, csr_to_band
-from fem_reference.replay_band import band_mass, step_band
+from fem_reference.replay.band import band_mass, step_band
 
 
 @dataclass(frozen=True)
@@ -253,7 +253,7 @@ class GenAlpha:
         self.alg = getattr(system, "algebraic", None)  # DOF indices without inertia
         self._Mb = band_mass(self)  # not None: ``step`` works in band storage
         self._C0 = None  # mass damping a0 M, once asked for
-        self.keep_lu: dict | None = None  # factorisation kept across steps (replay_band)
+        self.keep_lu: dict | None = None  # factorisation kept across steps (band.py)
         try:
             self._Msolve = factor(self.M)
         except RuntimeError:  # singular mass (massless DOFs): no consistent start accel.

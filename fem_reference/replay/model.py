@@ -1,6 +1,6 @@
 """The ``replay`` model: which analyses the damped dynamics replay runs and how (load
-factors by ``replay.replay_system``; energy by ``replay_driver``; distance and path by
-``replay_servo``; deploy by ``replay_deploy``), its stated mesh error (``replay_honesty``),
+factors by ``run.replay_system``; energy by ``driver``; distance and path by
+``servo``; deploy by ``deploy``), its stated mesh error (``honesty``),
 and its outputs (animated GIF, VTU/XDMF series)."""
 
 from __future__ import annotations
@@ -10,10 +10,10 @@ from dataclasses import replace
 import numpy as np
 
 from cases.schema import Scene
-from fem_reference import replay_events as ev
-from fem_reference import replay_honesty as honest
 from fem_reference.assembly import ModelError, build
-from fem_reference.replay import ReplayOptions, replay_system
+from fem_reference.replay import honesty as honest
+from fem_reference.replay import integrator as ev
+from fem_reference.replay.run import ReplayOptions, replay_system
 from reduced_models.base import ModelCard, Solution, Step, load_factors, not_applicable
 
 # -- the model ---------------------------------------------------------------------------------
@@ -118,12 +118,12 @@ class Replay:
     def applies_to(self, scene: Scene) -> str | None:
         """None, or why the replay cannot run ``scene``."""
         if scene.analysis.kind == "energy" and self.factors is None:
-            from fem_reference.replay_driver import applies  # driver moved as a motion
+            from fem_reference.replay.driver import applies  # driver moved as a motion
 
             return applies(scene)
         kind = scene.analysis.kind
         if kind in ("distance", "path") and self.factors is None:
-            from fem_reference.replay_servo import applies  # a servo holds the coordinate
+            from fem_reference.replay.servo import applies  # a servo holds the coordinate
 
             return applies(scene)
         if kind in _DECLINED and self.factors is None:
@@ -142,15 +142,15 @@ class Replay:
         if reason:
             return not_applicable(scene, self.name, reason)
         if scene.analysis.kind == "deploy":  # the scene's booms are the lock events
-            from fem_reference.replay_deploy import replay_deploy
+            from fem_reference.replay.deploy import replay_deploy
 
             return replay_deploy(scene, self)
         if scene.analysis.kind == "energy" and self.factors is None:
-            from fem_reference.replay_driver import solve_energy
+            from fem_reference.replay.driver import solve_energy
 
             return solve_energy(scene, self.n_elements, self.options)
         if scene.analysis.kind in ("distance", "path") and self.factors is None:
-            from fem_reference.replay_servo import solve_checked
+            from fem_reference.replay.servo import solve_checked
 
             return solve_checked(scene, self.n_elements, self.options)
         system = build(scene, self.n_elements)

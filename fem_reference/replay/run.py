@@ -1,7 +1,7 @@
 """Damped dynamics replay (MSC-ADAMS style): the second, dynamic reference ``replay``.
 
 The FE discretisation the static reference solves (``assembly.build``) gets mass and damping
-and is integrated by generalised-alpha (``replay_events.GenAlpha``): the load factor is ramped
+and is integrated by generalised-alpha (``integrator.GenAlpha``): the load factor is ramped
 (C2 ramp over ``ramp_periods`` lowest periods T1) to each reported factor and held until
 settled -- max|w v|/omega_1, max|w qdd|/omega_1^2 and the static distance max|w K^-1 r| all
 below ``settle_tol * L`` (w: 1 for translations, L for rotations).  The equation of motion
@@ -24,8 +24,8 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from cases.schema import Scene
-from fem_reference import replay_events as ev
-from fem_reference import replay_honesty as honest
+from fem_reference.replay import honesty as honest
+from fem_reference.replay import integrator as ev
 from reduced_models.base import Solution, Step
 
 

@@ -16,7 +16,7 @@ no other force to follow.  The load factor is an algebraic unknown of the equati
 compliance max|w K0^-1 f|, so the slot is a length and the settling tolerance bounds the
 load factor's error by ``settle_tol * L / ell``): the tangent is K with column i replaced by
 ``-f / ell`` (still banded when the loads sit within the band of DOF i), M' is M with column i
-zeroed (the prescribed DOF's inertia is neglected, as in ``replay_driver``).  A settled state
+zeroed (the prescribed DOF's inertia is neglected, as in ``driver``).  A settled state
 is then exactly a static equilibrium with the coordinate at its target: the static distance
 answer.  The servo holds the loads' own DOF when they act on exactly one (a rigid test
 machine on the load point: a conservative control) and lands the target coordinate by
@@ -42,10 +42,10 @@ import numpy as np
 import scipy.sparse as sp
 
 from cases.schema import Scene
-from fem_reference import replay_events as ev
 from fem_reference.assembly import build
-from fem_reference.driver_post import post_process
-from fem_reference.richardson import gci
+from fem_reference.error.richardson import gci
+from fem_reference.replay import integrator as ev
+from fem_reference.statics.driver_post import post_process
 from reduced_models.base import Solution, Step, not_applicable
 
 #: a report point's target coordinate is landed to this fraction of the sweep's range (the
@@ -140,7 +140,7 @@ class ServoSystem:
         return e.r, self.tangent_csr(e)
 
     def external(self, u: np.ndarray) -> np.ndarray:
-        return np.zeros(self.ndof)  # the servo's work is not booked (see replay_driver)
+        return np.zeros(self.ndof)  # the servo's work is not booked (see driver.py)
 
     def mass(self) -> sp.csr_matrix:
         return self._M
@@ -173,7 +173,7 @@ class ServoSystem:
 def _probe_under_load(servo: ServoSystem, options: object, scene: Scene) -> object:
     """The ``stability`` hook of ``replay_system``: tangent test and impulse probe of the full
     system at the settled load factor (servo off), as the FE tests a distance step."""
-    from fem_reference.replay import _Run
+    from fem_reference.replay.run import _Run
 
     aux: list = []
 
@@ -215,7 +215,7 @@ class _Aim:
         self.jumped = False
 
     def __call__(self, run: object, T: float) -> tuple[ev.State, dict]:
-        from fem_reference.replay import _reach
+        from fem_reference.replay.run import _reach
 
         T = (T - self.off) / self.c  # in the units of q[j]
         if self.sv.i == self.j:
@@ -306,7 +306,7 @@ def applies(scene: Scene) -> str | None:
 
 def solve(scene: Scene, n_elements: int, options: object) -> Solution:
     """Replay the distance or path analysis of ``scene`` (module doc)."""
-    from fem_reference.replay import replay_system
+    from fem_reference.replay.run import replay_system
 
     a = scene.analysis
     full = build(scene, n_elements)
@@ -357,7 +357,7 @@ def solve(scene: Scene, n_elements: int, options: object) -> Solution:
 def _run(scene: Scene, full: object, i: int, func: tuple, values: np.ndarray, options: object):
     """``replay_system`` with the servo on DOF ``i`` aiming the target ``func`` at ``values``;
     returns (solution, servo system); ``extras["servo_jump"]`` when the target jumped."""
-    from fem_reference.replay import replay_system
+    from fem_reference.replay.run import replay_system
 
     system = ServoSystem(full, i)
     stab = _probe_under_load(system, options, scene)

@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from fem_reference.newton import Options, Scaler, SolveError, State, factor_at, ops, vdot
+from fem_reference.statics.newton import Options, Scaler, SolveError, State, factor_at, ops, vdot
 from fem_reference.system import DiscreteSystem
 
 

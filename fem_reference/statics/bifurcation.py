@@ -40,9 +40,9 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.optimize import brentq
 
-from fem_reference import static as S
 from fem_reference.banded import BAND_MAX, symmetric_upper_band
 from fem_reference.rigid import stability_view
+from fem_reference.statics import static as S
 
 KIND_TOL = 1e-3
 SWITCH_AMPLITUDE = 1e-2

@@ -1,6 +1,6 @@
 """Two-phase boom deployment on the FE reference (``fem-N`` / ``fem-auto`` on ``deploy``).
 
-The scene's ``[[booms]]`` become ``replay_events.LengthLock`` pairs on the FE DOFs (distance
+The scene's ``[[booms]]`` become ``replay.integrator.LengthLock`` pairs on the FE DOFs (distance
 ``ell(q)``, gradient ``G``, Hessian ``H``).  Phase 1: the boom is a constant push ``F`` along
 its line (potential ``-F ell``), its length the path parameter: at each report length the FE
 system is solved with ``ell`` held by a multiplier ``mu`` (bordered Newton on
@@ -20,8 +20,8 @@ import scipy.linalg as sla
 import scipy.optimize as so
 
 from cases.schema import Scene
-from fem_reference import replay_events as ev
 from fem_reference.assembly import build
+from fem_reference.replay import integrator as ev
 from reduced_models.base import Solution, Step
 
 MAX_ITER = 30

@@ -24,7 +24,6 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.optimize import minimize_scalar
 
-from fem_reference.arclength import ArcLength
 from fem_reference.banded import (
     BAND_MAX,
     SingularTangent,
@@ -37,7 +36,9 @@ from fem_reference.banded import (
     symmetric_upper_band,
 )
 from fem_reference.banded import factor as _band_factor
-from fem_reference.newton import (
+from fem_reference.rigid import stability_view
+from fem_reference.statics.arclength import ArcLength
+from fem_reference.statics.newton import (
     Options,
     Scaler,
     SolveError,
@@ -47,7 +48,6 @@ from fem_reference.newton import (
     ops,
     tangent_lu,
 )
-from fem_reference.rigid import stability_view
 from fem_reference.system import DiscreteSystem
 
 __all__ = [

@@ -9,7 +9,7 @@ f = F_y h^2/EI, p = F_x h^2/EI (tension +), m = M h/EI, k = t^2/12 = EI/(EA h^2)
     v = 1/2 [y a] G [y a]^T + 1/2 p^2 (k - [y a] Q [y a]^T)        (strain energy, EI/h)
 
 The axial force p is kept as an unknown (a multiplier of the x-relation, see
-``reduced_models.chain`` for why); ``bcm`` is one such segment, ``cbcm-N`` chains N of them
+``reduced_models.beam.chain`` for why); ``bcm`` is one such segment, ``cbcm-N`` chains N of them
 with each segment in the frame of the previous segment's tip (Ma & Chen 2016), so the
 Hessian is block-tridiagonal and the cost grows linearly in N.
 
@@ -27,9 +27,9 @@ import math
 import numpy as np
 
 from reduced_models.base import ModelCard
-from reduced_models.chain import SegmentLaw
-from reduced_models.chain_model import ChainModel
-from reduced_models.linear import hermite_shape
+from reduced_models.beam.chain import SegmentLaw
+from reduced_models.beam.chain_model import ChainModel
+from reduced_models.beam.linear import hermite_shape
 
 # Awtar, Slocum & Sevincer (2007), Eq. (7)-(8); Awtar & Sen (2010) -- also PARAMETERS.md
 G_BCM = np.array([[12.0, -6.0], [-6.0, 4.0]])

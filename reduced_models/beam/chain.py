@@ -41,7 +41,7 @@ positions from the updated segment deformations (forward kinematics): without it
 iteration count grows with N and Newton diverges for N >~ 64.
 
 The shared Model-protocol layer (``ChainModel``: ``applies_to``/``solve``) lives in
-``reduced_models.chain_model`` and stays importable from here.
+``reduced_models.beam.chain_model`` and stays importable from here.
 """
 
 from __future__ import annotations
@@ -54,7 +54,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from reduced_models.linalg import Banded
+    from reduced_models.paths.linalg import Banded
 
 
 NB = 4  # unknowns per node: X, Y, phi, p
@@ -333,7 +333,7 @@ class ChainProblem:
 
     def grad_hess(self, x: np.ndarray, lam: float) -> tuple[np.ndarray, Banded]:
         """Residual (n,) and tangent (band storage, 7 + 7 diagonals) at load factor lam."""
-        from reduced_models.linalg import Banded  # lazy: a chain law's import needs no scipy
+        from reduced_models.paths.linalg import Banded  # lazy: a chain law's import needs no scipy
 
         gloc, Hloc = self.local(x)
         gdof, bidx = self._scatter
@@ -381,7 +381,7 @@ class ChainProblem:
             return None
         from scipy.linalg import lapack  # lazy: a chain law's import needs no scipy
 
-        from reduced_models.linalg import Banded
+        from reduced_models.paths.linalg import Banded
 
         _, Hloc = self.local(x)
         Hpp = np.minimum(Hloc[:, 7, 7], -self.N * 1e-9)

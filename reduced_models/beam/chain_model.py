@@ -2,7 +2,7 @@
 
 A chained-segment model of a single clamped beam with tip loads: ``applies_to`` checks the
 scene, ``solve`` builds the normalised ``chain.ChainProblem`` (kinematics, mixed Lagrangian
-and its banded Hessian -- see ``reduced_models.chain``), runs the load continuation
+and its banded Hessian -- see ``reduced_models.beam.chain``), runs the load continuation
 (``continuation.minimize_path``) and turns the converged states into ``Step``s (tip outputs,
 energy, shapes, stress, validity warnings).  Subclasses (``linear.LinearChain``,
 ``bcm.ChainedBCM``) supply the segment law, the local shape and the validity checks.
@@ -16,12 +16,12 @@ import math
 import numpy as np
 
 from cases.schema import Scene
-from reduced_models import single_beam
 from reduced_models.base import ModelCard, Solution, Step, load_factors, not_applicable
-from reduced_models.chain import ChainProblem, SegmentLaw, chain_shape, local_coords
-from reduced_models.chain_small import solve_single_segment
+from reduced_models.beam import single_beam
+from reduced_models.beam.chain import ChainProblem, SegmentLaw, chain_shape, local_coords
+from reduced_models.beam.chain_small import solve_single_segment
 from reduced_models.options import Option
-from reduced_models.path_result import PathResult
+from reduced_models.paths.path_result import PathResult
 
 __all__ = ["ChainModel"]
 
@@ -113,7 +113,7 @@ class ChainModel:
 
     def _path(self, prob: ChainProblem, factors: np.ndarray) -> PathResult:
         """The general continuation (banded, retraction, follower loads)."""
-        from reduced_models.continuation import minimize_path  # scipy: N > 1 or followers
+        from reduced_models.paths.continuation import minimize_path  # scipy: N > 1 or followers
 
         return minimize_path(
             prob.grad_hess,

@@ -1,7 +1,7 @@
 """One-segment chains (``bcm``, ``linear-1``) on plain floats through ``small_path``.
 
 With one segment clamped at the origin the chain's unknowns reduce to the tip state and the
-axial force, y = [X, Y, phi, p] (normalised as in ``reduced_models.chain``; the segment
+axial force, y = [X, Y, phi, p] (normalised as in ``reduced_models.beam.chain``; the segment
 frame is the beam frame, so ux = X - 1, w = (Y, phi) and the retraction is plain addition).
 The mixed Lagrangian of ``chain.SegmentLaw``
 
@@ -21,9 +21,9 @@ from collections.abc import Callable
 
 import numpy as np
 
-from reduced_models.chain import ChainProblem
-from reduced_models.path_result import PathResult
-from reduced_models.small_path import minimize_path_small
+from reduced_models.beam.chain import ChainProblem
+from reduced_models.paths.path_result import PathResult
+from reduced_models.paths.small_path import minimize_path_small
 
 
 def single_segment_functions(prob: ChainProblem) -> tuple:

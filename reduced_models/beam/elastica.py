@@ -42,7 +42,7 @@ from scipy.special import elliprd, elliprf
 
 from cases.schema import Scene
 from reduced_models.base import ModelCard, Solution, Step, load_factors, not_applicable
-from reduced_models.elastica_shooting import (
+from reduced_models.beam.elastica_shooting import (
     ElasticaError,
     follow_path,
     max_abs_p,
@@ -50,7 +50,7 @@ from reduced_models.elastica_shooting import (
     pendulum,
     tip_flow,
 )
-from reduced_models.single_beam import (
+from reduced_models.beam.single_beam import (
     Cantilever,
     cantilever_of,
     stress_from_curvature,

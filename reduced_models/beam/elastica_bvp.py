@@ -18,13 +18,13 @@ from scipy.integrate import solve_bvp
 
 from cases.schema import Scene
 from reduced_models.base import ModelCard, Solution, Step, load_factors, not_applicable
-from reduced_models.options import Option
-from reduced_models.single_beam import (
+from reduced_models.beam.single_beam import (
     Cantilever,
     cantilever_of,
     stress_from_curvature,
     tip_outputs,
 )
+from reduced_models.options import Option
 
 MAX_HALVINGS = 14
 N_SHAPE = 41

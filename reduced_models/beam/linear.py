@@ -11,7 +11,7 @@ rotations of the whole beam come from the chaining: each segment rotates with it
 predecessor's tip.  Deformed segment shape: cubic Hermite; curvature (per 1/h)
 y (6 - 12 s) + a (6 s - 2), the seed's bending stress sigma = E t kappa / 2.
 
-Kinematics, axial multiplier and solver: ``reduced_models.chain``.
+Kinematics, axial multiplier and solver: ``reduced_models.beam.chain``.
 """
 
 from __future__ import annotations
@@ -19,8 +19,8 @@ from __future__ import annotations
 import numpy as np
 
 from reduced_models.base import ModelCard
-from reduced_models.chain import SegmentLaw
-from reduced_models.chain_model import ChainModel
+from reduced_models.beam.chain import SegmentLaw
+from reduced_models.beam.chain_model import ChainModel
 
 G_LINEAR = np.array([[12.0, -6.0], [-6.0, 4.0]])
 LINEAR_LAW = SegmentLaw(G=G_LINEAR, P=np.zeros((2, 2)), Q=np.zeros((2, 2)))

@@ -6,7 +6,7 @@ axial stretch u_i when k_ex_i is finite), a torsion spring k_theta_i EI/L at its
 (absent when infinite) and an axial spring k_ex_i EA/L (rigid when infinite).  The chain
 numerics -- kinematics, energy with analytic gradient and Hessian, the equilibrium path
 through the shared continuation, end-load recovery by pinv(J^T), shape and stress from the
-elastica -- are in ``reduced_models.prb_chain`` (re-exported here).
+elastica -- are in ``reduced_models.beam.prb_chain`` (re-exported here).
 """
 
 from __future__ import annotations
@@ -18,10 +18,9 @@ from dataclasses import replace
 import numpy as np
 
 from cases.schema import Scene
-from reduced_models import prb_tables as T
 from reduced_models.base import ModelCard, Solution, Step, load_factors, not_applicable
-from reduced_models.options import SHAPES, Option
-from reduced_models.prb_chain import (
+from reduced_models.beam import prb_tables as T
+from reduced_models.beam.prb_chain import (
     RESIDUAL_TOL,
     PRBChain,
     check_matrix,
@@ -30,7 +29,8 @@ from reduced_models.prb_chain import (
     recover_tip_loads_batch,
     shape_and_stress,
 )
-from reduced_models.single_beam import Cantilever, cantilever_of, output_map, unstable_note
+from reduced_models.beam.single_beam import Cantilever, cantilever_of, output_map, unstable_note
+from reduced_models.options import SHAPES, Option
 
 __all__ = [
     "RESIDUAL_TOL",
@@ -343,7 +343,7 @@ class PRB2R(PRBModel):
             "fitted for a transverse tip force PL^2/EI <= 10 and an end moment ML/EI <= 2: "
             "max tip position error 3.8 % of L, tip angle 0.024 rad (measured at the fit)"
         ),
-        references=(_REF, _SEED, "FlexBench derivation: reduced_models/prb_tables.py"),
+        references=(_REF, _SEED, "FlexBench derivation: reduced_models/beam/prb_tables.py"),
     )
 
     def __init__(self, shapes: bool = True) -> None:

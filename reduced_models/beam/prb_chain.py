@@ -1,5 +1,5 @@
 """PRB chain numerics: kinematics, energy, analytic gradient/Hessian, equilibrium path, end-load
-recovery, shape and stress.  The registered models built on it are in ``reduced_models.prb``.
+recovery, shape and stress.  The registered models built on it are in ``reduced_models.beam.prb``.
 
 A PRB chain is described by a PRB matrix ``[[k_theta, k_ex, gamma], ...]`` (see
 ``prb_tables``): segment i has length gamma_i L (plus an axial stretch u_i when k_ex_i is
@@ -10,7 +10,7 @@ Equilibrium is the stationary point of the total potential energy
 ``V = sum 1/2 K_theta theta^2 + sum 1/2 K_ex u^2 - (fx X + fy Y + m Phi)``
 (dead tip loads; X, Y tip position, Phi tip-link angle), found by Newton's method with the
 analytic gradient and Hessian (vectorised over segments; tridiagonal in absolute link angles)
-along the load ramp with step cutting, through the shared ``reduced_models.continuation``.
+along the load ramp with step cutting, through the shared ``reduced_models.paths.continuation``.
 
 Shape and stress (seed 000_265bc60728766176.txt, "Computing Beam Shape and Stress"): the end
 loads are recovered from the spring torques through the Moore-Penrose pseudo-inverse of the
@@ -29,13 +29,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from cases.schema import Scene
-from reduced_models.path_result import PathResult
-from reduced_models.scalar_path import minimize_path_scalar
-from reduced_models.single_beam import Cantilever
-from reduced_models.small_path import MAX_N, minimize_path_small
+from reduced_models.beam.single_beam import Cantilever
+from reduced_models.paths.path_result import PathResult
+from reduced_models.paths.scalar_path import minimize_path_scalar
+from reduced_models.paths.small_path import MAX_N, minimize_path_small
 
 if TYPE_CHECKING:
-    from reduced_models.linalg import Banded
+    from reduced_models.paths.linalg import Banded
 
 __all__ = [
     "RESIDUAL_TOL",
@@ -219,7 +219,7 @@ class PRBChain:
         gpsi[:-1] -= Kth[1:]
         gpsi[-1] -= f[2]
         if self.banded and not dense:
-            from reduced_models.linalg import Banded  # long chains only: scipy's LAPACK
+            from reduced_models.paths.linalg import Banded  # long chains only: scipy's LAPACK
 
             ab = self._ab.copy()
             ab[1] += FZ.real
@@ -277,7 +277,7 @@ class PRBChain:
             return w
 
         if self.banded:
-            from reduced_models.linalg import Banded  # long chains only: scipy's LAPACK
+            from reduced_models.paths.linalg import Banded  # long chains only: scipy's LAPACK
 
             def gh(x: np.ndarray, lam: float) -> tuple[np.ndarray, Banded]:
                 w = unit(x)
@@ -381,7 +381,7 @@ def equilibrium_path(
     xtol: float = 1e-6,
 ) -> PathResult:
     """Equilibria for loads ``lambda * f1`` at the reported ``factors`` (from the unloaded
-    state) through the shared Newton/continuation (``reduced_models.continuation``).
+    state) through the shared Newton/continuation (``reduced_models.paths.continuation``).
 
     ``guided`` holds the tip-link angle at zero (fixed-guided beam; the tip moment is then a
     reaction and ``f1[2]`` is ignored).  Convergence: the last Newton update is below
@@ -411,7 +411,7 @@ def equilibrium_path(
             fixed=fixed or (),
             load_gradient=lg,
         )
-    from reduced_models.continuation import minimize_path  # sparse/LAPACK layer: import late
+    from reduced_models.paths.continuation import minimize_path  # sparse/LAPACK layer: import late
 
     gh, lg = chain.path_functions(f1)
     return minimize_path(

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import least_squares
 
-from reduced_models.prb import PRBChain, equilibrium_path
+from reduced_models.beam.prb import PRBChain, equilibrium_path
 
 INF = math.inf
 
@@ -58,7 +58,7 @@ class FitResult:
 
 
 def _default_reference() -> Callable:
-    from reduced_models.elastica import tip_dead_force
+    from reduced_models.beam.elastica import tip_dead_force
 
     return tip_dead_force
 
@@ -170,7 +170,7 @@ def fit_prb(
     angle_weight : weight of the tip-angle residual (rad) against position (/L).
     x0 : optional starting PRB matrix (default ``initial_matrix``).
     reference : ``(L, EI, fx, fy, m) -> (x, y, theta)``; default the exact elastica
-        ``reduced_models.elastica.tip_dead_force``.
+        ``reduced_models.beam.elastica.tip_dead_force``.
 
     Returns
     -------

@@ -139,7 +139,7 @@ def prb3r_matrix(kset: str = "average") -> np.ndarray:
 
 # --------------------------------------------------------------------------------------------
 # PRB-2R: no published parameter set could be located and checked for this project, so the
-# matrix below is DERIVED HERE with reduced_models.prb_fit.fit_prb(2, ...) against the exact
+# matrix below is DERIVED HERE with reduced_models.beam.prb_fit.fit_prb(2, ...) against the exact
 # elastica (settings in PRB_2R_FIT); tests/test_verify_prb.py re-measures its error.
 # --------------------------------------------------------------------------------------------
 # fit_prb(2, load_range=(0, 10), n=0, moment_range=(0, 2), n_points=12, angle_weight=1):

@@ -83,7 +83,7 @@ import numpy as np
 import scipy.sparse as sp
 
 # The linear-algebra layer lives in ``linalg``; its names stay importable from here.
-from reduced_models.linalg import (
+from reduced_models.paths.linalg import (
     Banded,
     _absmax,
     _factor_solve,
@@ -93,7 +93,7 @@ from reduced_models.linalg import (
     positive_definite,
     solve_linear,
 )
-from reduced_models.path_result import PathResult, limit_note
+from reduced_models.paths.path_result import PathResult, limit_note
 
 __all__ = [
     "Banded",

@@ -21,7 +21,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from reduced_models.path_result import PathResult, limit_note
+from reduced_models.paths.path_result import PathResult, limit_note
 
 
 def _newton(

@@ -33,7 +33,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from reduced_models.path_result import PathResult, limit_note
+from reduced_models.paths.path_result import PathResult, limit_note
 
 MAX_N = 24  # above, numpy's banded solves beat Python loops
 

@@ -41,8 +41,8 @@ import time
 
 import cases
 from fem_reference.assembly import _density, build
-from fem_reference.replay import ReplayOptions, replay_system
-from fem_reference.replay_events import ramp
+from fem_reference.replay.integrator import ramp
+from fem_reference.replay.run import ReplayOptions, replay_system
 
 
 def flexbench(n: int) -> tuple[float, dict]:
