@@ -40,7 +40,8 @@ import statistics
 import time
 
 import cases
-from fem_reference.assembly import _density, build
+from fem_reference.assembly import build
+from fem_reference.beam_mesh import density as _density
 from fem_reference.replay.integrator import ramp
 from fem_reference.replay.run import ReplayOptions, replay_system
 
