@@ -43,7 +43,7 @@ _ENTRIES: dict[str, str] = {
 }
 # single-beam families: scenes that are not a plain cantilever go to the mechanism assembler
 _SINGLE_BEAM = tuple(
-    f"reduced_models.{m}:" for m in ("elastica", "elastica_bvp", "linear", "bcm", "prb")
+    f"reduced_models.beam.{m}:" for m in ("elastica", "elastica_bvp", "linear", "bcm", "prb")
 )
 
 # concrete names a default benchmark run tries on every case

@@ -15,7 +15,10 @@ def _payload() -> dict:
         {"factor": 0.0, "energy": 0.0, "stable": True, "outputs": {"tip.uy": 0.0, "tip.rot": 0.0}},
         {"factor": 1.0, "energy": 2.5, "stable": True, "outputs": {"tip.uy": -4.0, "tip.rot": 0.3}},
     ]
-    return {"results": [{"case": "c", "model": "m", "status": "converged", "steps": steps}]}
+    return {
+        "cases": {"c": {"length_scale": 10.0}},
+        "results": [{"case": "c", "model": "m", "status": "converged", "steps": steps}],
+    }
 
 
 def test_identical_runs_agree():
@@ -27,11 +30,22 @@ def test_a_change_above_the_tolerance_is_named_with_its_size():
     b = _payload()
     b["results"][0]["steps"][1]["outputs"]["tip.uy"] = -4.0 * (1 + 1e-9)
     out = compare_runs.compare(_payload(), b, 1e-12)
-    assert out.worst == pytest.approx(1e-9, rel=1e-6)
+    assert out.worst == pytest.approx(4e-9 / 10.0, rel=1e-6)  # at the length scale 10
     assert len(out.differences) == 1 and "tip.uy[1]" in out.differences[0]
     # scaled by the output's size over the path: a change of 1e-13 of it passes at 1e-12
     b["results"][0]["steps"][1]["outputs"]["tip.uy"] = -4.0 * (1 + 1e-13)
     assert compare_runs.compare(_payload(), b, 1e-12).differences == []
+
+
+def test_round_off_of_an_output_zero_by_symmetry_is_judged_at_the_length_scale():
+    a, b = _payload(), _payload()
+    a["results"][0]["steps"][1]["outputs"]["tip.ux"] = 1e-20
+    b["results"][0]["steps"][1]["outputs"]["tip.ux"] = 3e-20
+    a["results"][0]["steps"][0]["outputs"]["tip.ux"] = b["results"][0]["steps"][0]["outputs"][
+        "tip.ux"
+    ] = 0.0
+    out = compare_runs.compare(a, b, 1e-12)
+    assert out.differences == [] and out.worst == pytest.approx(2e-20 / 10.0)
 
 
 def test_status_steps_and_missing_pairs(tmp_path, capsys):
