@@ -10,7 +10,7 @@ import numpy as np
 
 from cases.schema import Scene
 from fem_reference.assembly import build
-from fem_reference.replay import integrator as ev
+from fem_reference.replay import events
 from fem_reference.replay.run import replay_system
 from fem_reference.statics.deploy import booms_as_locks
 from reduced_models.base import Solution, Step
@@ -35,7 +35,7 @@ def replay_deploy(scene: Scene, model: object) -> Solution:
         return Solution(scene.name, model.name, sol.status, sol.message, (), sol.extras)
     boom = scene.booms[0]
     last = sol.steps[-1]
-    pair = ev.resolve_locks(system, scene, booms_as_locks(scene))[0]
+    pair = events.resolve_locks(system, scene, booms_as_locks(scene))[0]
     q = _settled_q(sol, system, pair, last)
     ell = pair.geometry(q)[0] if q is not None else math.nan
     locked = len(sol.extras.get("events", [])) >= len(scene.booms)

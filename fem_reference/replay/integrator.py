@@ -19,13 +19,13 @@ Newton iterates on q_{n+1} with the iteration matrix ``K + gamma'/(beta' h) C + 
 Second order for rho_inf in [0, 1] with constant C (the default mass damping); damping with
 the start-of-step tangent ("current") lags C by one step and is first order in it.
 
-Events: a ``LengthLock`` is the thesis's tape-spring boom -- a constant push ``force`` between
-two points until their distance reaches ``length``, then a bar of exactly that length.  The
-crossing is located by root finding on the step size (Brent on the step fraction, 1e-14),
-the bar is switched on as an exact constraint with a perfectly plastic latch (relative normal
-velocity removed by a mass-consistent projection, the lost kinetic energy booked as
-dissipated) and the integration restarts with consistent accelerations.  No penalty stop,
-hence no BISTOP-style chatter around the locked length.
+Events (``events.py``): a ``LengthLock`` is the thesis's tape-spring boom -- a constant push
+``force`` between two points until their distance reaches ``length``, then a bar of exactly
+that length. The crossing is located by root finding on the step size (Brent on the step
+fraction, 1e-14), the bar is switched on as an exact constraint with a perfectly plastic latch
+(relative normal velocity removed by a mass-consistent projection, the lost kinetic energy
+booked as dissipated) and the integration restarts with consistent accelerations. No penalty
+stop, hence no BISTOP-style chatter around the locked length.
 
 References: J. Chung & G. M. Hulbert, J. Appl. Mech. 60:371 (1993), doi 10.1115/1.2900803;
 M. Arnold & O. Bruls, Multibody Syst. Dyn. 18:185 (2007), doi 10.1007/s11044-007-9084-0;
@@ -38,6 +38,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.linalg as sla
@@ -48,22 +49,8 @@ import scipy.sparse.linalg as spla
 from fem_reference.banded import BAND_MAX, BandedLU, csr_to_band
 from fem_reference.replay.band import band_mass, step_band
 
-
-@dataclass(frozen=True)
-class LengthLock:
-    """A tape-spring boom between two points (Python API behind the proposed ``[[events]]``).
-
-    Attributes
-    ----------
-    a, b : node ids, or ``(x, y)`` ground points (length units).
-    length : distance at which the boom locks into a bar (length units).
-    force : constant push (> 0 pushes the points apart) applied until the lock (force units).
-    """
-
-    a: str | tuple[float, float]
-    b: str | tuple[float, float]
-    length: float
-    force: float = 0.0
+if TYPE_CHECKING:
+    from fem_reference.replay.events import LockPair
 
 
 def ramp(tau: float) -> float:
@@ -113,71 +100,6 @@ def factor(A: sp.spmatrix, bw: int | None = None) -> Callable[[np.ndarray], np.n
     return lambda b: lu.solve(b, trans="T")
 
 
-class _Pair:
-    """A LengthLock resolved on the DOFs: distance, its gradient G and Hessian H."""
-
-    def __init__(self, lock: LengthLock, x0: np.ndarray, S: sp.csr_matrix) -> None:
-        self.lock = lock
-        self.x0 = x0  # (2,) undeformed b - a
-        self.S = S  # (2, ndof): displacement of b minus displacement of a
-        self.locked = False
-
-    def geometry(self, q: np.ndarray) -> tuple[float, np.ndarray, sp.csr_matrix]:
-        """Distance ell, gradient G (ndof,) and Hessian H (ndof, ndof) of ell(q)."""
-        d = self.x0 + self.S @ q
-        ell = float(math.hypot(d[0], d[1]))
-        n = d / ell
-        G = self.S.T @ n
-        P = (np.eye(2) - np.outer(n, n)) / ell
-        H = (self.S.T @ sp.csr_matrix(P) @ self.S).tocsr()
-        return ell, np.asarray(G).ravel(), H
-
-    def gap(self, q: np.ndarray) -> float:
-        """ell(q) - lock length (negative before the lock when extending)."""
-        d = self.x0 + self.S @ q
-        return float(math.hypot(d[0], d[1])) - self.lock.length
-
-
-def node_map(system: object, node: str) -> tuple[tuple[float, float], list]:
-    """Coordinates of a scene node and its displacement map [(component, dof, coef)].
-
-    FE systems (``assembly.FEMSystem``: ``trans``/``free``/``coef``) map sliders to one DOF
-    with direction cosines; test systems give ``node_xy(node)`` and ``node_dofs(node)``.
-    """
-    if hasattr(system, "trans"):
-        p = system.extra["nodes"][node]
-        terms = []
-        for k in range(2):
-            f = system.trans[p, k]
-            if system.free[f] >= 0 and system.coef[f] != 0.0:
-                terms.append((k, int(system.free[f]), float(system.coef[f])))
-        return tuple(system.points[p]), terms
-    dofs = system.node_dofs(node)[:2]
-    return system.node_xy(node), [(k, int(i), 1.0) for k, i in enumerate(dofs) if i is not None]
-
-
-def resolve_locks(system: object, scene: object, locks: tuple[LengthLock, ...]) -> list[_Pair]:
-    """Resolve lock ends (node ids or ground points) into distance maps on the free DOFs."""
-    pairs = []
-    n = system.ndof
-    for lock in locks:
-        x0 = np.zeros(2)
-        rows, cols, vals = [], [], []
-        for end, sign in ((lock.a, -1.0), (lock.b, 1.0)):
-            if isinstance(end, str):
-                xy, terms = node_map(system, end)
-                for k, i, c in terms:
-                    rows.append(k)
-                    cols.append(i)
-                    vals.append(sign * c)
-            else:
-                xy = end
-            x0 += sign * np.asarray(xy, dtype=float)
-        S = sp.csr_matrix((vals, (rows, cols)), shape=(2, n))
-        pairs.append(_Pair(lock, x0, S))
-    return pairs
-
-
 @dataclass
 class State:
     """Integrator state at time t (all arrays (ndof,)); ``mu`` one multiplier per locked pair."""
@@ -224,7 +146,7 @@ class GenAlpha:
         self,
         system: object,
         damping: tuple[float, float, sp.spmatrix | None],
-        pairs: list[_Pair],
+        pairs: list[LockPair],
         w: np.ndarray,
         L: float,
         rho_inf: float = 0.6,
@@ -398,7 +320,7 @@ class GenAlpha:
         return float(np.max(np.abs(self.w * de))) / self.L
 
     # -- events --------------------------------------------------------------------------------
-    def crossing(self, s0: State, s1: State) -> _Pair | None:
+    def crossing(self, s0: State, s1: State) -> LockPair | None:
         """The first unlocked pair whose gap changes sign from s0 to s1 (extending)."""
         for p in self.pairs:
             if not p.locked and p.gap(s0.q) < 0.0 <= p.gap(s1.q):
@@ -406,7 +328,7 @@ class GenAlpha:
         return None
 
     def locate(
-        self, s0: State, h: float, lam_of_t: Callable[[float], float], pair: _Pair
+        self, s0: State, h: float, lam_of_t: Callable[[float], float], pair: LockPair
     ) -> State | None:
         """Re-integrate from ``s0`` with the step fraction that lands on gap = 0 (Brent)."""
         memo: dict[float, State] = {}
@@ -423,7 +345,7 @@ class GenAlpha:
         x = so.brentq(gap, 0.0, 1.0, xtol=1e-14, rtol=1e-15)
         return memo[x] if x in memo else self.step(s0, x * h, lam_of_t(s0.t + x * h))
 
-    def lock(self, s: State, pair: _Pair) -> tuple[State, float]:
+    def lock(self, s: State, pair: LockPair) -> tuple[State, float]:
         """Switch ``pair`` to a bar: plastic latch of its normal velocity, restart.
 
         Returns the restarted state and the kinetic energy lost in the latch.
@@ -505,20 +427,6 @@ def rayleigh(K0: sp.spmatrix, M: sp.spmatrix, zeta: float) -> tuple[float, float
         return 2 * zeta * w1, 0.0, w1, "mass-proportional (indefinite K0)"
     a0, a1 = 2 * zeta * w1 * w2 / (w1 + w2), 2 * zeta / (w1 + w2)
     return a0, a1, w1, f"Rayleigh a0={a0:.4g}, a1={a1:.4g} (current tangent)"
-
-
-def locks_from_options(events: object) -> tuple[LengthLock, ...]:
-    """Case-option events (list of tables) -> LengthLocks (proposed ``[[events]]`` format)."""
-    out = []
-    for ev in events or ():
-        if isinstance(ev, LengthLock):
-            out.append(ev)
-            continue
-        if ev.get("kind", "lock-length") != "lock-length":
-            raise ValueError(f"unknown event kind {ev.get('kind')!r}")
-        ends = [tuple(ev[k]) if isinstance(ev[k], list | tuple) else ev[k] for k in ("a", "b")]
-        out.append(LengthLock(ends[0], ends[1], float(ev["length"]), float(ev.get("force", 0))))
-    return tuple(out)
 
 
 def tangent_test(K: sp.spmatrix, G: np.ndarray, M: sp.spmatrix) -> tuple[float, np.ndarray]:

@@ -12,7 +12,7 @@ import numpy as np
 from cases.schema import Scene
 from fem_reference.assembly import ModelError, build
 from fem_reference.replay import honesty as honest
-from fem_reference.replay import integrator as ev
+from fem_reference.replay.events import locks_from_options
 from fem_reference.replay.run import ReplayOptions, replay_system
 from reduced_models.base import ModelCard, Solution, Step, load_factors, not_applicable
 
@@ -113,7 +113,7 @@ class Replay:
             raise ValueError(f"replay: unknown options {bad}")
         if "probe_impulse" in options:
             options["probe_impulse"] = tuple(options["probe_impulse"])
-        self.options = ReplayOptions(locks=ev.locks_from_options(events), **options)
+        self.options = ReplayOptions(locks=locks_from_options(events), **options)
 
     def applies_to(self, scene: Scene) -> str | None:
         """None, or why the replay cannot run ``scene``."""

@@ -24,6 +24,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from cases.schema import Scene
+from fem_reference.replay import events
 from fem_reference.replay import honesty as honest
 from fem_reference.replay import integrator as ev
 from reduced_models.base import Solution, Step
@@ -63,7 +64,7 @@ class ReplayOptions:
     history_samples: int = 2000
     frames: int = 120
     time_limit_s: float = 600.0  # wall clock; past it the replay fails with the reason
-    locks: tuple[ev.LengthLock, ...] = ()
+    locks: tuple[events.LengthLock, ...] = ()
 
 
 SOFT_AFTER = 20.0  # T1 of holding after which a soft mode gets its own critical damping
@@ -90,7 +91,7 @@ class _Run:
         if o.damping == "mass":
             a0, a1, self.damping_note = 2 * o.zeta * self.w1, 0.0, "mass-proportional"
         self.T1 = 2 * math.pi / self.w1
-        pairs = ev.resolve_locks(system, scene, o.locks)
+        pairs = events.resolve_locks(system, scene, o.locks)
         damp = (a0, a1, K0 if o.damping == "initial" else None)
         self.integ = ev.GenAlpha(
             system,
@@ -302,7 +303,7 @@ class _Run:
         om = max(math.sqrt(abs(eig)), 1e-3 * self.w1)
         if o.probe_node is not None:
             f = np.zeros(self.sys.ndof)  # the thesis's nodal impulse (1 N s in ADAMS)
-            for k, i, c in ev.node_map(self.sys, o.probe_node)[1]:
+            for k, i, c in events.node_map(self.sys, o.probe_node)[1]:
                 f[i] += c * o.probe_impulse[k]
             v0 = spla.spsolve(M.tocsc(), f)
         else:

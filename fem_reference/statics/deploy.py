@@ -1,6 +1,6 @@
 """Two-phase boom deployment on the FE reference (``fem-N`` / ``fem-auto`` on ``deploy``).
 
-The scene's ``[[booms]]`` become ``replay.integrator.LengthLock`` pairs on the FE DOFs (distance
+The scene's ``[[booms]]`` become ``replay.events.LengthLock`` pairs on the FE DOFs (distance
 ``ell(q)``, gradient ``G``, Hessian ``H``).  Phase 1: the boom is a constant push ``F`` along
 its line (potential ``-F ell``), its length the path parameter: at each report length the FE
 system is solved with ``ell`` held by a multiplier ``mu`` (bordered Newton on
@@ -21,7 +21,7 @@ import scipy.optimize as so
 
 from cases.schema import Scene
 from fem_reference.assembly import build
-from fem_reference.replay import integrator as ev
+from fem_reference.replay import events
 from reduced_models.base import Solution, Step
 
 MAX_ITER = 30
@@ -31,9 +31,9 @@ class DeployError(RuntimeError):
     """Newton failed in the deploy analysis (message = why)."""
 
 
-def booms_as_locks(scene: Scene) -> tuple[ev.LengthLock, ...]:
+def booms_as_locks(scene: Scene) -> tuple[events.LengthLock, ...]:
     """The scene's booms as the replay's length-lock events (one contract for both)."""
-    return tuple(ev.LengthLock(b.a, b.b, b.length, b.force) for b in scene.booms)
+    return tuple(events.LengthLock(b.a, b.b, b.length, b.force) for b in scene.booms)
 
 
 class FEDeploy:
@@ -41,7 +41,7 @@ class FEDeploy:
 
     def __init__(self, system: object, scene: Scene) -> None:
         self.sys, self.scene = system, scene
-        self.pair = ev.resolve_locks(system, scene, booms_as_locks(scene))[0]
+        self.pair = events.resolve_locks(system, scene, booms_as_locks(scene))[0]
         self.F = scene.booms[0].force
         self.fs = max(self.F, float(system.force_scale()))
         self.tol = max(1e-10 * self.fs, 10 * float(system.residual_floor()))
