@@ -489,43 +489,14 @@ def run_matrix(
 
         scenes.prefork()  # before the probe's thread starts: no fork beside a live thread
     probe = start_render_probe() if render and render_shapes else None
-    wanted = {t["key"] for t in tasks}
-    previous = journal.read(partial)  # a torn last line is cut off
-    earlier = [] if fresh else previous_records(out / "results.json")
-    token = journal.run_token(out, new=not (previous or earlier))  # this run's history rows
-    done = {
-        r["key"]: r
-        for r in [*earlier, *previous]
-        if r.get("key") in wanted and not r.get("retry")  # killed/timed out: try again
-    }
+    done, token = _resumed(out, partial, tasks, fresh)
     todo = [t for t in tasks if t["key"] not in done]
     records = list(done.values()) + fixed
-    queue = collections.deque(todo)  # figure jobs join it as cases complete (overlap.py)
-    pooled = not dask and (workers or os.cpu_count() or 1) > 1 and len(todo) > 1
-    early = None
-    if render and pooled:
-        early = overlap.EarlyFigures(todo, records, metas, out.resolve(), probe)
     if teaching == "auto":  # the page is about the default models: not for a --models run
         teaching = None if models else teach_run.QUICK_GRID if quick else teach_run.GRID
-    teach = None
-    if render and teaching:
-        teach = teach_run.TeachingJobs(out, teaching, code_hash())  # kept across --fresh
-    if teach is not None and pooled:
-        queue.extendleft(reversed(teach.jobs))  # long jobs: first, beside the pairs
-    bar = Progress(len(todo), enabled=progress, tasks=todo, workers=workers or os.cpu_count() or 1)
-    try:
-        for rec in execute(queue if pooled else todo, workers, dask, time_limit):
-            if early is not None and early.take(rec):
-                continue
-            if teach is not None and teach.take(rec):
-                continue
-            journal.append(partial, rec)
-            records.append(rec)
-            bar.update(f"{rec['case']} / {rec['model']}", rec)
-            if early is not None:
-                early.pair_done(rec, queue)
-    finally:
-        bar.close()
+    teach = teach_run.TeachingJobs(out, teaching, code_hash()) if render and teaching else None
+    early, bar_mode = _solve(todo, records, metas, out, partial, probe, teach, render, workers,
+                             dask, time_limit, progress)  # fmt: skip
     config = {
         "tolerance": tolerance,  # grading.py: user tolerance (None: per-family defaults)
         "quick": quick,
@@ -543,14 +514,7 @@ def run_matrix(
     elapsed = time.perf_counter() - t_start
     payload["elapsed_s"] = elapsed
     payload["stats"] = {"solved": len(todo), "resumed": len(done), "pairs": len(records)}
-    paths = {
-        "results.json": store.write_results(out / "results.json", payload),
-        "results.csv": store.write_csv(out / "results.csv", payload["results"]),
-    }
-    hist = Path(history) if history else out / "history.sqlite"
-    journal.record_history(hist, payload, str(out), elapsed, token)
-    paths["history"] = hist
-    paths["errors.csv"] = write_errors_csv(out / "errors.csv", payload)
+    paths = _write(payload, out, Path(history) if history else out / "history.sqlite", token)
     partial.unlink(missing_ok=True)  # every pair is in results.json now (resume reads it)
     result = RunResult(payload, out, paths, len(todo), len(done), elapsed)
     if render:
@@ -559,7 +523,7 @@ def run_matrix(
         try:
             from reports.render import render_report
 
-            with stage("rendering report", enabled=bar.mode != ""):
+            with stage("rendering report", enabled=bar_mode != ""):
                 if teach is not None:  # never raises; a page that failed is not linked
                     paths["teaching.html"] = teach.write(payload, out)
                 figs = early.figures if early is not None else None
@@ -568,3 +532,71 @@ def run_matrix(
             result.report_error = f"{type(exc).__name__}: {exc}"
     result.elapsed_s = time.perf_counter() - t_start
     return result
+
+
+def _resumed(out: Path, partial: Path, tasks: list[dict], fresh: bool) -> tuple[dict, str]:
+    """(records of the pairs an earlier run of this ``out`` finished, this run's history
+    token): from ``partial.jsonl`` and, unless ``fresh``, ``results.json``; pairs killed or
+    timed out are tried again."""
+    wanted = {t["key"] for t in tasks}
+    previous = journal.read(partial)  # a torn last line is cut off
+    earlier = [] if fresh else previous_records(out / "results.json")
+    token = journal.run_token(out, new=not (previous or earlier))  # this run's history rows
+    done = {
+        r["key"]: r
+        for r in [*earlier, *previous]
+        if r.get("key") in wanted and not r.get("retry")  # killed/timed out: try again
+    }
+    return done, token
+
+
+def _solve(
+    todo: list[dict],
+    records: list[dict],
+    metas: dict,
+    out: Path,
+    partial: Path,
+    probe: Any,
+    teach: Any,
+    render: bool,
+    workers: int | None,
+    dask: str | None,
+    time_limit: float | None,
+    progress: bool | None,
+) -> tuple[Any, str]:
+    """Solve the ``todo`` pairs (with the early figure and teaching-page jobs in the same
+    pool), journal and append each record; (the early figures, the progress bar's mode)."""
+    queue = collections.deque(todo)  # figure jobs join it as cases complete (overlap.py)
+    pooled = not dask and (workers or os.cpu_count() or 1) > 1 and len(todo) > 1
+    early = None
+    if render and pooled:
+        early = overlap.EarlyFigures(todo, records, metas, out.resolve(), probe)
+    if teach is not None and pooled:
+        queue.extendleft(reversed(teach.jobs))  # long jobs: first, beside the pairs
+    bar = Progress(len(todo), enabled=progress, tasks=todo, workers=workers or os.cpu_count() or 1)
+    try:
+        for rec in execute(queue if pooled else todo, workers, dask, time_limit):
+            if early is not None and early.take(rec):
+                continue
+            if teach is not None and teach.take(rec):
+                continue
+            journal.append(partial, rec)
+            records.append(rec)
+            bar.update(f"{rec['case']} / {rec['model']}", rec)
+            if early is not None:
+                early.pair_done(rec, queue)
+    finally:
+        bar.close()
+    return early, bar.mode
+
+
+def _write(payload: dict, out: Path, hist: Path, token: str) -> dict[str, Path]:
+    """results.json, results.csv, the history rows and errors.csv of a run."""
+    paths = {
+        "results.json": store.write_results(out / "results.json", payload),
+        "results.csv": store.write_csv(out / "results.csv", payload["results"]),
+    }
+    journal.record_history(hist, payload, str(out), payload["elapsed_s"], token)
+    paths["history"] = hist
+    paths["errors.csv"] = write_errors_csv(out / "errors.csv", payload)
+    return paths
