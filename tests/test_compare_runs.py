@@ -50,11 +50,14 @@ def test_round_off_of_an_output_zero_by_symmetry_is_judged_at_the_length_scale()
 
 def test_status_steps_and_missing_pairs(tmp_path, capsys):
     b = copy.deepcopy(_payload())
-    b["results"][0]["status"] = "failed"
+    b["results"][0]["status"], b["results"][0]["message"] = "failed", "time limit of 20 s"
     b["results"].append({"case": "d", "model": "m", "status": "converged", "steps": []})
     pa, pb = tmp_path / "a.json", tmp_path / "b.json"
     pa.write_text(json.dumps(_payload()))
     pb.write_text(json.dumps(b))
     assert compare_runs.main([str(pa), str(pb)]) == 1
     text = capsys.readouterr().out
-    assert "status converged -> failed" in text and "only in one run: d x m" in text
+    assert (
+        "status converged -> failed (time limit of 20 s)" in text
+        and "only in one run: d x m" in text
+    )

@@ -94,6 +94,7 @@ from reduced_models.paths.linalg import (
     solve_linear,
 )
 from reduced_models.paths.path_result import PathResult, limit_note
+from reduced_models.paths.stepper import Recorder, follow
 
 __all__ = [
     "Banded",
@@ -271,145 +272,125 @@ def minimize_path(
         grad_hess, n, fixed, scale, xtol, gtol, max_iter, max_step, update, stability, symmetric
     )
 
-    out_f: list[float] = []
-    out_x: list[np.ndarray] = []
-    out_it: list[int] = []
-    out_cut: list[int] = []
-    out_res: list[float] = []
-    out_stab: list = []
-
-    def result(ok: bool, reason: str) -> PathResult:
-        return PathResult(
-            factors=np.array(out_f),
-            states=np.array(out_x).reshape(len(out_x), n),
-            iterations=np.array(out_it, dtype=int),
-            cuts=np.array(out_cut, dtype=int),
-            residuals=np.array(out_res),
-            stable=out_stab,
-            ok=ok,
-            reason=reason,
-        )
-
+    rec = Recorder(n)
     if factors.size == 0:
-        return result(True, "")
+        return rec.result(True, "")
+    engine = _Engine(
+        solver, rec, fixed, inv_scale if inv_scale_used else None, update, keep_branch,
+        load_gradient, x, float(factors[0]),
+    )  # fmt: skip
+    return rec.result(*follow(engine, x, factors, max_cuts))
 
-    def tangent(c: _Converged, lam: float) -> np.ndarray | None:
+
+class _Engine:
+    """``minimize_path``'s arithmetic for ``stepper.follow`` (numpy arrays, LAPACK)."""
+
+    def __init__(
+        self,
+        solver: _Solver,
+        rec: Recorder,
+        fixed: np.ndarray,
+        inv_scale: np.ndarray | None,
+        update: Callable | None,
+        keep_branch: bool,
+        load_gradient: Callable | None,
+        x0: np.ndarray,
+        lam0: float,
+    ) -> None:
+        self.solver, self.fixed, self.inv_scale, self.update = solver, fixed, inv_scale, update
+        self.keep_branch, self.load_gradient, self.x0, self.lam0 = (
+            keep_branch,
+            load_gradient,
+            x0,
+            lam0,
+        )
+        self.rec = rec
+        self.n = x0.size
+
+    def solve(self, start: np.ndarray, lam: float) -> tuple[_Converged | None, int, str]:
+        return self.solver.newton(start, lam)
+
+    def state(self, c: _Converged) -> np.ndarray:
+        return c.x
+
+    def tangent(self, c: _Converged, lam: float) -> np.ndarray | None:
         """dx/dlam at a converged state from the factorisation of its last solve."""
-        if load_gradient is None or n == 0:
+        if self.load_gradient is None or self.n == 0:
             return None
-        dg = load_gradient(c.x_eval, lam)
-        if fixed.size:
+        dg = self.load_gradient(c.x_eval, lam)
+        if self.fixed.size:
             dg = np.array(dg, dtype=float)
-            dg[fixed] = 0.0
+            dg[self.fixed] = 0.0
         t = _resolve(c.factor, dg)
         t *= -1.0
         return t if math.isfinite(t.dot(t)) else None
 
-    # the first factor (usually 0): plain Newton from x0
-    conv, its, why = solver.newton(x, float(factors[0]))
-    if conv is None:
-        return result(False, f"no equilibrium at factor {factors[0]:.6g}: {why}")
-
-    def record(c: _Converged, lam: float, its: int, cuts: int) -> None:
-        out_f.append(float(lam))
-        out_x.append(c.x)
-        out_it.append(its)
-        out_cut.append(cuts)
-        out_res.append(c.res)
-        out_stab.append(c.stable)
-
-    record(conv, factors[0], its, 0)
-    x_prev, lam_prev = None, None  # the converged state before the current one
-    cur, lam_cur = conv, float(factors[0])
-    t_cur, t_prev = tangent(cur, lam_cur), None
-    dlam = None  # size of the last successful increment (carried to the next reported step)
-
-    for target in factors[1:]:
-        target = float(target)
-        its_total, cuts_total, consecutive = 0, 0, 0
-        span = target - lam_cur
-        direction = 1.0 if span >= 0 else -1.0
-        step = abs(span) if dlam is None else min(dlam, abs(span))
-        why = ""
-        while abs(target - lam_cur) > 1e-14 * max(1.0, abs(target)):
-            lam_try = lam_cur + direction * step
-            if direction * (target - lam_try) < 1e-9 * step:
-                lam_try = target  # do not leave a sliver before the reported factor
-            x_cur = cur.x
-            s = lam_try - lam_cur
-            dpred, hermite = None, False
-            if x_prev is not None and lam_cur != lam_prev:
-                h = lam_cur - lam_prev
-                back_step = x_prev - x_cur
-                dpred = back_step * (-s / h)  # secant
-            if t_cur is not None:
-                if dpred is None:
-                    dpred, hermite = t_cur * s, True
-                else:
-                    # cubic Hermite through the previous and current states and tangents
-                    # (the quadratic through the previous state if its tangent is unknown),
-                    # written as a1 t_cur + a2 (x_prev - x_cur) + a3 t_prev, u = s / h
-                    u = s / h
-                    c2 = u * u
-                    c3 = c2 + c2 * u if t_prev is not None else 0.0
-                    poly = t_cur * (s + h * (c2 + c3)) + back_step * (c2 + 2.0 * c3)
-                    if t_prev is not None:
-                        poly += t_prev * (h * c3)
-                    # next to a bifurcation or limit point the tangent blows up: keep the
-                    # secant when the polynomial runs far beyond it (2-norms, scaled)
-                    if inv_scale_used:
-                        a, b = poly * inv_scale, dpred * inv_scale
-                    else:
-                        a, b = poly, dpred
-                    if a.dot(a) <= 9.0 * b.dot(b):
-                        dpred, hermite = poly, True
+    def predict(
+        self,
+        x_cur: np.ndarray,
+        x_prev: np.ndarray | None,
+        t_cur: np.ndarray | None,
+        t_prev: np.ndarray | None,
+        s: float,
+        lam_cur: float,
+        lam_prev: float | None,
+    ) -> np.ndarray | None:
+        """Cubic Hermite, tangent line or secant start (module docstring); None: x_cur."""
+        dpred, hermite = None, False
+        if x_prev is not None and lam_cur != lam_prev:
+            h = lam_cur - lam_prev
+            back_step = x_prev - x_cur
+            dpred = back_step * (-s / h)  # secant
+        if t_cur is not None:
             if dpred is None:
-                pred = x_cur
-            elif hermite or update is None:
-                # the Hermite polynomial is accurate in x itself: a retraction would add
-                # its own second-order terms to it
-                pred = x_cur + dpred
+                dpred, hermite = t_cur * s, True
             else:
-                pred = update(x_cur, dpred)
-            conv, its, why = solver.newton(pred, lam_try)
-            its_total += its
-            if conv is None and dpred is not None:
-                # the predictor can overshoot near a limit: retry from the last state
-                conv, its, why = solver.newton(x_cur, lam_try)
-                its_total += its
-            can_cut = 0.5 * abs(s) >= abs(span) * 0.5**max_cuts
-            if conv is not None and keep_branch and can_cut:
-                # Near a bifurcation of an imperfect system Newton likes to jump to another
-                # branch: a stable state followed by an unstable one, or a path that turns
-                # back on itself, is retried with a shorter step; either is accepted once
-                # the step is as short as allowed (a genuine loss of stability or fold).
-                if cur.stable is True and conv.stable is False:
-                    conv, why = None, "the step left the stable branch"
-                elif x_prev is not None and lam_cur != lam_prev:
-                    back = np.dot((conv.x - x_cur) * inv_scale, (x_cur - x_prev) * inv_scale)
-                    if back < 0:
-                        conv, why = None, "the path turned back (branch jump)"
-            if conv is None:
-                cuts_total += 1
-                consecutive += 1
-                step = 0.5 * abs(s)
-                # give up after max_cuts halvings in a row, or when the increment has shrunk
-                # below span / 2^max_cuts (a limit point approached through many successes)
-                if consecutive > max_cuts or step < abs(span) * 0.5**max_cuts:
-                    return result(
-                        False,
-                        f"Newton failed between factors {lam_cur:.6g} and {lam_try:.6g} "
-                        f"after {cuts_total} step cuts ({why}); "
-                        + _diagnose(solver, cur.x, lam_cur, float(factors[0]), x0),
-                    )
-                continue
-            consecutive = 0
-            x_prev, lam_prev = x_cur, lam_cur
-            step = abs(s)
-            cur, lam_cur = conv, lam_try
-            t_prev, t_cur = t_cur, tangent(cur, lam_cur)
-            if its <= 4:  # easy step: allow a larger increment next time (also carried on)
-                step *= 2.0
-            dlam = step
-        record(cur, lam_cur, its_total, cuts_total)
-    return result(True, "")
+                # cubic Hermite through the previous and current states and tangents (the
+                # quadratic through the previous state if its tangent is unknown), written
+                # as a1 t_cur + a2 (x_prev - x_cur) + a3 t_prev, u = s / h
+                u = s / h
+                c2 = u * u
+                c3 = c2 + c2 * u if t_prev is not None else 0.0
+                poly = t_cur * (s + h * (c2 + c3)) + back_step * (c2 + 2.0 * c3)
+                if t_prev is not None:
+                    poly += t_prev * (h * c3)
+                # next to a bifurcation or limit point the tangent blows up: keep the secant
+                # when the polynomial runs far beyond it (2-norms, scaled)
+                w = self.inv_scale
+                a, b = (poly * w, dpred * w) if w is not None else (poly, dpred)
+                if a.dot(a) <= 9.0 * b.dot(b):
+                    dpred, hermite = poly, True
+        if dpred is None:
+            return None
+        if hermite or self.update is None:
+            # the Hermite polynomial is accurate in x itself: a retraction would add its own
+            # second-order terms to it
+            return x_cur + dpred
+        return self.update(x_cur, dpred)
+
+    def branch_jump(
+        self,
+        cur: _Converged,
+        conv: _Converged,
+        x_cur: np.ndarray,
+        x_prev: np.ndarray | None,
+        lam_cur: float,
+        lam_prev: float | None,
+    ) -> str:
+        """Near a bifurcation of an imperfect system Newton likes to jump to another branch:
+        a stable state followed by an unstable one, or a path that turns back on itself."""
+        if not self.keep_branch:
+            return ""
+        if cur.stable is True and conv.stable is False:
+            return "the step left the stable branch"
+        if x_prev is not None and lam_cur != lam_prev:
+            w = self.inv_scale if self.inv_scale is not None else 1.0
+            if np.dot((conv.x - x_cur) * w, (x_cur - x_prev) * w) < 0:
+                return "the path turned back (branch jump)"
+        return ""
+
+    def diagnose(self, c: _Converged, lam: float) -> str:
+        return _diagnose(self.solver, c.x, lam, self.lam0, self.x0)
+
+    def record(self, c: _Converged, lam: float, its: int, cuts: int) -> None:
+        self.rec.add(lam, c.x, its, cuts, c.res, c.stable)

@@ -19,9 +19,8 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 
-import numpy as np
-
 from reduced_models.paths.path_result import PathResult, limit_note
+from reduced_models.paths.stepper import Recorder, follow
 
 
 def _newton(
@@ -85,82 +84,82 @@ def minimize_path_scalar(
     load_gradient: Callable | None = None,
 ) -> PathResult:
     """``small_path.minimize_path_small`` for one unknown (see the module docstring)."""
-    out_f, out_x, out_it, out_cut, out_res, out_stab = [], [], [], [], [], []
+    factors = [float(f) for f in factors]
+    rec = Recorder(1)
+    lam0 = factors[0] if factors else 0.0
+    engine = _Engine(grad_hess, rec, load_gradient, float(x0), lam0, xtol, gtol, max_iter)
+    return rec.result(*follow(engine, float(x0), factors, max_cuts))
 
-    def result(ok: bool, reason: str) -> PathResult:
-        return PathResult(
-            factors=np.array(out_f),
-            states=np.array(out_x, dtype=float).reshape(len(out_x), 1),
-            iterations=np.array(out_it, dtype=int),
-            cuts=np.array(out_cut, dtype=int),
-            residuals=np.array(out_res),
-            stable=out_stab,
-            ok=ok,
-            reason=reason,
+
+class _Engine:
+    """``minimize_path_scalar``'s arithmetic for ``stepper.follow`` (one float)."""
+
+    def __init__(
+        self,
+        grad_hess: Callable,
+        rec: Recorder,
+        load_gradient: Callable | None,
+        x0: float,
+        lam0: float,
+        xtol: float,
+        gtol: float | None,
+        max_iter: int,
+    ) -> None:
+        self.gh, self.rec, self.load_gradient, self.x0, self.lam0 = (
+            grad_hess,
+            rec,
+            load_gradient,
+            x0,
+            lam0,
         )
+        self.xtol, self.gtol, self.max_iter = xtol, gtol, max_iter
 
-    def tangent(c: tuple, lam: float) -> float | None:
-        if load_gradient is None:
+    def solve(self, x: float, lam: float) -> tuple[tuple | None, int, str]:
+        return _newton(self.gh, x, lam, self.xtol, self.gtol, self.max_iter)
+
+    def state(self, c: tuple) -> float:
+        return c[0]
+
+    def tangent(self, c: tuple, lam: float) -> float | None:
+        if self.load_gradient is None:
             return None
-        t = -load_gradient(c[0], lam) / c[3]
+        t = -self.load_gradient(c[0], lam) / c[3]
         return t if abs(t) < math.inf else None
 
-    factors = [float(f) for f in factors]
-    if not factors:
-        return result(True, "")
-    lam0 = factors[0]
-    cur, its, why = _newton(grad_hess, float(x0), lam0, xtol, gtol, max_iter)
-    if cur is None:
-        return result(False, f"no equilibrium at factor {lam0:.6g}: {why}")
-    out_f.append(lam0), out_x.append(cur[0]), out_it.append(its), out_cut.append(0)
-    out_res.append(cur[1]), out_stab.append(cur[2])
-    lam_cur, x_prev, h_prev = lam0, None, 0.0
-    t_cur, t_prev = tangent(cur, lam_cur), None
-    dlam = None
-    for target in factors[1:]:
-        its_total, cuts_total, consecutive = 0, 0, 0
-        span = target - lam_cur
-        direction = 1.0 if span >= 0 else -1.0
-        step = abs(span) if dlam is None else min(dlam, abs(span))
-        min_step = abs(span) * 0.5**max_cuts
-        while abs(target - lam_cur) > 1e-14 * max(1.0, abs(target)):
-            lam_try = lam_cur + direction * step
-            if direction * (target - lam_try) < 1e-9 * step:
-                lam_try = target
-            x_cur = cur[0]
-            s = lam_try - lam_cur
-            d = _predict(x_cur, x_prev, t_cur, t_prev, s, h_prev)
-            conv, its, why = _newton(
-                grad_hess, x_cur if d is None else x_cur + d, lam_try, xtol, gtol, max_iter
-            )
-            its_total += its
-            if conv is None and d is not None:
-                conv, its, why = _newton(grad_hess, x_cur, lam_try, xtol, gtol, max_iter)
-                its_total += its
-            if conv is not None and 0.5 * abs(s) >= min_step:  # branch keeping
-                if cur[2] and not conv[2]:
-                    conv, why = None, "the step left the stable branch"
-                elif x_prev is not None and (conv[0] - x_cur) * (x_cur - x_prev) < 0:
-                    conv, why = None, "the path turned back (branch jump)"
-            if conv is None:
-                cuts_total += 1
-                consecutive += 1
-                step = 0.5 * abs(s)
-                if consecutive > max_cuts or step < min_step:
-                    h0 = grad_hess(float(x0), lam0)[1]
-                    ratio = abs(grad_hess(x_cur, lam_cur)[1]) / max(abs(h0), 1e-300)
-                    return result(
-                        False,
-                        f"Newton failed between factors {lam_cur:.6g} and {lam_try:.6g} "
-                        f"after {cuts_total} step cuts ({why}); " + limit_note(ratio, lam_cur),
-                    )
-                continue
-            consecutive = 0
-            x_prev, h_prev = x_cur, s
-            cur, lam_cur = conv, lam_try
-            t_prev, t_cur = t_cur, tangent(cur, lam_cur)
-            step = 2.0 * abs(s) if its <= 4 else abs(s)
-            dlam = step
-        out_f.append(lam_cur), out_x.append(cur[0]), out_it.append(its_total)
-        out_cut.append(cuts_total), out_res.append(cur[1]), out_stab.append(cur[2])
-    return result(True, "")
+    def predict(
+        self,
+        x_cur: float,
+        x_prev: float | None,
+        t_cur: float | None,
+        t_prev: float | None,
+        s: float,
+        lam_cur: float,
+        lam_prev: float | None,
+    ) -> float | None:
+        h = 0.0 if lam_prev is None else lam_cur - lam_prev  # the previous load step
+        d = _predict(x_cur, x_prev, t_cur, t_prev, s, h)
+        return None if d is None else x_cur + d
+
+    def branch_jump(
+        self,
+        cur: tuple,
+        conv: tuple,
+        x_cur: float,
+        x_prev: float | None,
+        lam_cur: float,
+        lam_prev: float | None,
+    ) -> str:
+        """As ``continuation``'s: the stable branch left, or the path turned back."""
+        if cur[2] and not conv[2]:
+            return "the step left the stable branch"
+        if x_prev is not None and (conv[0] - x_cur) * (x_cur - x_prev) < 0:
+            return "the path turned back (branch jump)"
+        return ""
+
+    def diagnose(self, c: tuple, lam: float) -> str:
+        h0 = self.gh(self.x0, self.lam0)[1]
+        ratio = abs(self.gh(c[0], lam)[1]) / max(abs(h0), 1e-300)
+        return limit_note(ratio, lam)
+
+    def record(self, c: tuple, lam: float, its: int, cuts: int) -> None:
+        self.rec.add(lam, c[0], its, cuts, c[1], c[2])

@@ -34,6 +34,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from reduced_models.paths.path_result import PathResult, limit_note
+from reduced_models.paths.stepper import Recorder, follow
 
 MAX_N = 24  # above, numpy's banded solves beat Python loops
 
@@ -361,106 +362,79 @@ def minimize_path_small(
         cap = [w / float(m) for w, m in zip(inv, max_step)]
     newton = _Newton(grad_hess, n, fixed, inv, xtol, gtol, max_iter, cap, stability)
 
-    def solve(x: list, lam: float) -> tuple[tuple | None, int, str]:
-        if newton.tri:
-            return newton.solve_tri(x, lam)
-        return newton.solve_fn(x, lam) if newton.fn else newton.solve(x, lam)
+    factors = [float(f) for f in factors]
+    rec = Recorder(n)
+    engine = _Engine(newton, rec, fixed, inv, load_gradient, x, factors[0] if factors else 0.0)
+    return rec.result(*follow(engine, x, factors, max_cuts))
 
-    out_f, out_x, out_it, out_cut, out_res, out_stab = [], [], [], [], [], []
 
-    def result(ok: bool, reason: str) -> PathResult:
-        return PathResult(
-            factors=np.array(out_f),
-            states=np.array(out_x, dtype=float).reshape(len(out_x), n),
-            iterations=np.array(out_it, dtype=int),
-            cuts=np.array(out_cut, dtype=int),
-            residuals=np.array(out_res),
-            stable=out_stab,
-            ok=ok,
-            reason=reason,
-        )
+class _Engine:
+    """``minimize_path_small``'s arithmetic for ``stepper.follow`` (plain float lists)."""
 
-    def record(c: tuple, lam: float, its: int, cuts: int) -> None:
-        out_f.append(float(lam))
-        out_x.append(c[0])
-        out_it.append(its)
-        out_cut.append(cuts)
-        out_res.append(c[1])
-        out_stab.append(c[2])
+    def __init__(
+        self,
+        newton: _Newton,
+        rec: Recorder,
+        fixed: tuple[int, ...],
+        inv: list,
+        load_gradient: Callable | None,
+        x0: list,
+        lam0: float,
+    ) -> None:
+        self.newton, self.rec, self.fixed, self.inv = newton, rec, fixed, inv
+        self.load_gradient, self.x0, self.lam0, self.n = load_gradient, x0, lam0, len(x0)
+        nw = newton
+        self.solve = nw.solve_tri if nw.tri else nw.solve_fn if nw.fn else nw.solve
 
-    def tangent(c: tuple, lam: float) -> list | None:
-        if load_gradient is None or n == 0:
+    def state(self, c: tuple) -> list:
+        return c[0]
+
+    def tangent(self, c: tuple, lam: float) -> list | None:
+        if self.load_gradient is None or self.n == 0:
             return None
-        dg = load_gradient(c[3], lam)
-        for i in fixed:
+        dg = self.load_gradient(c[3], lam)
+        for i in self.fixed:
             dg[i] = 0.0
-        t = [-v for v in _solve(c[4], dg, n)]
+        t = [-v for v in _solve(c[4], dg, self.n)]
         return t if math.isfinite(sum(t)) else None  # a sum is finite iff every entry is
 
-    factors = [float(f) for f in factors]
-    if not factors:
-        return result(True, "")
-    conv, its, why = solve(x, factors[0])
-    if conv is None:
-        return result(False, f"no equilibrium at factor {factors[0]:.6g}: {why}")
-    record(conv, factors[0], its, 0)
-    x_prev, lam_prev = None, None
-    cur, lam_cur = conv, factors[0]
-    t_cur, t_prev = tangent(cur, lam_cur), None
-    dlam = None
-    for target in factors[1:]:
-        its_total, cuts_total, consecutive = 0, 0, 0
-        span = target - lam_cur
-        direction = 1.0 if span >= 0 else -1.0
-        step = abs(span) if dlam is None else min(dlam, abs(span))
-        while abs(target - lam_cur) > 1e-14 * max(1.0, abs(target)):
-            lam_try = lam_cur + direction * step
-            if direction * (target - lam_try) < 1e-9 * step:
-                lam_try = target
-            x_cur = cur[0]
-            s = lam_try - lam_cur
-            pred = _predict(x_cur, x_prev, t_cur, t_prev, s, lam_cur, lam_prev, inv)
-            conv, its, why = solve(pred if pred is not None else x_cur, lam_try)
-            its_total += its
-            if conv is None and pred is not None:
-                conv, its, why = solve(x_cur, lam_try)
-                its_total += its
-            can_cut = 0.5 * abs(s) >= abs(span) * 0.5**max_cuts
-            if conv is not None and can_cut:
-                # branch keeping, as in continuation.minimize_path
-                if cur[2] is True and conv[2] is False:
-                    conv, why = None, "the step left the stable branch"
-                elif x_prev is not None and lam_cur != lam_prev:
-                    back = sum(
-                        [
-                            (a - b) * (b - c) * w * w
-                            for a, b, c, w in zip(conv[0], x_cur, x_prev, inv)
-                        ]
-                    )
-                    if back < 0:
-                        conv, why = None, "the path turned back (branch jump)"
-            if conv is None:
-                cuts_total += 1
-                consecutive += 1
-                step = 0.5 * abs(s)
-                if consecutive > max_cuts or step < abs(span) * 0.5**max_cuts:
-                    return result(
-                        False,
-                        f"Newton failed between factors {lam_cur:.6g} and {lam_try:.6g} "
-                        f"after {cuts_total} step cuts ({why}); "
-                        + _diagnose(newton, cur[0], lam_cur, x0, float(factors[0])),
-                    )
-                continue
-            consecutive = 0
-            x_prev, lam_prev = x_cur, lam_cur
-            step = abs(s)
-            cur, lam_cur = conv, lam_try
-            t_prev, t_cur = t_cur, tangent(cur, lam_cur)
-            if its <= 4:
-                step *= 2.0
-            dlam = step
-        record(cur, lam_cur, its_total, cuts_total)
-    return result(True, "")
+    def predict(
+        self,
+        x_cur: list,
+        x_prev: list | None,
+        t_cur: list | None,
+        t_prev: list | None,
+        s: float,
+        lam_cur: float,
+        lam_prev: float | None,
+    ) -> list | None:
+        return _predict(x_cur, x_prev, t_cur, t_prev, s, lam_cur, lam_prev, self.inv)
+
+    def branch_jump(
+        self,
+        cur: tuple,
+        conv: tuple,
+        x_cur: list,
+        x_prev: list | None,
+        lam_cur: float,
+        lam_prev: float | None,
+    ) -> str:
+        """As ``continuation``'s: the stable branch left, or the path turned back."""
+        if cur[2] is True and conv[2] is False:
+            return "the step left the stable branch"
+        if x_prev is not None and lam_cur != lam_prev:
+            back = sum(
+                [(a - b) * (b - c) * w * w for a, b, c, w in zip(conv[0], x_cur, x_prev, self.inv)]
+            )
+            if back < 0:
+                return "the path turned back (branch jump)"
+        return ""
+
+    def diagnose(self, c: tuple, lam: float) -> str:
+        return _diagnose(self.newton, c[0], lam, self.x0, self.lam0)
+
+    def record(self, c: tuple, lam: float, its: int, cuts: int) -> None:
+        self.rec.add(lam, c[0], its, cuts, c[1], c[2])
 
 
 def _predict(

@@ -73,7 +73,10 @@ def compare(a: Mapping, b: Mapping, rtol: float) -> Outcome:
         where = f"{key[0]} x {key[1]}"
         out.pairs += 1
         if ra["status"] != rb["status"]:
-            out.differences.append(f"{where}: status {ra['status']} -> {rb['status']}")
+            why = rb["message"] if ra["status"] == "converged" else ra["message"]
+            out.differences.append(
+                f"{where}: status {ra['status']} -> {rb['status']} ({why.splitlines()[0][:80]})"
+            )
             continue
         sa, sb = ra.get("steps") or [], rb.get("steps") or []
         if len(sa) != len(sb):
