@@ -132,7 +132,7 @@ def test_continuation_dense_sparse_banded_agree_and_flag_instability():
     # every reported factor, for dense, sparse and banded tangents alike
     import scipy.sparse as sp
 
-    from reduced_models.paths.continuation import Banded
+    from reduced_models.paths.linalg import Banded
 
     K = np.array([[2.0, -0.5], [-0.5, 1.0]])
     f = np.array([1.0, 0.3])

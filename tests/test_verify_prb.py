@@ -33,7 +33,7 @@ from cases.schema import Analysis, Load, Member, Node, Output, Scene, Support
 from reduced_models import registry
 from reduced_models.beam import prb, prb_fit
 from reduced_models.beam import prb_tables as T
-from reduced_models.paths.continuation import Banded
+from reduced_models.paths.linalg import Banded
 
 # ---------------------------------------------------------------------------------------------
 # independent exact solutions (L = EI = 1)

@@ -82,7 +82,6 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-# The linear-algebra layer lives in ``linalg``; its names stay importable from here.
 from reduced_models.paths.linalg import (
     Banded,
     _absmax,
@@ -91,18 +90,11 @@ from reduced_models.paths.linalg import (
     _fix_sparse,
     _resolve,
     positive_definite,
-    solve_linear,
 )
 from reduced_models.paths.path_result import PathResult, limit_note
 from reduced_models.paths.stepper import Recorder, follow
 
-__all__ = [
-    "Banded",
-    "PathResult",
-    "minimize_path",
-    "positive_definite",
-    "solve_linear",
-]
+__all__ = ["minimize_path"]
 
 
 @dataclass
