@@ -250,9 +250,9 @@ def suite_shares() -> tuple[list[str], list[str]]:
 
 def opensees_lines(rounds: int) -> list[str]:
     """fem-16 and fem-64 against OpenSeesPy when it is installed (else a note)."""
-    from reports.bench import fem as bench_fem
+    from reports.bench import fem_runs as bench_fem
 
-    ops = bench_fem._import_opensees()
+    ops = bench_fem.import_opensees()
     if isinstance(ops, Exception):  # optional: not a FlexBench dependency
         return [f"OpenSeesPy not available ({type(ops).__name__}); see reports/bench/fem.py."]
     lines = []
