@@ -17,7 +17,7 @@ Every bound is named in the message, so a user who really needs more knows what 
 
 The same holds for answers: ``state_violation`` is the check every model's returned states
 pass (``reports.api.run_model``): finite outputs, rigid links at their lengths and flexible
-members within ``STRAIN_MAX`` -- the bounds ``fem_reference.integrity`` applies to the FE.
+members within ``STRAIN_MAX`` -- the bounds ``fem_reference.statics.integrity`` applies to the FE.
 """
 
 from __future__ import annotations

@@ -16,8 +16,8 @@ Global internal force ``f = B^T [N, M1, M2]`` and the consistent tangent
 ``r = [-c, -s, 0, c, s, 0]``, ``z = [s, -c, 0, -s, c, 0]`` (Battini & Pacoste 2002, Eq. 25-30).
 There is no Python loop over elements.
 
-Two layouts: the public ``forces`` / ``forces_and_tangent`` / ``local_state`` take and return
-element-major arrays ((ne, 6), (ne, 6, 6)); the hot-loop kernel ``kernel_forces`` /
+Two layouts: the public ``forces`` / ``local_state`` take and return
+element-major arrays ((ne, 6)); the hot-loop kernel ``kernel_forces`` /
 ``kernel_tangent`` works *entry-major* ((6, ne) displacements and forces, (36, ne) tangents:
 one contiguous row per entry), which the band scatter (``scatter.BandScatter``) consumes
 directly.  The tangent is written in closed form from 11 distinct rows (``_K_SYMBOLIC``), so no
@@ -253,14 +253,6 @@ def forces(beams: BeamSet, de: np.ndarray) -> tuple[np.ndarray, LocalState]:
     """Global internal element forces, (ne, 6), and the local state."""
     fT, st = kernel_forces(beams, np.ascontiguousarray(de.T))
     return fT.T.copy(), st
-
-
-def forces_and_tangent(beams: BeamSet, de: np.ndarray) -> tuple[np.ndarray, np.ndarray, LocalState]:
-    """Internal forces (ne, 6), consistent tangents (ne, 6, 6) and the local state
-    (``kernel_forces`` and ``kernel_tangent`` in element-major layout)."""
-    fT, st = kernel_forces(beams, np.ascontiguousarray(de.T))
-    KT = kernel_tangent(beams, st)
-    return fT.T.copy(), KT.T.reshape(-1, 6, 6).copy(), st
 
 
 def energy(beams: BeamSet, st: LocalState) -> np.ndarray:

@@ -79,8 +79,7 @@ class FEMSystem:
     steps mean the same on every mesh), ``is_rotation`` (ndof,) bool,
     ``preload`` (scale of spring preloads, 1.0 = as specified), ``const_factor`` (load factor
     of the ``constant`` load group, used by energy analyses), ``is_multiplier`` (ndof,) bool
-    (the Lagrange multipliers of exact rigid links, ``rigid.py``; weight 0 in the metric),
-    ``n_per_member`` {flexible member id: elements}.
+    (the Lagrange multipliers of exact rigid links, ``rigid.py``; weight 0 in the metric).
     """
 
     scene: Scene
@@ -121,7 +120,6 @@ class FEMSystem:
     con_X: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     con_kappa: float = 1.0
     is_multiplier: np.ndarray | None = None
-    n_per_member: dict = field(default_factory=dict)
     stab_mode: bool = False  # tangents are the stability blocks (``rigid.stability_view``)
     extra: dict = field(default_factory=dict)
 

@@ -31,6 +31,7 @@ perturbation ~ 1 / RHO_FACTOR, as the stiff elements' did; the equilibria do not
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from contextlib import contextmanager, nullcontext
 
 import numpy as np
@@ -103,7 +104,7 @@ def stability_view(system: object) -> object:
 
 
 @contextmanager
-def _view(system: object):  # noqa: ANN202 - generator context manager
+def _view(system: object) -> Iterator[object]:
     old = system.stab_mode
     system.stab_mode = True
     try:

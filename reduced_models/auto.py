@@ -25,8 +25,8 @@ from scipy.optimize import brentq
 
 from cases.schema import Scene
 from reduced_models.base import Model, ModelCard, Solution, not_applicable, post_process
+from reduced_models.beam.single_beam import cantilever_of
 from reduced_models.options import Option
-from reduced_models.single_beam import cantilever_of
 
 P_RANGE = (0.5, 6.0)
 MARGIN = 1.1

@@ -20,21 +20,21 @@ from reduced_models.options import validate
 
 # name (with "-N" for parametrised families) -> "module:factory"
 _ENTRIES: dict[str, str] = {
-    "elastica": "reduced_models.elastica:Elastica",
-    "elastica-bvp": "reduced_models.elastica_bvp:ElasticaBVP",
-    "linear-N": "reduced_models.linear:LinearChain",
-    "bcm": "reduced_models.bcm:BCM",
-    "cbcm-N": "reduced_models.bcm:ChainedBCM",
-    "prb-short": "reduced_models.prb:PRBShort",
-    "prb-1r": "reduced_models.prb:PRB1R",
-    "prb-2r": "reduced_models.prb:PRB2R",
-    "prb-3r": "reduced_models.prb:PRB3R",
-    "prb-3r-force": "reduced_models.prb:PRB3RForce",
-    "prb-3r-moment": "reduced_models.prb:PRB3RMoment",
-    "prb-2rpr": "reduced_models.prb:PRB2RPR",
-    "prb-fsm-N": "reduced_models.prb:PRBFSM",
-    "prb-custom": "reduced_models.prb:PRBCustom",
-    "thesis-force-method": "reduced_models.thesis_force_method:ThesisForceMethod",
+    "elastica": "reduced_models.beam.elastica:Elastica",
+    "elastica-bvp": "reduced_models.beam.elastica_bvp:ElasticaBVP",
+    "linear-N": "reduced_models.beam.linear:LinearChain",
+    "bcm": "reduced_models.beam.bcm:BCM",
+    "cbcm-N": "reduced_models.beam.bcm:ChainedBCM",
+    "prb-short": "reduced_models.beam.prb:PRBShort",
+    "prb-1r": "reduced_models.beam.prb:PRB1R",
+    "prb-2r": "reduced_models.beam.prb:PRB2R",
+    "prb-3r": "reduced_models.beam.prb:PRB3R",
+    "prb-3r-force": "reduced_models.beam.prb:PRB3RForce",
+    "prb-3r-moment": "reduced_models.beam.prb:PRB3RMoment",
+    "prb-2rpr": "reduced_models.beam.prb:PRB2RPR",
+    "prb-fsm-N": "reduced_models.beam.prb:PRBFSM",
+    "prb-custom": "reduced_models.beam.prb:PRBCustom",
+    "thesis-force-method": "reduced_models.thesis.force_method:ThesisForceMethod",
     "kinetostatic": "reduced_models.mechanism.model:Kinetostatic",
     "mixed": "reduced_models.mechanism.model:Mixed",
     "linear-auto": "reduced_models.auto:LinearAuto",
@@ -43,7 +43,7 @@ _ENTRIES: dict[str, str] = {
 }
 # single-beam families: scenes that are not a plain cantilever go to the mechanism assembler
 _SINGLE_BEAM = tuple(
-    f"reduced_models.{m}:" for m in ("elastica", "elastica_bvp", "linear", "bcm", "prb")
+    f"reduced_models.beam.{m}:" for m in ("elastica", "elastica_bvp", "linear", "bcm", "prb")
 )
 
 # concrete names a default benchmark run tries on every case
@@ -83,13 +83,6 @@ _PARAM = re.compile(r"^(?P<family>[a-z0-9-]+?)-(?P<n>\d+)$")
 
 class UnknownModelError(ValueError):
     """A model name the registry does not know (message names it and lists valid names)."""
-
-
-def register(name: str, target: str, default_names: tuple[str, ...] = ()) -> None:
-    """Add an entry (used by sibling packages' registries and by tests)."""
-    MODELS[name] = target
-    global DEFAULT_NAMES
-    DEFAULT_NAMES = tuple(dict.fromkeys(DEFAULT_NAMES + default_names))
 
 
 def parse(name: str, table: dict[str, str] | None = None) -> tuple[str, int | None]:

@@ -14,7 +14,7 @@ import functools
 
 from cases.schema import Scene
 from reduced_models.base import Model, Solution, not_applicable
-from reduced_models.single_beam import cantilever_of
+from reduced_models.beam.single_beam import cantilever_of
 
 
 class Routed:

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import dataclasses
 import importlib
-import time
 import traceback
 
 from cases.limits import state_violation
@@ -153,7 +152,7 @@ def run_model(model: Model, scene: Scene, *, catch: bool = True, post: bool = Tr
         if not isinstance(sol, Solution):
             raise TypeError(f"solve() returned {type(sol).__name__}, not Solution")
         sol = checked(scene, sol)
-        return _predicted(name, scene, post_process(model, scene, sol)) if post else sol
+        return _predicted(name, scene, _post_process(model, scene, sol)) if post else sol
     except Exception as exc:
         if not catch:
             raise
@@ -180,13 +179,26 @@ def checked(scene: Scene, sol: Solution) -> Solution:
     return sol
 
 
+def _post_process(model: Model, scene: Scene, sol: Solution) -> Solution:
+    """The model's ``postprocess`` (shapes, stress), then, for a synthesis the assembler ran,
+    the fem-auto re-solve of the synthesised scene (``reports.fecheck``)."""
+    if getattr(model, "postprocess", None) is None or not sol.steps:
+        return sol
+    sol = post_process(model, scene, sol)
+    if scene.analysis.kind != "synthesis":
+        return sol
+    from reports.fecheck import fe_check
+
+    return fe_check(scene, sol)
+
+
 def finish(model: Model, scene: Scene, sol: Solution) -> Solution:
     """``sol`` with the model's post-processing (shapes, stress) and predicted error added; an
     exception there leaves the answer as it was and is named in
     ``extras["postprocess_error"]``."""
     try:
         name = getattr(model, "name", type(model).__name__)
-        return _predicted(name, scene, post_process(model, scene, sol))
+        return _predicted(name, scene, _post_process(model, scene, sol))
     except Exception as exc:
         extras = dict(sol.extras, postprocess_error=f"{type(exc).__name__}: {exc}")
         return dataclasses.replace(sol, extras=extras)
@@ -218,10 +230,3 @@ def solve(
         scene = cases.load(scene)
     m = make_model(model, scene, options) if isinstance(model, str) else model
     return run_model(m, scene, catch=catch)
-
-
-def timed_solve(scene: Scene, model: Model) -> tuple[Solution, float]:
-    """``run_model`` and its wall time in seconds (perf_counter)."""
-    t0 = time.perf_counter()
-    sol = run_model(model, scene)
-    return sol, time.perf_counter() - t0

@@ -35,8 +35,8 @@ import numpy as np
 
 import cases
 from cases.schema import Scene
-from reduced_models import prb_tables as T
 from reduced_models.base import Solution
+from reduced_models.beam import prb_tables as T
 from reduced_models.registry import DEFAULT_NAMES
 from reports import api
 from reports import yardstick as Y

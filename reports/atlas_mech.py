@@ -54,8 +54,8 @@ import numpy as np
 
 import cases
 from cases.schema import Scene
-from reduced_models import prb_tables as T
 from reduced_models.base import Solution, load_factors
+from reduced_models.beam import prb_tables as T
 from reports import api
 from reports import yardstick as Y
 

@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from reduced_models import prb_tables as T
+from reduced_models.beam import prb_tables as T
 from reports import claims_howell
 
 # force-atlas grid of the ``ours`` readings: the teaching page's default (40 magnitudes in

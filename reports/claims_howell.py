@@ -1,7 +1,7 @@
 """Howell's PRB-1R claim in his own metric (Howell & Midha 1995; Howell 2001 Sec. 5.6, Table 5.1).
 
 The exact elastica's tip under a dead tip force P(-n, 1) (n > 0 compressive; closed form,
-``reduced_models.elastica.tip_dead_force``) is followed in load up to the PRB angle
+``reduced_models.beam.elastica.tip_dead_force``) is followed in load up to the PRB angle
 Theta_max(n).  Howell's error is the radial distance of that tip from the characteristic-radius
 circle (radius gamma L about the pivot at ((1 - gamma) L, 0)) over the tip deflection, with the
 TABULATED gamma(n), not our curve fit.  The record's figure is n = 0, the row whose Theta_max
@@ -20,8 +20,8 @@ from typing import Any
 import numpy as np
 from scipy.optimize import brentq, minimize_scalar
 
-from reduced_models import prb_tables as T
-from reduced_models.elastica import tip_dead_force
+from reduced_models.beam import prb_tables as T
+from reduced_models.beam.elastica import tip_dead_force
 
 # load samples per Howell row before the worst point is refined by a bounded 1-D search: the
 # error is smooth in the load, so 200 samples locate every local maximum's basin (the

@@ -13,7 +13,7 @@
     flexbench compare BASE CURRENT [--abs-tol X] [--rel-factor F]   exit 1 on regression
     flexbench report DIR                     re-render report.html/.md from DIR/results.json
     flexbench history [DIR|PATH] [--case C]  runs in history.sqlite (or one case's trend)
-    flexbench fit-prb ...                    fit a PRB matrix (reduced_models.prb_fit)
+    flexbench fit-prb ...                    fit a PRB matrix (reduced_models.beam.prb_fit)
 
 Exit codes: 0 success, 1 regression (compare) or a report that could not be rendered (run),
 2 bad input (one line ``flexbench: error: ...`` on stderr, never a traceback; an unwritable
@@ -443,7 +443,7 @@ def cmd_history(args: argparse.Namespace) -> int:
 
 def cmd_fit_prb(argv: Sequence[str]) -> int:
     try:
-        from reduced_models.prb_fit import fit_prb_cli
+        from reduced_models.beam.prb_fit import fit_prb_cli
     except ImportError as exc:
         raise UsageError(f"fit-prb is not available ({exc})") from None
     return int(fit_prb_cli(list(argv)) or 0)

@@ -95,7 +95,7 @@ def path_errors(
     length : the case's length scale L (case units).
     stop_output : the output a path analysis stops on (its abscissa when the load factor is
         not monotonic).
-    meta : the case's meta (``reports.runner.case_meta``): its ``tolerances`` name the judged
+    meta : the case's meta (``reports.tables.case_meta``): its ``tolerances`` name the judged
         outputs and any floors.
 
     Returns

@@ -7,8 +7,8 @@ timed, never fatal), as the task's ``ExportPolicy`` says.  Only the case's refer
 * ``OUT/paraview/<case>/<model>/<case>_<model>.{pvd,xdmf}`` + one ``.vtu`` per step: the
   deformed shapes of every step (``fem_reference.export.write_series``);
 * for ``replay`` also ``<case>_replay-frames.{pvd,xdmf}`` + ``.vtu``: its time-history frames
-  (``fem_reference.replay.write_vtu_series``);
-* ``OUT/figures/<case>-replay.gif``: ``fem_reference.replay.write_animation`` on
+  (``fem_reference.replay.model.write_vtu_series``);
+* ``OUT/figures/<case>-replay.gif``: ``fem_reference.replay.model.write_animation`` on
   ``gif_frames`` evenly spaced frames at ``gif_dpi`` without tick labels.
 
 The record's ``exports`` holds the paths relative to ``OUT``::
@@ -59,7 +59,6 @@ class ExportPolicy:
 
 DEFAULT_EXPORT = ExportPolicy()
 QUICK_EXPORT = ExportPolicy(replay_frames=False, animation=False)
-NO_EXPORT = ExportPolicy(paraview=False, replay_frames=False, animation=False)
 
 
 def _slug(name: str) -> str:
@@ -133,7 +132,7 @@ def _write_series(target: Path, sol: Solution, out: Path) -> dict[str, Any]:
 
 
 def _write_frames(target: Path, sol: Solution, scene: Scene, out: Path) -> dict[str, Any] | None:
-    from fem_reference.replay import write_vtu_series
+    from fem_reference.replay.model import write_vtu_series
 
     xdmf = write_vtu_series(sol, scene, str(target))
     return None if xdmf is None else _series_info(target, xdmf, out)
@@ -143,7 +142,7 @@ def _write_gif(gif: Path, sol: Solution, scene: Scene, policy: ExportPolicy, out
     import matplotlib
 
     matplotlib.use("Agg")
-    from fem_reference.replay import write_animation
+    from fem_reference.replay.model import write_animation
 
     gif.parent.mkdir(parents=True, exist_ok=True)
     # tick labels are half the cost of a frame (two draws per frame in matplotlib's writer)

@@ -79,7 +79,7 @@ def _alarm(seconds: float | None) -> Iterator[None]:
         yield
         return
 
-    def _raise(signum: int, frame: object) -> None:
+    def _raise(_signum: int, _frame: object) -> None:  # signal handler signature
         raise LimitExceeded("time", seconds)
 
     previous = signal.signal(signal.SIGALRM, _raise)

@@ -155,8 +155,8 @@ def unknowns(name: str, scene: Scene) -> int | None:
     mechanism's nodes are shared by every assembler model and not counted (``kinetostatic``:
     0).  A ``family-auto`` model solves N0, 2 N0 and 4 N0 first: the sum of those.
     """
+    from reduced_models.beam.single_beam import cantilever_of
     from reduced_models.mechanism.model import member_spec
-    from reduced_models.single_beam import cantilever_of
 
     flex = [m for m in scene.members if m.kind == "flexible"]
     if name == "kinetostatic":

@@ -43,7 +43,7 @@ from scipy.spatial import cKDTree
 
 from cases.schema import Scene
 from reduced_models.base import Solution
-from reduced_models.single_beam import Cantilever, cantilever_of
+from reduced_models.beam.single_beam import Cantilever, cantilever_of
 from reports import predict_table as PT
 
 THRESHOLD = 0.01

@@ -323,7 +323,7 @@ def recommend(
     ToleranceError
         Unreadable tolerance or an output name the scene does not report.
     """
-    from reports.runner import case_meta
+    from reports.tables import case_meta
 
     t_start = time.perf_counter()
     if isinstance(scene, str):

@@ -64,14 +64,13 @@ from reports import (
 )
 from reports.exports import (
     DEFAULT_EXPORT,
-    NO_EXPORT,  # noqa: F401  (re-exported)
     QUICK_EXPORT,
     ExportPolicy,
     export_outputs,
     start_render_probe,
 )
 from reports.progress import Progress, stage
-from reports.tables import previous_records, scene_drawing, step_shapes, write_errors_csv
+from reports.tables import case_meta, previous_records, step_shapes, write_errors_csv
 from reports.timing import DEFAULT_TIME_LIMIT, QUICK_TIME_LIMIT
 
 
@@ -124,11 +123,6 @@ def quick_scene(scene: Scene, divisor: int = 4, min_steps: int = 4) -> Scene:
     return scene
 
 
-def scene_hash(scene: Scene) -> str:
-    """Content hash of a scene (its repr covers every field, options included)."""
-    return hashlib.sha1(repr(scene).encode()).hexdigest()[:12]
-
-
 def code_hash() -> str:
     """Hash of the solver packages' sources: a resumed run never reuses stale answers."""
     import importlib
@@ -144,34 +138,6 @@ def code_hash() -> str:
                 h.update(str(f.relative_to(base)).encode())
                 h.update(f.read_bytes())
     return h.hexdigest()[:12]
-
-
-def case_meta(scene: Scene) -> dict[str, Any]:
-    """What the report and ``compare`` need to know about a case without loading it."""
-    lengths = [scene.member_length(m.id) for m in scene.members]
-    length = max(lengths, default=0.0) or 1.0
-    undeformed = {}
-    for m in scene.members:
-        a, b = scene.node(m.a), scene.node(m.b)
-        undeformed[m.id] = [[a.x, a.y], [b.x, b.y]]
-    return {
-        "name": scene.name,
-        "title": scene.title,
-        "units": scene.units,
-        "tags": list(scene.tags),
-        "description": scene.description,
-        "path": scene.path,
-        "reference_model": scene.reference_model,
-        "length_scale": length,
-        "analysis": dataclasses.asdict(scene.analysis),
-        "outputs": [dataclasses.asdict(o) for o in scene.outputs],
-        "primary_output": scene.outputs[0].name if scene.outputs else None,
-        "references": [dataclasses.asdict(r) for r in scene.references],
-        "tolerances": [dataclasses.asdict(t) for t in scene.tolerances],
-        "undeformed": undeformed,
-        **scene_drawing(scene),
-        "scene_hash": scene_hash(scene),
-    }
 
 
 def model_list(scene: Scene, models: Sequence[str] | None, table: dict[str, str]) -> list:
@@ -552,43 +518,14 @@ def run_matrix(
 
         scenes.prefork()  # before the probe's thread starts: no fork beside a live thread
     probe = start_render_probe() if render and render_shapes else None
-    wanted = {t["key"] for t in tasks}
-    previous = journal.read(partial)  # a torn last line is cut off
-    earlier = [] if fresh else previous_records(out / "results.json")
-    token = journal.run_token(out, new=not (previous or earlier))  # this run's history rows
-    done = {
-        r["key"]: r
-        for r in [*earlier, *previous]
-        if r.get("key") in wanted and not r.get("retry")  # killed/timed out: try again
-    }
+    done, token = _resumed(out, partial, tasks, fresh)
     todo = [t for t in tasks if t["key"] not in done]
     records = list(done.values()) + fixed
-    queue = collections.deque(todo)  # figure jobs join it as cases complete (overlap.py)
-    pooled = not dask and (workers or os.cpu_count() or 1) > 1 and len(todo) > 1
-    early = None
-    if render and pooled:
-        early = overlap.EarlyFigures(todo, records, metas, out.resolve(), probe)
     if teaching == "auto":  # the page is about the default models: not for a --models run
         teaching = None if models else teach_run.QUICK_GRID if quick else teach_run.GRID
-    teach = None
-    if render and teaching:
-        teach = teach_run.TeachingJobs(out, teaching, code_hash())  # kept across --fresh
-    if teach is not None and pooled:
-        queue.extendleft(reversed(teach.jobs))  # long jobs: first, beside the pairs
-    bar = Progress(len(todo), enabled=progress, tasks=todo, workers=workers or os.cpu_count() or 1)
-    try:
-        for rec in execute(queue if pooled else todo, workers, dask, time_limit):
-            if early is not None and early.take(rec):
-                continue
-            if teach is not None and teach.take(rec):
-                continue
-            journal.append(partial, rec)
-            records.append(rec)
-            bar.update(f"{rec['case']} / {rec['model']}", rec)
-            if early is not None:
-                early.pair_done(rec, queue)
-    finally:
-        bar.close()
+    teach = teach_run.TeachingJobs(out, teaching, code_hash()) if render and teaching else None
+    early, bar_mode = _solve(todo, records, metas, out, partial, probe, teach, render, workers,
+                             dask, time_limit, progress)  # fmt: skip
     config = {
         "tolerance": tolerance,  # grading.py: user tolerance (None: per-family defaults)
         "quick": quick,
@@ -606,14 +543,7 @@ def run_matrix(
     elapsed = time.perf_counter() - t_start
     payload["elapsed_s"] = elapsed
     payload["stats"] = {"solved": len(todo), "resumed": len(done), "pairs": len(records)}
-    paths = {
-        "results.json": store.write_results(out / "results.json", payload),
-        "results.csv": store.write_csv(out / "results.csv", payload["results"]),
-    }
-    hist = Path(history) if history else out / "history.sqlite"
-    journal.record_history(hist, payload, str(out), elapsed, token)
-    paths["history"] = hist
-    paths["errors.csv"] = write_errors_csv(out / "errors.csv", payload)
+    paths = _write(payload, out, Path(history) if history else out / "history.sqlite", token)
     partial.unlink(missing_ok=True)  # every pair is in results.json now (resume reads it)
     result = RunResult(payload, out, paths, len(todo), len(done), elapsed)
     if render:
@@ -622,7 +552,7 @@ def run_matrix(
         try:
             from reports.render import render_report
 
-            with stage("rendering report", enabled=bar.mode != ""):
+            with stage("rendering report", enabled=bar_mode != ""):
                 if teach is not None:  # never raises; a page that failed is not linked
                     paths["teaching.html"] = teach.write(payload, out)
                 figs = early.figures if early is not None else None
@@ -631,3 +561,71 @@ def run_matrix(
             result.report_error = f"{type(exc).__name__}: {exc}"
     result.elapsed_s = time.perf_counter() - t_start
     return result
+
+
+def _resumed(out: Path, partial: Path, tasks: list[dict], fresh: bool) -> tuple[dict, str]:
+    """(records of the pairs an earlier run of this ``out`` finished, this run's history
+    token): from ``partial.jsonl`` and, unless ``fresh``, ``results.json``; pairs killed or
+    timed out are tried again."""
+    wanted = {t["key"] for t in tasks}
+    previous = journal.read(partial)  # a torn last line is cut off
+    earlier = [] if fresh else previous_records(out / "results.json")
+    token = journal.run_token(out, new=not (previous or earlier))  # this run's history rows
+    done = {
+        r["key"]: r
+        for r in [*earlier, *previous]
+        if r.get("key") in wanted and not r.get("retry")  # killed/timed out: try again
+    }
+    return done, token
+
+
+def _solve(
+    todo: list[dict],
+    records: list[dict],
+    metas: dict,
+    out: Path,
+    partial: Path,
+    probe: Any,
+    teach: Any,
+    render: bool,
+    workers: int | None,
+    dask: str | None,
+    time_limit: float | None,
+    progress: bool | None,
+) -> tuple[Any, str]:
+    """Solve the ``todo`` pairs (with the early figure and teaching-page jobs in the same
+    pool), journal and append each record; (the early figures, the progress bar's mode)."""
+    queue = collections.deque(todo)  # figure jobs join it as cases complete (overlap.py)
+    pooled = not dask and (workers or os.cpu_count() or 1) > 1 and len(todo) > 1
+    early = None
+    if render and pooled:
+        early = overlap.EarlyFigures(todo, records, metas, out.resolve(), probe)
+    if teach is not None and pooled:
+        queue.extendleft(reversed(teach.jobs))  # long jobs: first, beside the pairs
+    bar = Progress(len(todo), enabled=progress, tasks=todo, workers=workers or os.cpu_count() or 1)
+    try:
+        for rec in execute(queue if pooled else todo, workers, dask, time_limit):
+            if early is not None and early.take(rec):
+                continue
+            if teach is not None and teach.take(rec):
+                continue
+            journal.append(partial, rec)
+            records.append(rec)
+            bar.update(f"{rec['case']} / {rec['model']}", rec)
+            if early is not None:
+                early.pair_done(rec, queue)
+    finally:
+        bar.close()
+    return early, bar.mode
+
+
+def _write(payload: dict, out: Path, hist: Path, token: str) -> dict[str, Path]:
+    """results.json, results.csv, the history rows and errors.csv of a run."""
+    paths = {
+        "results.json": store.write_results(out / "results.json", payload),
+        "results.csv": store.write_csv(out / "results.csv", payload["results"]),
+    }
+    journal.record_history(hist, payload, str(out), payload["elapsed_s"], token)
+    paths["history"] = hist
+    paths["errors.csv"] = write_errors_csv(out / "errors.csv", payload)
+    return paths

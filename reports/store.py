@@ -199,24 +199,6 @@ def extras_json(extras: dict) -> dict:
     return jsonable(out)
 
 
-# -- partial results (resume) ----------------------------------------------------------------
-def read_partial(path: Path) -> list[dict]:
-    """Records appended so far; a truncated last line (killed mid-write) is ignored."""
-    if not path.exists():
-        return []
-    records = []
-    with path.open() as fh:
-        for line in fh:
-            line = line.strip()
-            if not line:
-                continue
-            try:
-                records.append(json.loads(line))
-            except json.JSONDecodeError:
-                continue
-    return records
-
-
 # -- results.json / csv ------------------------------------------------------------------------
 def write_results(path: Path, payload: Mapping) -> Path:
     """Write ``results.json`` atomically (temp file + rename), one top-level key and one

@@ -21,6 +21,8 @@ pieces of a pair record the report draws from (shapes along the path, how a scen
 from __future__ import annotations
 
 import csv
+import dataclasses
+import hashlib
 import json
 from collections.abc import Mapping
 from pathlib import Path
@@ -156,4 +158,37 @@ def scene_drawing(scene: Scene) -> dict[str, Any]:
             if s.node in pos
         ],
         "pins": [list(pos[p]) for p in pins if p in pos],
+    }
+
+
+def scene_hash(scene: Scene) -> str:
+    """Content hash of a scene (its repr covers every field, options included)."""
+    return hashlib.sha1(repr(scene).encode()).hexdigest()[:12]
+
+
+def case_meta(scene: Scene) -> dict[str, Any]:
+    """What the report and ``compare`` need to know about a case without loading it."""
+    lengths = [scene.member_length(m.id) for m in scene.members]
+    length = max(lengths, default=0.0) or 1.0
+    undeformed = {}
+    for m in scene.members:
+        a, b = scene.node(m.a), scene.node(m.b)
+        undeformed[m.id] = [[a.x, a.y], [b.x, b.y]]
+    return {
+        "name": scene.name,
+        "title": scene.title,
+        "units": scene.units,
+        "tags": list(scene.tags),
+        "description": scene.description,
+        "path": scene.path,
+        "reference_model": scene.reference_model,
+        "length_scale": length,
+        "analysis": dataclasses.asdict(scene.analysis),
+        "outputs": [dataclasses.asdict(o) for o in scene.outputs],
+        "primary_output": scene.outputs[0].name if scene.outputs else None,
+        "references": [dataclasses.asdict(r) for r in scene.references],
+        "tolerances": [dataclasses.asdict(t) for t in scene.tolerances],
+        "undeformed": undeformed,
+        **scene_drawing(scene),
+        "scene_hash": scene_hash(scene),
     }

@@ -15,7 +15,7 @@ joint(s) it pushes; which joints carry no spring; whether the boom is welded to 
 (Configuration 5); and, for two booms, whether Part 1 keeps pushing every boom until boom 1
 reaches its length (``push-on``) or each boom locks on reaching its own (``staged``, the
 physical deployment).  :func:`run` computes it with the thesis's own increments (the port
-``reduced_models.thesis_force_method``: same equilibrium matrix, mechanism modes, spring
+``reduced_models.thesis.force_method``: same equilibrium matrix, mechanism modes, spring
 stiffness and force fractions 0.005 / 0.5) and returns ``Lo_tot`` of Part 1 and Part 2,
 which is what Tables 4-5 to 4-10 print.
 """
@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from reduced_models.thesis_force_method import (
+from reduced_models.thesis.force_method import (
     PART1_DELTA,
     PART2_DELTA,
     PART2_TOL,

@@ -39,7 +39,7 @@ def increment_convergence(scene: Scene, factors: Sequence[float] = FACTORS) -> d
     factor: ``factor``, ``error_m``, ``increments``, ``overshoot_m``, ``last_increment_m``,
     ``drift_m`` lists, and ``order_last_increment`` / ``order_drift`` (observed orders
     between successive halvings)."""
-    from reduced_models.thesis_force_method import ThesisForceMethod
+    from reduced_models.thesis.force_method import ThesisForceMethod
     from reports import api
 
     exact = api.solve(scene, "kinetostatic")

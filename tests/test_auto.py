@@ -11,7 +11,7 @@ import pytest
 
 import cases
 import reports
-from reduced_models.elastica import tip_dead_force
+from reduced_models.beam.elastica import tip_dead_force
 
 
 def stiff_cantilever():

@@ -17,7 +17,7 @@ import math
 import numpy as np
 import pytest
 
-from reduced_models import prb_tables as T
+from reduced_models.beam import prb_tables as T
 from reports import atlas, claims, claims_howell, cli
 
 GAMMA0 = T.HOWELL_N0["gamma"]

@@ -195,12 +195,12 @@ def test_bad_input_real_process_one_line_no_traceback(tmp_path):
 
 def test_fit_prb_delegates_or_says_unavailable(monkeypatch, capsys):
     seen = []
-    fake = types.ModuleType("reduced_models.prb_fit")
+    fake = types.ModuleType("reduced_models.beam.prb_fit")
     fake.fit_prb_cli = lambda argv: seen.append(argv) or 0
-    monkeypatch.setitem(sys.modules, "reduced_models.prb_fit", fake)
+    monkeypatch.setitem(sys.modules, "reduced_models.beam.prb_fit", fake)
     assert cli.main(["fit-prb", "3", "--alpha-max", "5"]) == 0
     assert seen == [["3", "--alpha-max", "5"]]
-    monkeypatch.setitem(sys.modules, "reduced_models.prb_fit", None)  # import fails
+    monkeypatch.setitem(sys.modules, "reduced_models.beam.prb_fit", None)  # import fails
     assert cli.main(["fit-prb", "3"]) == 2
     err = capsys.readouterr().err.splitlines()
     assert len(err) == 1 and "fit-prb is not available" in err[0]

@@ -22,7 +22,7 @@ import pytest
 import cases
 from reduced_models.mechanism.builder import build
 from reduced_models.mechanism.deploy import BoomForceTerm, BoomLength, Deploy
-from reduced_models.thesis_force_method import ThesisForceMethod
+from reduced_models.thesis.force_method import ThesisForceMethod
 from reports import api
 
 

@@ -10,7 +10,7 @@ import pytest
 
 import cases
 from cases.schema import Analysis, Load, Member, Node, Output, Scene, Support
-from fem_reference import adaptive
+from fem_reference.error import adaptive
 from reports import api
 
 

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import reports
-from reduced_models.bcm import BCM_LAW
+from reduced_models.beam.bcm import BCM_LAW
 
 
 def beam_column_stiffness(p: float) -> np.ndarray:

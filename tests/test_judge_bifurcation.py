@@ -67,7 +67,7 @@ def test_catalog_imperfect_column_has_no_critical_point():
 
 def test_unstable_end_is_said(monkeypatch):
     """With branch switching disabled, the run must say it ends on an unstable state."""
-    import fem_reference.bifurcation as B
+    import fem_reference.statics.bifurcation as B
 
     monkeypatch.setattr(B.Watch, "_switch", lambda self, *a: None)
     sol = reports.solve(beam_scene(-2.0 * PE, 0.0, A=1e4, steps=4), "fem-8")

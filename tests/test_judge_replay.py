@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import cases
 import reports
-from fem_reference.replay import Replay
+from fem_reference.replay.model import Replay
 
 
 def test_replay_states_its_mesh_error_against_fem_auto():

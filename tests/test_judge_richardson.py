@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 import reports
-from fem_reference.richardson import extrapolate
-from reduced_models.elastica import tip_dead_force
+from fem_reference.error.richardson import extrapolate
+from reduced_models.beam.elastica import tip_dead_force
 from tests.test_judge_bifurcation import PE, elastica_post
 from tests.test_verify_linear_bcm import beam_scene
 

@@ -133,10 +133,10 @@ def test_silent_errors_now_warn(case, model):
 def elastica_error(scene, sol) -> float:
     """The measured ``error_rel`` of a single-beam solution against the exact elastica
     (closed-form references of these cases)."""
-    from reports import errors, runner, store
+    from reports import errors, store, tables
 
     ref = reports.solve(scene, "elastica")
-    meta = runner.case_meta(scene)
+    meta = tables.case_meta(scene)
     steps, ref_steps = store.steps_json(sol)[0], store.steps_json(ref)[0]
     return errors.path_errors(steps, ref_steps, meta["length_scale"], None, meta)["summary"]
 

@@ -1,7 +1,7 @@
 """``flexbench recommend``: never a model outside the tolerance, never a cheaper one skipped.
 
 Errors are re-measured here independently of ``reports.errors``: the model's tip path against
-the exact elastica (``reduced_models.elastica`` closed forms), as max |difference| / L for
+the exact elastica (``reduced_models.beam.elastica`` closed forms), as max |difference| / L for
 translations and max |difference| in rad for the tip rotation.  Cost in the brute-force check is
 a deterministic count of unknowns (timings are never asserted).
 """
@@ -19,7 +19,7 @@ import pytest
 
 import cases
 import reports
-from reduced_models import elastica
+from reduced_models.beam import elastica
 from reports import cli
 from reports.pick import TIE
 from reports.recommend import auto_candidates, ladders, recommend

@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 
 import cases
-from fem_reference import replay_servo
-from fem_reference import static as S
 from fem_reference.assembly import build
 from fem_reference.models import FEM
-from fem_reference.replay import Replay
+from fem_reference.replay import servo as replay_servo
+from fem_reference.replay.model import Replay
+from fem_reference.statics import static as S
 
 
 def _scene(name: str, **analysis: object) -> cases.Scene:

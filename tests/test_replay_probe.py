@@ -5,7 +5,7 @@ equilibrium lies a visible distance from the servo-settled one -- comes to rest 
 left undecided, within a bounded probe time (steps sized by the probed mode, not by T1)."""
 
 import cases
-from fem_reference.replay import Replay
+from fem_reference.replay.model import Replay
 
 
 def test_ex3_probe_verdicts_agree_with_the_tangent():

@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 import cases
-from reports import browser, cli, progress, runner
+from reports import cli, progress, runner
+from reports.bench import browser
 from reports.render import figures, mechfig, slug
 from tests.test_report import MODELS, dummies  # noqa: F401  (fixture)
 from tests.test_runner import dummy_scene

@@ -15,14 +15,14 @@ import numpy as np
 import pytest
 
 import cases
-from reduced_models import single_beam
 from reduced_models.base import load_factors
-from reduced_models.bcm import BCM
-from reduced_models.chain_small import single_segment_functions, solve_single_segment
-from reduced_models.continuation import minimize_path
-from reduced_models.linear import LinearChain
-from reduced_models.prb import PRB1R, PRB2R, PRB3R, RESIDUAL_TOL, PRBChain, equilibrium_path
-from reduced_models.small_path import minimize_path_small
+from reduced_models.beam import single_beam
+from reduced_models.beam.bcm import BCM
+from reduced_models.beam.chain_small import single_segment_functions, solve_single_segment
+from reduced_models.beam.linear import LinearChain
+from reduced_models.beam.prb import PRB1R, PRB2R, PRB3R, RESIDUAL_TOL, PRBChain, equilibrium_path
+from reduced_models.paths.continuation import minimize_path
+from reduced_models.paths.small_path import minimize_path_small
 
 
 def _beam_cases() -> list[str]:

@@ -125,7 +125,7 @@ def tolerance(model: str) -> float:
 def _assembler_scene(case: str, model: str) -> bool:
     """A reduced beam model on a scene that is not a plain cantilever: before issue 9 it
     declined, now the mechanism assembler answers (an intended change of answers)."""
-    from reduced_models.single_beam import cantilever_of
+    from reduced_models.beam.single_beam import cantilever_of
 
     beam = not model.startswith(("fem", "replay"))
     return beam and isinstance(cantilever_of(cases.load(case)), str)

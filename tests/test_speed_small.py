@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 import cases
-from reduced_models import single_beam
-from reduced_models.bcm import BCM
-from reduced_models.chain_small import single_segment_functions
+from reduced_models.beam import single_beam
+from reduced_models.beam.bcm import BCM
+from reduced_models.beam.chain_small import single_segment_functions
 
 
 @pytest.mark.parametrize("case", ["cantilever-tip-load", "fixed-guided-beam"])

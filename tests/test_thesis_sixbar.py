@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 import cases
-from reduced_models.thesis_force_method import ThesisForceMethod
+from reduced_models.thesis.force_method import ThesisForceMethod
 
 # Table 4-8, F2x F2y F3x F3y F4x F4y F5x F5y F6x F6y (N)
 PART1 = [-52.5678194014016, 1.41191426605847e-12, 26.2839097007006, 288.611759048534,

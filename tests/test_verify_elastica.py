@@ -18,7 +18,7 @@ from scipy.optimize import brentq
 from scipy.special import ellipe, ellipeinc, ellipk, ellipkinc
 
 import cases
-from reduced_models.elastica import (
+from reduced_models.beam.elastica import (
     Elastica,
     ElasticaError,
     closed_form_dead,
@@ -27,8 +27,8 @@ from reduced_models.elastica import (
     shape_under_tip_load,
     tip_dead_force,
 )
-from reduced_models.elastica_bvp import ElasticaBVP
-from reduced_models.elastica_shooting import follow_path
+from reduced_models.beam.elastica_bvp import ElasticaBVP
+from reduced_models.beam.elastica_shooting import follow_path
 
 PCR = math.pi**2 / 4.0  # cantilever Euler load, EI = L = 1
 

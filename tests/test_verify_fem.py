@@ -1,7 +1,7 @@
 """Verification of the corotational FE reference (fem_reference) against exact solutions.
 
 Every expected value here is a closed form, an elliptic-integral elastica solution
-(``reduced_models.elastica``, an independent exact solver), a published number or a hand-solved
+(``reduced_models.beam.elastica``, an independent exact solver), a published number or a hand-solved
 equilibrium -- never a number the FE produced earlier.  Convergence orders are fitted from
 h-refinement and asserted.
 """
@@ -26,10 +26,11 @@ from cases.schema import (
     Support,
     TorsionSpring,
 )
-from fem_reference import static as S
 from fem_reference.assembly import build
-from fem_reference.models import FEM, MODELS, FEMAuto, Runner
-from reduced_models.elastica import tip_dead_force
+from fem_reference.auto import FEMAuto
+from fem_reference.models import FEM, MODELS, Runner
+from fem_reference.statics import static as S
+from reduced_models.beam.elastica import tip_dead_force
 
 # -- scene builders ----------------------------------------------------------------------------
 
@@ -525,8 +526,8 @@ def test_failed_is_honest_for_a_mechanism_without_stiffness():
 def test_registry_and_not_applicable():
     assert MODELS == {
         "fem-N": "fem_reference.models:FEM",
-        "fem-auto": "fem_reference.models:FEMAuto",
-        "replay": "fem_reference.replay:Replay",
+        "fem-auto": "fem_reference.auto:FEMAuto",
+        "replay": "fem_reference.replay.model:Replay",
     }
     sc = cantilever(fy=-1.0)
     sweep = Scene(

@@ -12,11 +12,12 @@ from scipy.optimize import brentq
 
 import cases
 from cases.schema import Analysis
-from fem_reference import static as S
 from fem_reference.assembly import build
-from fem_reference.models import FEM, FEMAuto
+from fem_reference.auto import FEMAuto
+from fem_reference.models import FEM
+from fem_reference.statics.newton import lu_of
 from reduced_models.base import load_factors
-from reduced_models.elastica import tip_dead_force
+from reduced_models.beam.elastica import tip_dead_force
 
 # Lee's frame, first limit load P L^2/EI as commonly quoted for the 120 x 120 frame
 # (E = 720, A = 6, I = 2): 18.5 (e.g. Schweizerhof & Wriggers, CMAME 59:261, 1986; the 3-digit
@@ -105,7 +106,7 @@ def plain_newton_diverges(system, steps=10, max_iter=60):
                 return True
             if np.linalg.norm(r) < 1e-6 * np.linalg.norm(system.external(u)):
                 break
-            u = u + S._lu(system, K).solve(-r)
+            u = u + lu_of(system, K).solve(-r)
         else:
             return True
     return False

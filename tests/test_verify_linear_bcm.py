@@ -18,7 +18,7 @@ from scipy.special import ellipe, ellipeinc, ellipk, ellipkinc
 
 from cases.schema import Analysis, Load, Member, Node, Output, Scene, Support
 from reduced_models import registry
-from reduced_models.bcm import (
+from reduced_models.beam.bcm import (
     BCM,
     BCM_LAW,
     ChainedBCM,
@@ -26,9 +26,9 @@ from reduced_models.bcm import (
     segment_loads,
     shape_functions,
 )
-from reduced_models.chain import ChainProblem, local_coords
-from reduced_models.continuation import minimize_path
-from reduced_models.linear import G_LINEAR, LINEAR_LAW, LinearChain
+from reduced_models.beam.chain import ChainProblem, local_coords
+from reduced_models.beam.linear import G_LINEAR, LINEAR_LAW, LinearChain
+from reduced_models.paths.continuation import minimize_path
 
 PI2_4 = math.pi**2 / 4
 
@@ -132,7 +132,7 @@ def test_continuation_dense_sparse_banded_agree_and_flag_instability():
     # every reported factor, for dense, sparse and banded tangents alike
     import scipy.sparse as sp
 
-    from reduced_models.continuation import Banded
+    from reduced_models.paths.linalg import Banded
 
     K = np.array([[2.0, -0.5], [-0.5, 1.0]])
     f = np.array([1.0, 0.3])

@@ -1,6 +1,6 @@
 """Verification of the pseudo-rigid-body family against the exact elastica and published claims.
 
-The exact reference here is computed independently of ``reduced_models.elastica``: the
+The exact reference here is computed independently of ``reduced_models.beam.elastica``: the
 Bisshopp-Drucker elliptic-integral closed form for a transverse tip force and a shooting
 solution (variational equations + load continuation, scipy solve_ivp) for general tip loads.
 
@@ -30,9 +30,10 @@ from scipy.special import ellipe, ellipeinc, ellipk, ellipkinc
 
 import cases
 from cases.schema import Analysis, Load, Member, Node, Output, Scene, Support
-from reduced_models import prb, prb_fit, registry
-from reduced_models import prb_tables as T
-from reduced_models.continuation import Banded
+from reduced_models import registry
+from reduced_models.beam import prb, prb_fit
+from reduced_models.beam import prb_tables as T
+from reduced_models.paths.linalg import Banded
 
 # ---------------------------------------------------------------------------------------------
 # independent exact solutions (L = EI = 1)
@@ -188,15 +189,15 @@ def test_prb1r_small_load_bias_against_linear_theory():
 
 
 REGISTRY_LINES = {
-    "prb-short": "reduced_models.prb:PRBShort",
-    "prb-1r": "reduced_models.prb:PRB1R",
-    "prb-2r": "reduced_models.prb:PRB2R",
-    "prb-3r": "reduced_models.prb:PRB3R",
-    "prb-3r-force": "reduced_models.prb:PRB3RForce",
-    "prb-3r-moment": "reduced_models.prb:PRB3RMoment",
-    "prb-2rpr": "reduced_models.prb:PRB2RPR",
-    "prb-fsm-N": "reduced_models.prb:PRBFSM",
-    "prb-custom": "reduced_models.prb:PRBCustom",
+    "prb-short": "reduced_models.beam.prb:PRBShort",
+    "prb-1r": "reduced_models.beam.prb:PRB1R",
+    "prb-2r": "reduced_models.beam.prb:PRB2R",
+    "prb-3r": "reduced_models.beam.prb:PRB3R",
+    "prb-3r-force": "reduced_models.beam.prb:PRB3RForce",
+    "prb-3r-moment": "reduced_models.beam.prb:PRB3RMoment",
+    "prb-2rpr": "reduced_models.beam.prb:PRB2RPR",
+    "prb-fsm-N": "reduced_models.beam.prb:PRBFSM",
+    "prb-custom": "reduced_models.beam.prb:PRBCustom",
 }
 
 

@@ -283,7 +283,9 @@ def test_bad_input():
 def _corotational_tip(scene, n: int) -> dict[str, float]:
     """Tip outputs of the corotational FE (assembly.build + static.load_control) at factor 1."""
     assembly = pytest.importorskip("fem_reference.assembly", reason="corotational FE not built")
-    static = pytest.importorskip("fem_reference.static", reason="FE static solvers not built")
+    static = pytest.importorskip(
+        "fem_reference.statics.static", reason="FE static solvers not built"
+    )
     for mod, name in ((assembly, "build"), (static, "load_control"), (static, "State")):
         if not hasattr(mod, name):
             pytest.skip(f"fem_reference.{mod.__name__.rsplit('.', 1)[-1]}.{name} not available yet")

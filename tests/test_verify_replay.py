@@ -1,4 +1,4 @@
-"""Verification of the damped dynamics replay (fem_reference.replay).
+"""Verification of the damped dynamics replay (fem_reference.replay.run).
 
 Small test systems with exact static solutions (a shallow von Mises truss with a known snap,
 a two-link column with a known critical load) check the integrator itself; the FE scenes check
@@ -16,17 +16,12 @@ import scipy.optimize as so
 import scipy.sparse as sp
 
 import cases
-from fem_reference import static
 from fem_reference.assembly import build
 from fem_reference.models import FEM
-from fem_reference.replay import (
-    Replay,
-    ReplayOptions,
-    replay_system,
-    write_animation,
-    write_vtu_series,
-)
-from fem_reference.replay_events import GenAlpha, ramp
+from fem_reference.replay.integrator import GenAlpha, ramp
+from fem_reference.replay.model import Replay, write_animation, write_vtu_series
+from fem_reference.replay.run import ReplayOptions, replay_system
+from fem_reference.statics import static
 from reduced_models.base import Step
 
 # --------------------------------------------------------------------------------------------

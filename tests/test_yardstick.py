@@ -34,7 +34,7 @@ from cases.load import CaseError
 from reports import cli, errors, store
 from reports import yardstick as Y
 from reports.recommend import recommend
-from reports.runner import case_meta
+from reports.tables import case_meta
 from tests.test_recommend import unknowns
 
 PG, XP = "flexure-parallel-guide", "flexure-cross-axis-pivot"

@@ -79,12 +79,6 @@ class Run:
 
         return apply
 
-    def grow_mu(self, st: State) -> State:
-        m = self.s.m
-        if len(st.mu) < m:
-            st = State(st.q, np.concatenate([st.mu, np.zeros(m - len(st.mu))]), st.lam)
-        return st
-
     # -- analyses ------------------------------------------------------------------------------
     def load(self) -> None:
         st = self.solver.newton(self.zero())

@@ -70,7 +70,7 @@ def _clencurt(n: int) -> np.ndarray:
     return 0.5 * w
 
 
-D1, S_NODES = _cheb(N)
+D1 = _cheb(N)[0]
 D2 = D1 @ D1
 WQ = _clencurt(N)
 _IN = np.arange(1, N)

@@ -20,7 +20,7 @@ from collections.abc import Callable
 import numpy as np
 
 from cases.schema import Member, Scene
-from reduced_models.bcm import BCM_LAW
+from reduced_models.beam.bcm import BCM_LAW
 from reduced_models.mechanism.builder import build
 from reduced_models.mechanism.newton import Solver, State
 from reduced_models.mechanism.system import MechanismSystem, SceneError

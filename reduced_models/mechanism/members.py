@@ -10,7 +10,7 @@ global indices they scatter to::
 Terms (open list: a boom is one more term plus one more constraint):
 
 * ``ChainTerm`` -- linear-N, bcm and cbcm-N members: N chained segments, each in the frame of
-  the previous segment's tip (``reduced_models.chain``), with the mixed Lagrangian of the
+  the previous segment's tip (``reduced_models.beam.chain``), with the mixed Lagrangian of the
   segment law (``SegmentLaw``: value = strain energy at the stationary axial force p).  The
   chain's first/last node are the member's end poses (node position + end rotation unknown).
 * ``JointTerm`` -- PRB joint springs 1/2 K (psi_p - psi_{p-1})^2 and PRB axial springs
@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from reduced_models.chain import SegmentLaw
+from reduced_models.beam.chain import SegmentLaw
 
 #: (global indices (E, k), gradients (E, k), Hessians (E, k, k)) of a term
 Local = tuple[np.ndarray, np.ndarray, np.ndarray]

@@ -19,15 +19,15 @@ from collections.abc import Callable
 import numpy as np
 
 from cases.schema import Member, Scene
-from reduced_models import prb_tables as T
 from reduced_models.base import ModelCard, Solution, not_applicable
-from reduced_models.bcm import BCM_LAW
-from reduced_models.linear import LINEAR_LAW
+from reduced_models.beam import prb_tables as T
+from reduced_models.beam.bcm import BCM_LAW
+from reduced_models.beam.linear import LINEAR_LAW
+from reduced_models.beam.prb_chain import check_matrix
 from reduced_models.mechanism import analyses
 from reduced_models.mechanism.builder import build
 from reduced_models.mechanism.inextensible import axial_only
 from reduced_models.mechanism.system import MechanismSystem, SceneError
-from reduced_models.prb_chain import check_matrix
 
 ANALYSES = ("load", "path", "distance", "energy", "kinematics", "synthesis", "deploy")
 _PRB_FIXED = {
@@ -302,10 +302,6 @@ class _Post:
 def postprocess(scene: Scene, sol: Solution) -> Solution:
     """Shapes and bending stress of every step from the states the solve kept (outside the
     timed solve); ``sol`` unchanged when it kept none."""
-    if scene.analysis.kind == "synthesis":  # the synthesised scene re-solved by fem-auto
-        from reduced_models.mechanism.fecheck import fe_check
-
-        sol = fe_check(scene, sol)
     post = sol.extras.get("_post")
     if not isinstance(post, _Post):
         return sol

@@ -1,0 +1,33 @@
+"""Names vulture (``tests/test_dead_code.py``, confidence 60) reports as unused that are used
+in ways it cannot see.  Each line: the name, where it lives, why it is not dead."""
+
+# reduced_models/auto.py: registered by "module:Class" strings (reduced_models.registry.MODELS)
+LinearAuto
+CBCMAuto
+PRBFSMAuto
+
+# cases/schema.py: Analysis.sweep_key, set by keyword in dataclasses.replace (cases/sweep.py)
+sweep_key
+
+# reduced_models/mechanism/system.py: _scatter adds into its gout / Hout arguments in place
+gout
+Hout
+
+# reduced_models/beam/prb.py: the prepared-scene cache, read back through self.__dict__.get
+_ready
+
+# reduced_models/beam/prb_tables.py: the settings the 2R fit was made with (documentation data,
+# named in the prb-2r card; tests/test_verify_prb.py re-measures the fit)
+PRB_2R_FIT
+
+# reports/bench/replay.py: Exudyn simulation settings, set on Exudyn's objects (read by it)
+_.endTime
+_.numberOfSteps
+_.verboseMode
+_.spectralRadius
+_.automaticStepSize
+_.relativeTolerance
+_.solverType
+_.reuseAnalyzedPattern
+_.numberOfThreads
+_.computationTime

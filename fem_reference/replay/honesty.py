@@ -1,0 +1,85 @@
+"""What the replay says about itself: its mesh error, static snap factors, time limits.
+
+* ``mesh_error``: the replay settles on a fixed mesh (``n_elements``, default 32), so it
+  differs from ``fem-auto`` by that mesh's discretisation error.  The static FE on the same
+  mesh and on half of it gives the two-mesh estimate per output at the last factor, by the
+  same rule as ``fem-auto``'s (``richardson.gci``: ``3 |f_n - f_{n/2}| / (2^2 - 1)``, order 2
+  of the corotational element assumed, Roache's safety factor 3); the replay states it.
+* ``static_limit``: a snap-through is reported at the factor where the *static* path loses
+  stability (load control from the settled state before the jump stalls at the limit point);
+  the dynamic onset seen in the transient lags behind by the ramp rate and is kept alongside.
+* ``JUMP_MIN_DISTANCE``: a jump must move some point by at least this fraction of the scene's
+  length scale (a 1e-9 L settling move dissipating energy is not a snap).
+* ``Deadline``: a wall-clock budget; a replay that runs past it fails with the reason.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+
+from cases.schema import Scene
+from fem_reference.error.richardson import gci
+from fem_reference.statics import static as S
+
+JUMP_MIN_DISTANCE = 1e-4  # fraction of the length scale
+
+
+def mesh_error(scene: Scene, n: int) -> dict[str, float] | None:
+    """Estimate (``richardson.gci``) of the n-element discretisation error of every output at
+    the last load factor, from static FE solves on n and n // 2 elements (None if either
+    fails)."""
+    from fem_reference.models import FEM
+
+    if n < 2:
+        return None
+    a = dataclasses.replace(scene.analysis, steps=max(1, min(scene.analysis.steps, 4)))
+    sc = dataclasses.replace(scene, analysis=a)
+    runs = [FEM(m, stability=False, bifurcation=False).solve(sc) for m in (n // 2, n)]
+    if any(r.status != "converged" or not r.steps for r in runs):
+        return None
+    coarse, fine = runs[0].steps[-1].outputs, runs[1].steps[-1].outputs
+    return {k: float(gci(coarse[k], fine[k], n / (n // 2))) for k in fine if k in coarse}
+
+
+def worst_mesh_error(est: dict[str, float], length: float) -> float:
+    """Largest estimate, translations divided by ``length`` (rotations in rad)."""
+    vals = [v / length if not k.endswith(".rot") else v for k, v in est.items()]
+    return max(vals, default=0.0)
+
+
+def static_limit(system: object, q: np.ndarray, lam: float, target: float) -> float | None:
+    """Factor at which the static path from the equilibrium ``(q, lam)`` towards ``target``
+    loses stability: a bifurcation on the way (``bifurcation.Watch.locate``) or else the
+    limit point where load control stalls; None if it gets there stably (no static snap)."""
+    from fem_reference.statics.bifurcation import Watch
+
+    opts = S.Options()
+    start = S.State(np.array(q, float), lam)
+    try:
+        try:
+            end = S.load_control(system, start, target, abs(target - lam) / 4, opts)
+            stall = None
+        except S.SolveError as err:
+            if err.state is None:
+                return None
+            end, stall = err.state, float(err.state.lam)
+        watch = Watch(system, opts)
+        if watch.active and watch.stable(start) and not watch.stable(end):
+            return watch.locate(start, end)[0]
+        return stall
+    except (AttributeError, TypeError, ValueError, np.linalg.LinAlgError, S.SolveError):
+        return None
+
+
+class Deadline:
+    """A wall-clock budget (seconds) checked inside the replay's time loop."""
+
+    def __init__(self, seconds: float):
+        self.seconds = seconds
+        self.end = time.perf_counter() + seconds
+
+    def passed(self) -> bool:
+        return time.perf_counter() > self.end

@@ -1,0 +1,494 @@
+"""Damped dynamics replay (MSC-ADAMS style): the second, dynamic reference ``replay``.
+
+The FE discretisation the static reference solves (``assembly.build``) gets mass and damping
+and is integrated by generalised-alpha (``integrator.GenAlpha``): the load factor is ramped
+(C2 ramp over ``ramp_periods`` lowest periods T1) to each reported factor and held until
+settled -- max|w v|/omega_1, max|w qdd|/omega_1^2 and the static distance max|w K^-1 r| all
+below ``settle_tol * L`` (w: 1 for translations, L for rotations).  The equation of motion
+holds exactly at every step, so a state at rest is an exact static equilibrium: the settled
+states equal the static FE ones to the settling tolerance, whatever the step, density or
+damping (those shape only the transient, and so which branch a snap lands on).  Each settled
+state is kicked (lowest mode, or a nodal impulse as the thesis did with 1 N pulses in ADAMS)
+and watched: returns = stable, departs = unstable; the tangent test is recorded beside it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from types import SimpleNamespace
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from cases.schema import Scene
+from fem_reference.replay import events
+from fem_reference.replay import honesty as honest
+from fem_reference.replay import integrator as ev
+from fem_reference.statics.integrity import violation
+from reduced_models.base import Solution, Step
+
+
+@dataclass(frozen=True)
+class ReplayOptions:
+    """Knobs of the replay (dimensionless; times in lowest undamped periods T1).
+
+    zeta : damping ratio at the lowest mode(s) of (K0, M).  damping : "mass" (a0 M, a0 =
+    2 zeta omega_1), "current" (Rayleigh a0 M + a1 K(q_n) at the two lowest modes; objective,
+    damps impact-excited high modes) or "initial" (a1 K0: spurious forces under large
+    rotations, Charney 2008).  rho_inf : generalised-alpha spectral radius at h -> inf.
+    ramp_periods : ramp per load increment.  settle_tol : see module docstring.  lte_tol :
+    local displacement error per step / L.  dt_max : largest step; max_hold : give up after.
+    probe : "all" | "last" | "none"; probe_amplitude : modal kick (excursion ~ amplitude * L);
+    probe_node, probe_impulse : nodal impulse (node id, (Ix, Iy)) instead.
+    jump_dissipation : an increment is a jump (snap-through) when the energy it dissipates
+    exceeds this fraction of the work done (or strain energy change); a quasi-static ramp
+    dissipates ~ 1 / (omega_1 T_ramp) of it, a snap most of it.
+    history_samples, frames : caps on stored samples.  locks : boom events (``LengthLock``).
+    """
+
+    zeta: float = 1.0
+    damping: str = "mass"
+    rho_inf: float = 0.0
+    ramp_periods: float = 4.0
+    settle_tol: float = 1e-7
+    lte_tol: float = 3e-4
+    dt_max: float = 0.5
+    max_hold: float = 400.0
+    probe: str = "all"
+    probe_amplitude: float = 1e-3
+    probe_node: str | None = None
+    probe_impulse: tuple[float, float] = (0.0, 1.0)
+    jump_dissipation: float = 0.5
+    history_samples: int = 2000
+    frames: int = 120
+    time_limit_s: float = 600.0  # wall clock; past it the replay fails with the reason
+    locks: tuple[events.LengthLock, ...] = ()
+
+
+SOFT_AFTER = 20.0  # T1 of holding after which a soft mode gets its own critical damping
+PROBE_LTE = 0.1  # local error per step of a probe / the kick's excursion (lte_tol: ~0.3 of 1e-3 L)
+
+
+class _Run:
+    """Mutable replay of one system: the current state, the energy books and the history."""
+
+    def __init__(self, system: object, scene: Scene | None, o: ReplayOptions) -> None:
+        self.sys, self.o = system, o
+        self.L = float(system.length_scale())
+        self.w = ev.dof_weights(system, self.L)
+        n = system.ndof
+        alg = getattr(system, "algebraic", None)
+        Mfull, self.point_masses = ev.point_masses(system.mass(), self.w, alg)
+        modal = getattr(system, "modal_pair", None)  # (K0, M) of the free vibration, if not
+        if modal is not None:  # the system's own (a servo's bordered, singular-mass one)
+            K0, M = modal()
+            M = ev.point_masses(M, self.w if alg is None else np.delete(self.w, alg))[0]
+        else:
+            M, (_, K0) = Mfull, system.residual_and_tangent(np.zeros(n), 0.0)
+        a0, a1, self.w1, self.damping_note = ev.rayleigh(sp.csr_matrix(K0), M, o.zeta)
+        if o.damping == "mass":
+            a0, a1, self.damping_note = 2 * o.zeta * self.w1, 0.0, "mass-proportional"
+        self.T1 = 2 * math.pi / self.w1
+        pairs = events.resolve_locks(system, scene, o.locks)
+        damp = (a0, a1, K0 if o.damping == "initial" else None)
+        self.integ = ev.GenAlpha(
+            system,
+            damp,
+            pairs,
+            self.w,
+            self.L,
+            rho_inf=o.rho_inf,
+            newton_tol=1e-2 * o.settle_tol,
+            mass=Mfull,
+        )
+        self.integ.act_ramp = o.ramp_periods * self.T1  # the boom pushes ramp in, like loads
+        self.M = self.integ.M
+        self.h = self.T1 / 40.0
+        self.W = self.D = self.D_impact = 0.0
+        self.U0 = float(system.strain_energy(np.zeros(n)))
+        keys = ("t", "factor", "kinetic", "strain", "dissipated", "external_work", "q")
+        self.hist = SimpleNamespace(**{k: [] for k in keys})
+        self.events: list[dict] = []
+        self.s = self.integ.start(0.0, 0.0, np.zeros(n), np.zeros(n))
+        self._record(self.s)
+        self.deadline = honest.Deadline(o.time_limit_s)
+
+    def _record(self, s: ev.State) -> None:
+        h = self.hist
+        h.t.append(s.t)
+        h.factor.append(s.lam)
+        h.kinetic.append(0.5 * float(s.v @ (self.M @ s.v)))
+        h.strain.append(float(self.sys.strain_energy(s.q)))
+        h.dissipated.append(self.D)
+        h.external_work.append(self.W)
+        h.q.append(s.q)
+
+    def advance(
+        self,
+        t_stop: float,
+        lam_of_t: Callable,
+        until: Callable | None = None,
+        books: bool = True,
+        hmax: float | None = None,
+        lte: float | None = None,
+        steady: bool = False,
+    ) -> tuple[ev.State, object]:
+        """Integrate to ``t_stop`` (or until ``until(state)`` returns non-None); steps at most
+        ``hmax`` (default ``dt_max`` T1), local error per step at most ``lte`` L (default
+        ``lte_tol``).  ``steady``: keep the step while the error test would change it by
+        less than x0.8 .. x1.5 (so a kept factorisation stays valid)."""
+        o, integ, hmin = self.o, self.integ, 1e-10 * self.T1
+        hmax = o.dt_max * self.T1 if hmax is None else hmax
+        lte = o.lte_tol if lte is None else lte
+        s = self.s
+        while s.t < t_stop * (1 - 1e-14):
+            if self.deadline.passed():
+                raise ev.ReplayError(
+                    f"time limit {self.deadline.seconds:g} s reached at t = {s.t:.4g} "
+                    f"(factor {s.lam:.6g}, step {self.h:.2g}): the replay stalled"
+                )
+            h = min(self.h, hmax, t_stop - s.t)
+            s1 = integ.step(s, h, lam_of_t(s.t + h))
+            err = math.inf if s1 is None else integ.error(s, s1, h)
+            if err > lte:
+                if h <= hmin:
+                    raise ev.ReplayError(f"step size underflow at t = {s.t:.6g} (Newton failed)")
+                self.h = h * (0.25 if s1 is None else max(0.2, 0.9 * (lte / err) ** (1 / 3)))
+                continue
+            pair = integ.crossing(s, s1)
+            if pair is not None:
+                s1 = integ.locate(s, h, lam_of_t, pair)
+                if s1 is None:
+                    raise ev.ReplayError("could not locate the boom lock event")
+                h = s1.t - s.t
+            if books:
+                dq = s1.q - s.q
+                self.W += 0.5 * float((s.f_ext + s1.f_ext) @ dq)
+                C = integ.damping(s)
+                self.D += 0.5 * h * float(s.v @ (C @ s.v) + s1.v @ (C @ s1.v))
+            if pair is not None:
+                g_hit = pair.gap(s1.q)
+                s1, lost = integ.lock(s1, pair)
+                if books:
+                    self.D += lost
+                    self.D_impact += lost
+                ends = f"{pair.lock.a} - {pair.lock.b}"
+                self.events.append(dict(kind="lock", ends=ends, t=s1.t, gap=g_hit, lost=lost))
+            s = s1
+            if books:
+                self.s = s
+                self._record(s)
+            grow = min(2.0, 0.9 * (lte / max(err, 1e-300)) ** (1 / 3))
+            self.h = h if steady and 0.8 <= grow < 1.5 else h * grow
+            if until is not None:
+                res = until(s)
+                if res is not None:
+                    return s, res
+        return s, None
+
+    # -- settling ------------------------------------------------------------------------------
+    def static_check(self, s: ev.State) -> dict | None:
+        """Static residual r + G^T mu at ``s`` and the distance K^-1 r to equilibrium."""
+        o, tol = self.o, self.o.settle_tol * self.L
+        if np.max(np.abs(self.w * s.v)) / self.w1 > tol:
+            return None
+        if np.max(np.abs(self.w * s.acc)) / self.w1**2 > tol:
+            return None
+        r, K, _, Gc, gc, Hs = self.integ.forces(s.q, s.lam, s.t)
+        rt = r + Gc.T @ s.mu
+        K = ev.combine([(1.0, K)] + [(m_, H) for m_, H in zip(s.mu, Hs)])
+        try:
+            solve = ev.factor(K, getattr(self.sys, "bandwidth", None))
+            d = solve(rt)
+            if Gc.shape[0]:
+                X = solve(Gc.T)
+                d = d - X @ np.linalg.solve(Gc @ X, Gc @ d - gc)
+            dist = float(np.max(np.abs(self.w * d))) / self.L
+        except RuntimeError:  # singular tangent: no distance; the residual itself must be tiny
+            dist = float("nan")
+        if not (dist <= o.settle_tol):  # nan passes only on a residual at the settle level
+            fs = float(np.max(np.abs(self.sys.external(s.q)), initial=0.0)) * max(abs(s.lam), 1)
+            rf = float(np.max(np.abs(rt), initial=0.0)) / max(fs, 1e-300)
+            if not (math.isnan(dist) and rf <= o.settle_tol):
+                return None
+        return {"residual": float(np.max(np.abs(rt))), "distance": dist, "K": K, "G": Gc}
+
+    def hold(self, lam: float) -> tuple[ev.State, dict]:
+        """Hold the load at ``lam`` until settled (static_check passes)."""
+        if any(p.lock.force and not p.locked for p in self.integ.pairs):
+            self.advance(self.integ.act_ramp, lambda t: lam)  # let the boom pushes ramp in
+        chk = self.static_check(self.s) if self.s.lam == lam else None  # else: a step change
+        if chk is not None:
+            return self.s, chk
+        t_end = self.s.t + self.o.max_hold * self.T1
+        t_soft = min(t_end, self.s.t + SOFT_AFTER * self.T1)
+        s, chk = self.advance(t_soft, lambda t: lam, until=self.static_check)
+        a0 = self.integ.a0
+        if chk is None and self.integ.a1 == 0.0:  # a soft mode creeps, overdamped at a0:
+            w = ev.soft_frequency(self.sys, self.integ, s)  # damp it critically instead
+            if w is not None and 2.0 * self.o.zeta * w < a0:
+                self.integ.a0, self.integ._C0 = 2.0 * self.o.zeta * w, None
+        if chk is None:
+            s, chk = self.advance(t_end, lambda t: lam, until=self.static_check)
+        self.integ.a0, self.integ._C0 = a0, None
+        if chk is None:
+            raise ev.ReplayError(f"did not settle at factor {lam:.6g} within {self.o.max_hold} T1")
+        return s, chk
+
+    # -- snap-through -------------------------------------------------------------------------
+    def jump(self, mark: tuple, prev: Step | None, after: Step) -> dict | None:
+        """Report the increment since ``mark`` (history index, W, U, D, q at its start) as a
+        jump if it was dissipative.
+
+        The onset is the last history state (before the kinetic-energy peak) whose tangent is
+        still positive definite (bisection on the lowest eigenvalue), i.e. where the trajectory
+        left the stable branch: the limit point, up to the quasi-static lag.
+        """
+        h, (i0, W0, U0, D0, q_prev) = self.hist, mark
+        dD = self.D - self.D_impact - D0
+        scale = max(abs(self.W - W0), abs(h.strain[-1] - U0), 1e-300)
+        if dD <= self.o.jump_dissipation * scale:
+            return None
+        dist = np.max(np.abs(self.w * (h.q[-1] - q_prev))) / self.L
+        if dist < honest.JUMP_MIN_DISTANCE:  # a settling move, not a snap
+            return None
+        kin = np.asarray(h.kinetic[i0:])
+        ipk = i0 + int(np.argmax(kin))
+
+        def eig(i: int) -> float:
+            r, K, *_ = self.integ.forces(h.q[i], h.factor[i], h.t[i])
+            return float(ev.lowest_modes(K, self.M, k=1)[0][0])
+
+        # the first of ~12 samples up to the peak that is unstable, then bisection
+        grid = np.unique(np.linspace(max(i0 - 1, 0), ipk, 12).round().astype(int))
+        neg = [i for i in grid if eig(i) < 0.0]
+        if neg:
+            hi = neg[0]
+            lo = int(grid[max(int(np.searchsorted(grid, hi)) - 1, 0)])
+            while hi - lo > 1:
+                mid = (lo + hi) // 2
+                lo, hi = (mid, hi) if eig(mid) > 0.0 else (lo, mid)
+        else:  # never visibly left the stable region: first rise of kinetic energy
+            lo = i0 + int(np.argmax(kin >= 0.01 * kin.max()))
+        before = self.sys.step(h.q[lo], h.factor[lo], 0, None)
+        # load factor that holds the onset shape in static equilibrium (least squares)
+        f = np.asarray(self.sys.external(h.q[lo]), dtype=float)
+        r0 = np.asarray(self.sys.residual(h.q[lo], 0.0), dtype=float)
+        lam_eq = float(r0 @ f / (f @ f)) if f @ f > 0 else math.nan
+        # reported at the static path's stability loss; the dynamic onset alongside
+        lam_s = None
+        if prev is not None:
+            lam_s = honest.static_limit(self.sys, q_prev, float(prev.factor), after.factor)
+        lam_d = float(h.factor[lo])
+        out = dict(factor=lam_d if lam_s is None else lam_s, factor_dynamic=lam_d)
+        out.update(factor_static=lam_s, factor_equilibrium=lam_eq, t=float(h.t[lo]))
+        out.update(from_factor=float(prev.factor) if prev else math.nan, to_factor=after.factor)
+        out.update(dissipated=float(dD), dissipated_ratio=float(dD / scale))
+        out.update(peak_kinetic=float(kin.max()), jump_distance=float(dist))
+        out.update(before=dict(before.outputs), after=dict(after.outputs))
+        out["settled_before"] = dict(prev.outputs) if prev else {}
+        return out
+
+    # -- stability -----------------------------------------------------------------------------
+    def probe(self, s: ev.State, eig: float, mode: np.ndarray, scene: Scene | None) -> dict:
+        """Kick the settled state ``s`` and watch: returns (stable), departs (unstable).
+
+        Steps are sized by the probed mode (up to tau / 10, local error ``PROBE_LTE`` of the
+        kick's excursion) and one factorisation serves steps of one size; a probe that comes
+        to rest at an equilibrium stops there (returned if within 2 % of the kick of ``s``).
+        """
+        o, M = self.o, self.M
+        om = max(math.sqrt(abs(eig)), 1e-3 * self.w1)
+        if o.probe_node is not None:
+            f = np.zeros(self.sys.ndof)  # the thesis's nodal impulse (1 N s in ADAMS)
+            for k, i, c in events.node_map(self.sys, o.probe_node)[1]:
+                f[i] += c * o.probe_impulse[k]
+            v0 = spla.spsolve(M.tocsc(), f)
+        else:
+            v0 = mode / np.max(np.abs(self.w * mode)) * o.probe_amplitude * self.L * om
+        d_ref = float(np.max(np.abs(self.w * v0))) / om
+        # decay / growth time of the probed mode, damping included
+        c = float(mode @ (self.integ.damping(s) @ mode)) / float(mode @ (M @ mode))
+        tau = max(1.0 / om, c / om**2)
+        integ, q0 = self.integ, s.q
+        saved = [p.locked for p in integ.pairs], self.h
+        start = integ.start(s.t, s.lam, s.q, s.v + v0)
+        peak, rest = [0.0], []
+
+        def watch(st: ev.State) -> str | None:
+            d = float(np.max(np.abs(self.w * (st.q - q0))))
+            peak[0] = max(peak[0], d)
+            if d > 20.0 * d_ref:
+                return "departed"
+            vnorm = float(np.max(np.abs(self.w * st.v)))
+            if st.t - s.t <= tau:
+                return None
+            if d < 0.02 * peak[0] and vnorm < 0.02 * om * peak[0]:
+                return "returned"
+            # at rest in an equilibrium (it stays there): within 2 % of the kick's excursion
+            # of q0 it returned (the offset is q0's own distance to the load-controlled
+            # equilibrium, amplified by a near-singular tangent), further away undecided
+            if self.static_check(st) is not None:
+                rest.append(d / self.L)
+                return "returned" if d < 0.02 * d_ref else "undecided"
+            return None
+
+        # steps up to tau / 10: a soft, overdamped probed mode (tau >> T1 near a limit point)
+        # needs no finer steps than its own time scale; the error test sizes them, to a
+        # fraction of the kick's excursion (the probe's motion, far below lte_tol L)
+        self.s, self.h = start, min(self.h, tau / 10)
+        hmax = max(o.dt_max * self.T1, tau / 10)
+        lte = min(o.lte_tol, PROBE_LTE * d_ref / self.L)
+        integ.keep_lu = {}  # modified Newton across steps: the tangent barely changes
+        try:
+            end, verdict = self.advance(
+                s.t + 60.0 * tau, lambda t: s.lam, watch, False, hmax, lte, steady=True
+            )
+        except ev.ReplayError:
+            end, verdict = start, None
+        finally:
+            integ.keep_lu = None
+            for p, lk in zip(integ.pairs, saved[0]):
+                p.locked = lk
+            self.s, self.h = s, saved[1]
+        d_end = float(np.max(np.abs(self.w * (end.q - q0)))) / self.L
+        stable = {"returned": True, "departed": False}.get(verdict)
+        out = dict(stable=stable, peak=peak[0] / self.L, final=d_end, time=end.t - s.t)
+        if rest:
+            out["at_rest_distance"] = rest[0]  # / L, where it came to rest
+        return {**out, "verdict": verdict or "undecided"}
+
+
+def _reach(run: _Run, lam: float) -> tuple[ev.State, dict]:
+    """Ramp the load factor to ``lam`` (over ``ramp_periods`` T1) and hold until settled."""
+    if run.s.lam != lam or run.s.t == 0.0 and lam != 0.0:
+        la, t0, Tr = run.s.lam, run.s.t, run.o.ramp_periods * run.T1
+        run.advance(t0 + Tr, ev.ramp_path(la, lam, t0, Tr))
+    return run.hold(lam)
+
+
+def _stability(run: _Run, s: ev.State, chk: dict, want: bool, scene: Scene | None) -> tuple:
+    """Tangent test and (if ``want``) impulse probe of the settled state ``s``: (eig, probe)."""
+    eig, mode = ev.tangent_test(chk["K"], chk["G"], run.M)
+    pr = run.probe(s, eig, mode, scene) if want else {"stable": None, "verdict": "skipped"}
+    return eig, pr
+
+
+def _integrity(system: object, s: ev.State) -> str | None:
+    """None, or why settled state ``s`` is outside the FE model (``integrity.violation``):
+    a system with a prescribed coordinate (driver, servo) is checked on its full state."""
+    full_state = getattr(system, "full_state", None)
+    if full_state is None:
+        return violation(system, s.q)
+    return violation(system.full, full_state(s.q, s.lam)[0])
+
+
+def replay_system(
+    system: object,
+    factors: np.ndarray,
+    *,
+    scene: Scene | None = None,
+    case: str = "",
+    options: ReplayOptions | None = None,
+    stability: Callable = _stability,
+    reach: Callable = _reach,
+) -> Solution:
+    """Replay ``system`` through the load ``factors`` (the heart of the ``replay`` model).
+
+    Parameters
+    ----------
+    system : a ``DiscreteSystem`` (``assembly.build(scene, n)`` or any test system).
+    factors : (nsteps,) reported load factors, starting with the initial one.
+    scene : the scene (node coordinates for boom events and nodal probes), optional.
+    case : case name for the Solution; options : ReplayOptions (defaults if None).
+    stability : ``(run, state, static_check, want_probe, scene) -> (eigenvalue, probe dict)``
+        at each settled state (a servo replay tests the load-controlled system instead).
+    reach : ``(run, factor) -> (settled state, static_check)``: how a report point is
+        reached (default: ramp and hold; a servo replay aims its coordinate).
+
+    Returns
+    -------
+    Solution with one settled Step per factor; extras: ``history`` (time series, lists),
+    ``jumps`` (snap-throughs), ``events`` (boom locks), ``probes``, ``frames`` (arrays for the
+    animation), ``settle`` (timing/damping figures).
+    """
+    o = options or ReplayOptions()
+    steps: list[Step] = []
+    jumps: list[dict] = []
+    probes: list[dict] = []
+    try:
+        run = _Run(system, scene, o)
+    except (ev.ReplayError, RuntimeError, ValueError) as exc:
+        return Solution(case, "replay", "failed", f"replay set-up failed: {exc}")
+    status, message = "converged", ""
+    prev_q, prev_step = run.s.q, None
+    for k, lam in enumerate(np.asarray(factors, dtype=float)):
+        it0, h = run.integ.newton_iterations, run.hist
+        mark = (len(h.t), run.W, h.strain[-1], run.D - run.D_impact, prev_q)
+        try:
+            s, chk = reach(run, float(lam))
+            want = o.probe == "all" or (o.probe == "last" and k == len(factors) - 1)
+            eig, pr = stability(run, s, chk, want, scene)
+        except (ev.ReplayError, RuntimeError, ValueError, np.linalg.LinAlgError) as exc:
+            status, message = "failed", f"factor {lam:.6g}: {exc}"
+            break
+        why = _integrity(system, s)  # a settled state the FE model cannot stand behind
+        if why:
+            status, message = "failed", f"factor {lam:.6g}: {why}"
+            break
+        pr.update(factor=float(lam), eigenvalue=eig, tangent_stable=bool(eig > 0))
+        probes.append(pr)
+        info = {
+            "residual": chk["residual"],
+            "distance": chk["distance"],
+            "t_settled": s.t,
+            "lowest_eigenvalue": eig,
+            "tangent_stable": float(eig > 0),
+            "probe_stable": math.nan if pr["stable"] is None else float(pr["stable"]),
+            "probe_peak": pr.get("peak", math.nan),
+        }
+        st = system.step(s.q, s.lam, run.integ.newton_iterations - it0, pr["stable"])
+        st = replace(st, info={**dict(st.info), **info}, stable=pr["stable"])
+        if k > 0:
+            jp = run.jump(mark, prev_step, st)
+            if jp is not None:
+                jumps.append(jp)
+        steps.append(st)
+        prev_q, prev_step = s.q, st
+    h = run.hist
+    idx = ev.downsample(len(h.t), o.history_samples)
+    history = {
+        key: [float(getattr(h, key)[i]) for i in idx]
+        for key in ("t", "factor", "kinetic", "strain", "dissipated", "external_work")
+    }
+    out_of = getattr(system, "outputs", None)  # FE systems: outputs without shapes (cheaper)
+    if getattr(system, "outputs_need_factor", False):  # a prescribed coordinate: q alone is not
+        outs = [out_of(h.q[i], h.factor[i]) for i in idx]  # the state
+    else:
+        outs = [
+            out_of(h.q[i]) if out_of else system.step(h.q[i], h.factor[i], 0, None).outputs
+            for i in idx
+        ]
+    for key in outs[0] if outs else ():
+        history[key] = [float(d.get(key, math.nan)) for d in outs]
+    fi = ev.downsample(len(h.t), o.frames)
+    W, U, T, D = h.external_work[-1], h.strain[-1] - run.U0, h.kinetic[-1], h.dissipated[-1]
+    frames = dict(t=np.array(h.t)[fi], factor=np.array(h.factor)[fi], q=np.array(h.q)[fi])
+    frames["n_elements"] = getattr(system, "n_elements", None)
+    settle = dict(T1=run.T1, omega1=run.w1, damping=run.damping_note, time_steps=len(h.t) - 1)
+    settle["newton_iterations"] = run.integ.newton_iterations
+    settle["factorizations"] = run.integ.factorizations
+    settle["point_masses_added"] = run.point_masses
+    settle["energy_balance_error"] = (W - U - T - D) / max(abs(W), abs(U), 1e-300)
+    extras = dict(history=history, jumps=jumps, events=run.events, probes=probes)
+    extras.update(frames=frames, settle=settle)
+    if status == "converged":
+        res = max(s.info["residual"] for s in steps)
+        message = f"settled {len(steps)} states; max residual {res:.2e}; {len(jumps)} jump(s)"
+        if steps and steps[-1].stable is False:  # said, and not used as a reference
+            message += "; the last state is an unstable equilibrium"
+            extras["reference_usable"] = False
+    return Solution(case, "replay", status, message, tuple(steps), extras)

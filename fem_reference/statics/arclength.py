@@ -1,0 +1,122 @@
+"""Arc-length continuation (Crisfield's cylindrical constraint) through limit points and
+snap-backs.
+
+References: Crisfield, Non-linear FE analysis of solids and structures, Vol. 1 (1991), Ch. 9;
+Feng, Peric & Owen (1996) for the predictor sign; Ritto-Correa & Camotim (2008) for root
+choice.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from fem_reference.statics.newton import Options, Scaler, SolveError, State, factor_at, ops, vdot
+from fem_reference.system import DiscreteSystem
+
+
+class ArcLength:
+    """Crisfield's cylindrical arc-length continuation in the metric ``system.weights``.
+
+    ``step()`` returns the next converged ``State`` on the path (cutting ``ds`` on failure).
+    The predictor sign follows the previous increment (Feng et al.), so limit points and
+    snap-backs are passed; of the two corrector roots the one closest in direction to the
+    current increment is taken, a complex pair falls back to the linearised (normal-plane)
+    correction.  Convergence: force residual within tolerance and the energy of the next
+    correction ``|dr . r| <= etol e0`` (or a correction at round-off level), so the tangent
+    is formed at every corrector point including the last.
+    """
+
+    def __init__(
+        self,
+        system: DiscreteSystem,
+        st: State,
+        ds: float,
+        opts: Options,
+        direction: float = 1.0,
+        ds_max: float | None = None,
+    ):
+        self.sys, self.opts, self.sc = system, opts, Scaler.of(system)
+        self.ops = ops(system)
+        self.u, self.lam, self.ds = st.u.copy(), st.lam, ds
+        self.ds_max = ds_max if ds_max is not None else 1e3 * ds
+        self.ds_min = ds * 1e-7
+        self.du_prev: np.ndarray | None = None
+        self.direction = direction
+
+    def _dot(self, a: np.ndarray, b: np.ndarray) -> float:
+        return vdot(a * self.sc.w, b)
+
+    def _try(self, ds: float) -> State:
+        sys, opts, o = self.sys, self.opts, self.ops
+        ev = o.evaluate(self.u, self.lam)
+        r = ev.r
+        lu = factor_at(o, ev)
+        t = lu.solve(sys.external(self.u))
+        tn = math.sqrt(max(self._dot(t, t), 1e-300))
+        sgn = (
+            self.direction
+            if self.du_prev is None
+            else math.copysign(1.0, self._dot(t, self.du_prev) or self.direction)
+        )
+        dl = sgn * ds / tn
+        Du, Dl = dl * t - lu.solve(r), dl
+        e0 = 1e-300
+        for it in range(1, opts.max_iter + 1):
+            u, lam = self.u + Du, self.lam + Dl
+            ev = o.evaluate(u, lam)
+            r = ev.r
+            rn = self.sc.rnorm(r)
+            if not np.isfinite(rn):
+                raise SolveError("non-finite residual")
+            lu = factor_at(o, ev)
+            dr = -lu.solve(r)
+            if (
+                it > 1
+                and rn <= self.sc.ftol(lam, opts)
+                and (abs(vdot(dr, r)) <= opts.etol * e0 or self.sc.unorm(dr) < 1e-12)
+            ):
+                return State(u, lam, it, 0, rn, lu)
+            dt = lu.solve(sys.external(u))
+            a = self._dot(dt, dt)
+            b = 2.0 * self._dot(Du + dr, dt)
+            c = self._dot(Du + dr, Du + dr) - ds * ds
+            disc = b * b - 4.0 * a * c
+            if disc >= 0.0 and a > 0.0:
+                q = -0.5 * (b + math.copysign(math.sqrt(disc), b))
+                roots = [q / a, c / q] if q != 0.0 else [0.0]
+                best = max(roots, key=lambda x: self._dot(Du + dr + x * dt, Du))
+            else:  # normal-plane (Ramm) correction
+                den = self._dot(Du, dt)
+                if den == 0.0:
+                    raise SolveError("arc-length: degenerate corrector")
+                best = -self._dot(Du, dr) / den
+            step = dr + best * dt
+            if it == 1:
+                e0 = max(abs(vdot(step, r)), 1e-300)
+            Du, Dl = Du + step, Dl + best
+            if self.sc.unorm(Du) > 10.0 * ds + 1e-300:
+                raise SolveError("arc-length corrector diverged")
+        raise SolveError("arc-length corrector did not converge")
+
+    def step(self) -> State:
+        """Next converged point (raises ``SolveError`` when ``ds`` falls below ds_min)."""
+        cuts = 0
+        while True:
+            try:
+                st = self._try(self.ds)
+                break
+            except SolveError as err:
+                cuts += 1
+                self.ds *= 0.25
+                if self.ds < self.ds_min:
+                    raise SolveError(
+                        f"arc-length stalled at factor {self.lam:.6g}: {err}"
+                    ) from None
+        self.du_prev = st.u - self.u
+        self.u, self.lam = st.u, st.lam
+        ratio = math.sqrt(self.opts.arc_iter_goal / max(st.iterations, 1))
+        self.ds = min(self.ds * min(max(ratio, 0.5), 2.0), self.ds_max)
+        st.cuts = cuts
+        return st

@@ -1,0 +1,391 @@
+"""Stability loss along a load-controlled FE path: detection, critical factor, branch switch.
+
+Load control follows whichever equilibrium branch it starts on.  A perfect structure that
+reaches a *bifurcation* (a straight column at its Euler load) stays on the fundamental branch,
+which is unstable beyond it, and Newton converges there happily.  ``Watch`` checks every
+reported state of ``Runner.run_load`` (``models.py``):
+
+1. *Detection*: the scaled symmetric tangent ``D K D`` (``D`` = length scale on translations,
+   see ``static.stability``) turns indefinite between two reported factors while load control
+   passed without a snap (a limit point is crossed by arc-length and reported as a snap).
+2. *Critical factor*: the lowest eigenvalue of ``D K D`` along the fundamental branch is
+   zero at ``lam_c`` (Brent's method; each evaluation re-solves the fundamental branch by
+   Newton at fixed ``lam``).
+3. *Kind*: with ``phi`` the critical mode, ``|phi . f| / (|phi| |f|) < KIND_TOL`` is a
+   bifurcation (the load does no work on the mode), otherwise a limit point.
+4. *Switch* (bifurcations only): the mode is imposed with amplitude ``SWITCH_AMPLITUDE * L``
+   on the DOF where it is largest (Newton bordered by that displacement constraint, the load
+   factor free), for both signs of the mode; of the stable results the one with the lower
+   total potential is kept (an imperfect structure's own branch; a tie keeps the + sign).  When the
+   fundamental path cannot be re-solved inside the bracket (an imperfect near-bifurcation that
+   load control crossed onto the complementary branch) the critical factor is interpolated
+   from the eigenvalues and the switch starts from the last stable state.  That is a
+   displacement-controlled imperfection of 1e-2 L, independent of the mesh and removed as
+   soon as the state is reached (the path is then followed by plain load control, which
+   carries no imperfection).  Subcritical bifurcations (no stable state next to the
+   critical one) are not switched: the path ends there with the reason.
+
+5. *Natural path* (``natural``): when the fundamental path cannot be re-solved inside the
+   bracket, the load step is retraced by arc-length from its last stable state; a traced
+   path that stays stable with the factor rising to the target is the smooth path of an
+   imperfect structure whose knee load control jumped (onto the complementary branch): a
+   step too large, not a critical point, and its state at the target is kept.
+6. *Snaps* (``snap``): a load step that moved ``JUMP_RATIO`` x more per unit factor than the
+   one before (or passed a limit point by arc-length) is retraced likewise; where the
+   traced factor turns back, the limit point is refined and reported as a snap with the
+   states before and after the jump at that factor.
+
+Reported in ``extras['critical_points']``: factor, kind, n_neg after it, the mode's largest
+component and whether the branch was switched (snaps: ``from`` / ``to`` outputs).
+
+Reference: Wriggers, Nonlinear Finite Element Methods (2008), Sec. 7.4 (stability points,
+branch switching by eigenvector perturbation); Riks (1979) for the kind test.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+from scipy.optimize import brentq
+
+from fem_reference.banded import BAND_MAX, symmetric_upper_band
+from fem_reference.rigid import stability_view
+from fem_reference.statics import static as S
+
+KIND_TOL = 1e-3
+SWITCH_AMPLITUDE = 1e-2
+DENSE_MAX = 800
+NATURAL_STEPS = 32  # arc-length steps (to start with) retracing a load step that lost stability
+TRACE_STEPS = 8 * NATURAL_STEPS  # the most arc-length steps spent retracing one load step
+JUMP_RATIO = 4.0  # a load step moving this much more than the previous one (per unit factor)
+
+
+def is_conservative(system: object) -> bool:
+    """False when follower loads make the tangent unsymmetric (no static stability test)."""
+    fol = getattr(system, "fol_dofs", None)
+    return fol is None or fol.shape[0] == 0
+
+
+def lowest_mode(
+    system: object, u: np.ndarray, lam: float, scale: np.ndarray | None = None
+) -> tuple[float, np.ndarray, np.ndarray]:
+    """Lowest eigenvalue of the symmetrically scaled tangent ``S K_sym S`` and its mode in
+    displacement coordinates ``S v`` (ndof,), normalised to unit largest entry, and ``S``.
+
+    ``S = diag(1 / sqrt|K_ii|)`` (Jacobi scaling; computed here unless given): with axial
+    stiffness EA L^2/EI up to 1e8 the unscaled tangent has a condition number near 1e11 and
+    its lowest eigenvalue only an absolute accuracy of eps ||K||; scaled, the bending and
+    axial entries are both O(1), the sign (Sylvester's inertia) is the same and the zero
+    crossing -- the critical factor -- is found to round-off.  Pass one fixed ``S`` along a
+    path so that the eigenvalue is a continuous function of the load factor.
+    """
+    with stability_view(system):  # exact rigid links: the augmented Lagrangian Hessian
+        _, K = system.residual_and_tangent(u, lam)
+    Ks = (0.5 * (K + K.T)).tocsc()
+    if scale is None:
+        d = np.abs(Ks.diagonal())
+        scale = 1.0 / np.sqrt(np.where(d > 0.0, d, 1.0))
+    D = sp.diags(scale)
+    Ks = (D @ Ks @ D).tocsc()
+    if Ks.shape[0] <= DENSE_MAX:
+        w, v = sla.eigh(Ks.toarray(), subset_by_index=[0, 0])
+    else:
+        w, v = spla.eigsh(Ks, k=1, sigma=-1e-3, which="LM")
+    phi = scale * v[:, 0]
+    phi /= phi[np.argmax(np.abs(phi))]
+    return float(w[0]), phi, scale
+
+
+class Watch:
+    """Stability watch of one load-controlled FE run (see module docstring)."""
+
+    def __init__(self, system: object, opts: S.Options):
+        self.sys, self.opts = system, opts
+        self.points: list[dict] = []
+        self.note = ""
+        self.active = is_conservative(system)
+        self._cache: tuple = (None, None, None)  # (id, stability dict, state kept alive)
+        self.dense_max = 60
+        self._fast: tuple = (None, False)  # (state, positive definite) of the last fast check
+        self._step: tuple | None = None  # (|du|_W, |dlam|) of the last load step
+
+    def _eig(self, st: S.State, scale: np.ndarray | None = None) -> float:
+        return lowest_mode(self.sys, st.u, st.lam, scale)[0]
+
+    def stable(self, st: S.State) -> bool:
+        """Positive definiteness of the symmetric tangent: Cholesky (LAPACK ``dpbtrf``) of
+        its Jacobi-scaled band (well conditioned even for EA L^2/EI ~ 1e8, where the
+        length-scaled matrix lets round-off pass an indefinite one); the full
+        ``static.stability`` when it is cached anyway or there is no band fast path."""
+        if self._cache[2] is st:
+            return bool(self._cache[1]["stable"])
+        if self._fast[0] is st:  # the previous step's current state
+            return self._fast[1]
+        bw = getattr(self.sys, "bandwidth", None)
+        if not hasattr(self.sys, "tangent_band") or bw is None or bw > BAND_MAX:
+            return bool(self.stability(st)["stable"])
+        with stability_view(self.sys):
+            ab = self.sys.tangent_band(self.sys.evaluate(st.u, st.lam))
+        d = np.abs(ab[2 * bw])
+        up = symmetric_upper_band(ab, bw, 1.0 / np.sqrt(np.where(d > 0.0, d, 1.0)))
+        self._fast = (st, bool(sla.lapack.dpbtrf(up, lower=0)[1] == 0))
+        return self._fast[1]
+
+    def stability(self, st: S.State) -> dict:
+        """``static.stability`` of ``st`` (cached for the last state asked: the runner
+        reports the same dict instead of computing it twice)."""
+        if self._cache[0] != id(st) or self._cache[2] is not st:
+            self._cache = (id(st), S.stability(self.sys, st.u, st.lam, self.dense_max), st)
+        return self._cache[1]
+
+    def check(self, prev: S.State, cur: S.State, target: float, path: bool = False) -> S.State:
+        """``cur`` if the path stayed stable (or cannot be judged); otherwise the state at
+        ``target`` on the stable branch after the critical point, or ``cur`` with
+        ``self.note`` saying why it is unstable.  ``path``: an arc-length step of a path
+        analysis, where limit points are traced, not notes."""
+        if not self.active or self.note:
+            return cur
+        if not self.stable(prev) or self.stable(cur):
+            return cur
+        if cur.info.get("snap"):
+            return cur  # a limit point crossed by arc-length: the snapped-to state is judged
+        lam_c, crit, phi, located = self.locate(prev, cur)
+        # not re-solvable inside the bracket: load control may have jumped the knee of an
+        # imperfect structure's smooth path onto the complementary branch
+        smooth = None if located or path else self.natural(prev, cur, target)
+        if smooth is not None:
+            return smooth
+        return self._act(lam_c, crit, phi, located, cur, target, path)
+
+    def snap(self, prev: S.State, cur: S.State) -> None:
+        """Record a snap passed within the load step ``prev -> cur``: a limit point that load
+        control jumped over (or arc-length passed, ``info['snap']``).  A step that moved more
+        than ``JUMP_RATIO`` x the previous one per unit factor is retraced by arc-length from
+        ``prev``; where its factor turns back, the limit point is refined (``refine_extremum``)
+        and the state at that factor on the branch load control landed on is solved:
+        ``{"kind": "snap", "factor", "from": outputs at the limit point, "to": outputs on the
+        landed branch at the same factor, "switched": True}`` (the path goes on from there)."""
+        if not self.active:
+            return
+        du = S.Scaler.of(self.sys).unorm(cur.u - prev.u)
+        dl = abs(cur.lam - prev.lam)
+        last, self._step = self._step, (du, dl)
+        jumped = last is not None and du * last[1] > JUMP_RATIO * last[0] * dl
+        if not (jumped or cur.info.get("snap")):
+            return
+        lim = self._limit(prev, cur)
+        if lim is None:
+            return
+        try:
+            to = S.newton(self.sys, cur.u, lim.lam, self.opts)
+        except S.SolveError:
+            to = cur
+        out = self.sys.outputs
+        point = {"factor": float(lim.lam), "kind": "snap", "switched": True}
+        self.points.append({**point, "from": out(lim.u), "to": out(to.u)})
+
+    def _trace(self, prev: S.State, cur: S.State):  # noqa: ANN202 - a generator of S.State
+        """States of the path traced by arc-length from ``prev`` towards ``cur.lam``: initial
+        step ``1 / NATURAL_STEPS`` of the load step's tangent increment (at least of the
+        distance to ``cur`` over ``NATURAL_STEPS**2``: a path that does not move under load),
+        at most ``TRACE_STEPS`` steps; a failed step ends it."""
+        sysm, sc = self.sys, S.Scaler.of(self.sys)
+        sgn = 1.0 if cur.lam >= prev.lam else -1.0
+        try:
+            t = S.tangent_lu(sysm, prev.u, prev.lam).solve(sysm.external(prev.u))
+            ds = sc.unorm(t) * abs(cur.lam - prev.lam) / NATURAL_STEPS
+            ds = max(ds, sc.unorm(cur.u - prev.u) / NATURAL_STEPS**2)
+            arc = S.ArcLength(sysm, prev, ds, self.opts, direction=sgn, ds_max=max(8 * ds, 0.1))
+            for _ in range(TRACE_STEPS):
+                yield arc.step()
+        except S.SolveError:
+            return
+
+    def _limit(self, prev: S.State, cur: S.State) -> S.State | None:
+        """The first limit point on the path traced from ``prev`` towards ``cur.lam`` (None
+        if the factor reaches it monotonically or tracing fails)."""
+        sgn = 1.0 if cur.lam >= prev.lam else -1.0
+        a, b = None, prev
+        for c in self._trace(prev, cur):
+            if sgn * (c.lam - b.lam) < 0.0 and a is not None:
+                try:
+                    return S.refine_extremum(self.sys, a, b, c, self.opts)
+                except S.SolveError:
+                    return None
+            if sgn * (c.lam - cur.lam) >= 0.0:
+                return None
+            a, b = b, c
+        return None
+
+    def natural(self, prev: S.State, cur: S.State, target: float) -> S.State | None:
+        """The state at ``target`` on the path traced from the stable ``prev``, if that path
+        stays stable with the factor rising monotonically: load control jumped across the
+        knee of an imperfect structure's natural path onto the complementary branch ``cur``
+        (a step too large, not a critical point).  None when the traced path loses
+        stability or turns back (a bifurcation or a limit point: judged as before)."""
+        sgn = 1.0 if target >= prev.lam else -1.0
+        last, its = prev, 0
+        for st in self._trace(prev, cur):
+            its += st.iterations
+            if sgn * (st.lam - last.lam) <= 0.0 or not self.stable(st):
+                return None
+            if sgn * (st.lam - target) >= 0.0:
+                w = (target - last.lam) / (st.lam - last.lam)
+                try:
+                    land = S.newton(self.sys, last.u + w * (st.u - last.u), target, self.opts)
+                except S.SolveError:
+                    return None
+                land.iterations += its
+                return land if self.stable(land) else None
+            last = st
+        return None
+
+    def locate(self, prev: S.State, cur: S.State) -> tuple:
+        """``(lam_c, critical state, mode, located)`` of the stability loss between a stable
+        ``prev`` and an unstable ``cur`` on one branch (see the module docstring)."""
+        sysm, opts = self.sys, self.opts
+
+        def fundamental(lam: float) -> S.State:
+            w = (lam - prev.lam) / (cur.lam - prev.lam)
+            return S.newton(sysm, prev.u + w * (cur.u - prev.u), lam, opts)
+
+        scale = lowest_mode(sysm, prev.u, prev.lam)[2]  # one Jacobi scaling for the bracket
+        try:
+            lam_c = brentq(
+                lambda lam: self._eig(fundamental(lam), scale),
+                prev.lam,
+                cur.lam,
+                xtol=1e-12 * max(abs(cur.lam), 1.0),
+                rtol=1e-13,
+            )
+            crit = fundamental(lam_c)
+            _, phi, _ = lowest_mode(sysm, crit.u, lam_c, scale)
+            located = True
+        except (S.SolveError, ValueError):
+            # an imperfect near-bifurcation: the fundamental path cannot be re-solved inside
+            # the bracket (load control jumped onto the complementary branch).  Critical
+            # factor by linear interpolation of the eigenvalue; the switch starts from the
+            # last stable state with the mode of the unstable one.
+            ep, ec = self._eig(prev, scale), self._eig(cur, scale)
+            lam_c = prev.lam + (cur.lam - prev.lam) * ep / (ep - ec)
+            crit, located = prev, False
+            _, phi, _ = lowest_mode(sysm, cur.u, cur.lam, scale)
+        return float(lam_c), crit, phi, located
+
+    def _act(
+        self,
+        lam_c: float,
+        crit: S.State,
+        phi: np.ndarray,
+        located: bool,
+        cur: S.State,
+        target: float,
+        path: bool,
+    ) -> S.State:
+        """Classify the critical point and switch (``check``)."""
+        sysm = self.sys
+        f = np.asarray(sysm.external(crit.u), dtype=float)
+        work = abs(float(phi @ f)) / max(np.linalg.norm(phi) * np.linalg.norm(f), 1e-300)
+        kind = "bifurcation" if work < KIND_TOL else "limit"
+        point = {"factor": float(lam_c), "kind": kind, "load_work": work, "switched": False}
+        point["located"] = located
+        if kind != "bifurcation":
+            if not path:  # (a path analysis refines its limit points itself)
+                self.points.append(point)
+                self.note = f"stability lost at a limit point (factor {lam_c:.8g}) not crossed"
+            return cur
+        self.points.append(point)
+        if path:
+            return self._branch_off(crit, phi, point, cur)
+        new = self._switch(crit, phi, target)
+        if new is None:
+            self.note = (
+                f"bifurcation at factor {lam_c:.8g}: no stable branch next to it "
+                "(subcritical); the path continues on the unstable fundamental branch"
+            )
+            return cur
+        point["switched"] = True
+        return new
+
+    def _switch(self, crit: S.State, phi: np.ndarray, target: float) -> S.State | None:
+        """Stable state at ``target`` on a branch through ``crit`` along ``phi`` (or None)."""
+        sysm, opts = self.sys, self.opts
+        sc = S.Scaler.of(sysm)
+        i = int(np.argmax(np.abs(phi) * np.sqrt(sc.w)))
+        a = SWITCH_AMPLITUDE * sysm.length_scale()
+        if sysm.is_rotation[i]:
+            a = SWITCH_AMPLITUDE
+        found = []
+        for sign in (1.0, -1.0):
+            step = sign * a / phi[i]
+            try:
+                off = S.newton(
+                    sysm,
+                    crit.u + step * phi,
+                    crit.lam,
+                    opts,
+                    constraint=(i, 1.0, crit.u[i] + step * phi[i]),
+                )
+                land = self._follow(S.State(off.u, off.lam), target, sc.unorm(off.u - crit.u))
+            except S.SolveError:
+                continue
+            if self._eig(land) > 0.0:
+                land.info = {**land.info, "branch_switch": 1.0}
+                found.append((self._potential(land), land))
+        if not found:
+            return None
+        # the lower total potential: an imperfect structure's own branch (ties -> first sign)
+        best = min(found, key=lambda e: e[0])
+        if abs(found[0][0] - best[0]) <= 1e-12 * max(abs(found[0][0]), 1e-300):
+            return found[0][1]
+        return best[1]
+
+    def _branch_off(self, crit: S.State, phi: np.ndarray, point: dict, cur: S.State) -> S.State:
+        """Path analyses: the first state on the bifurcated branch (mode amplitude
+        ``SWITCH_AMPLITUDE``) if that branch rises (supercritical: arc-length traces on from
+        it); a falling branch (subcritical) is not switched to -- the traced path stays on the
+        fundamental branch and the note says so."""
+        sysm = self.sys
+        i = int(np.argmax(np.abs(phi) * np.sqrt(S.Scaler.of(sysm).w)))
+        a = SWITCH_AMPLITUDE * (1.0 if sysm.is_rotation[i] else sysm.length_scale())
+        try:
+            off = S.newton(
+                sysm, crit.u + a * phi / phi[i], crit.lam, self.opts,
+                constraint=(i, 1.0, crit.u[i] + a),
+            )  # fmt: skip
+        except S.SolveError:
+            off = None
+        if off is None or off.lam <= crit.lam:
+            self.note = (
+                f"bifurcation at factor {point['factor']:.8g} (subcritical or not followed): "
+                "the traced path stays on the fundamental branch, unstable beyond it"
+            )
+            return cur
+        point["switched"] = True
+        off.info = {**off.info, "branch_switch": 1.0}
+        return off
+
+    def _potential(self, st: S.State) -> float:
+        """Total potential U(u) - lam f . u of a state (dead loads: conservative)."""
+        f = np.asarray(self.sys.external(st.u), dtype=float)
+        return float(self.sys.strain_energy(st.u)) - st.lam * float(f @ st.u)
+
+    def _follow(self, st: S.State, target: float, ds: float) -> S.State:
+        """Arc-length along the new branch from ``st`` until the factor crosses ``target``,
+        then Newton at ``target`` (load control from next to a bifurcation would fall back
+        onto the fundamental branch: its predictor is dominated by the nearly singular mode)."""
+        sysm, opts = self.sys, self.opts
+        sgn = 1.0 if target >= st.lam else -1.0
+        arc = S.ArcLength(sysm, st, ds, opts, direction=sgn, ds_max=max(20.0 * ds, 0.05))
+        prev = st
+        for _ in range(opts.arc_max_steps):
+            cur = arc.step()
+            if (prev.lam - target) * (cur.lam - target) <= 0.0:
+                w = (target - prev.lam) / (cur.lam - prev.lam) if cur.lam != prev.lam else 1.0
+                land = S.newton(sysm, prev.u + w * (cur.u - prev.u), target, opts)
+                land.iterations += cur.iterations
+                return S.unwrap(sysm, land, st.u, opts)  # not the turns the arc went round
+            prev = cur
+        raise S.SolveError(f"new branch did not reach factor {target:.6g}")

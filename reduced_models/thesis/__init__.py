@@ -1,0 +1,1 @@
+"""The deployable six-bar thesis's force method (Appendix C port, ``force_method``)."""
