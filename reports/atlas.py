@@ -13,8 +13,8 @@ Batching: one load ramp per direction, whose ``n_mag`` steps are the atlas's mag
 40 x 40 atlas is 40 continuation runs per model (the path to each magnitude is reused), not
 1600 separate solves.  The error at a state is on the report's default yardstick
 (``error_rel``, ``state_error_rel``): the largest of |d ux|, |d uy| over the tip's largest
-displacement on the ramp to that state and |d rot| over its largest rotation; ``error_L``
-keeps the classic |d ux| / L, |d uy| / L, |d rot| (rad).  ``locus`` is the distance from
+displacement on the ramp to that state and |d rot| over its largest rotation (``pos`` keeps
+the tip position error over L).  ``locus`` is the distance from
 the model's tip to the elastica's tip path of the same direction, divided by the tip
 deflection: our stricter reading of Howell's 0.5 % claim (the model's own tip, not the
 characteristic-radius circle Howell measures; the claim itself is judged in
@@ -69,10 +69,9 @@ class Atlas:
     mags : (m,) load magnitudes (PL^2/EI, or ML/EI).
     angles : (a,) directions in deg (one 0 for ``moment``).
     ref : (a, m, 3) elastica tip ux, uy, rot (NaN where it failed).
-    error, error_L, pos, locus : model -> (a, m) error on the default yardstick
-        (``error_rel``, see ``state_error_rel``), the classic error (translations / L,
-        rotation in rad), tip position error / L and locus error / deflection (NaN where the
-        model declined or failed).
+    error, pos, locus : model -> (a, m) error on the default yardstick (``error_rel``, see
+        ``state_error_rel``), tip position error / L and locus error / deflection (NaN where
+        the model declined or failed).
     status : model -> (a,) statuses of the direction's run; message : model -> first reason.
     seconds : model -> CPU seconds of its whole atlas; single_s : model -> CPU seconds of one
         ordinary 20-step solve of a single state (per-state cost ratio = single_s /
@@ -84,7 +83,6 @@ class Atlas:
     angles: np.ndarray
     ref: np.ndarray
     error: dict[str, np.ndarray] = field(default_factory=dict)
-    error_L: dict[str, np.ndarray] = field(default_factory=dict)
     pos: dict[str, np.ndarray] = field(default_factory=dict)
     locus: dict[str, np.ndarray] = field(default_factory=dict)
     status: dict[str, list[str]] = field(default_factory=dict)
@@ -196,7 +194,6 @@ def _model_block(
     return {
         "pos": np.hypot(d[..., 0], d[..., 1]),
         "error": rel,
-        "error_L": np.max(np.abs(d), axis=-1),
         "locus": locus / np.where(defl > 0, defl, np.nan),
         "status": [s.status for s in sols],
         "message": next((s.message for s in sols if s.status != "converged"), ""),
@@ -232,7 +229,7 @@ def compute(
     else:
         blocks = [_model_block(*a) for a in args]
     for name, b in zip(models, blocks):
-        keys = ("error", "error_L", "pos", "locus", "status", "message", "seconds", "single_s")
+        keys = ("error", "pos", "locus", "status", "message", "seconds", "single_s")
         for key in keys:
             getattr(atlas, key)[name] = b[key]
         if progress:

@@ -287,9 +287,9 @@ def cache_dir() -> Path:
 
 def _cache_key(grid: tuple[int, int]) -> str:
     """Code version of everything the records depend on: solver packages, atlas, this file."""
-    from reports import runner
+    from reports.tables import code_hash
 
-    h = hashlib.sha1(f"{runner.code_hash()}|{grid}".encode())
+    h = hashlib.sha1(f"{code_hash()}|{grid}".encode())
     here = Path(__file__).resolve().parent
     for name in ("claims.py", "claims_howell.py", "atlas.py", "api.py"):
         h.update((here / name).read_bytes())

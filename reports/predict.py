@@ -35,6 +35,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+import pathlib
 import re
 
 import numpy as np
@@ -44,19 +45,21 @@ from scipy.spatial import cKDTree
 from cases.schema import Scene
 from reduced_models.base import Solution
 from reduced_models.beam.single_beam import Cantilever, cantilever_of
-from reports import predict_table as PT
 
 THRESHOLD = 0.01
 # table states are ~0.05-0.3 apart (L units / rad) in (ux, uy, rot); farther is off the table
 MATCH_MAX = 0.3
 RING = 0.1  # |(uy/L, rot)| below which a member's state is matched on its direction only
-ANGLE_MAX = float(PT.ANGLES[-1])
+# the table's file and grid edges (``reports.predict_table`` builds it on this grid)
+PATH = pathlib.Path(__file__).parent / "data" / "predicted_error.npz"
+ANGLES = np.array([0.0, 15, 30, 45, 60, 75, 90, 105, 120, 135, 150, 165, 179.9])
+RHO_MAX = 10.0
 
 
 @functools.lru_cache(maxsize=1)
 def table() -> dict[str, np.ndarray]:
     """The shipped table (``reports/data/predicted_error.npz``)."""
-    with np.load(PT.PATH) as z:
+    with np.load(PATH) as z:
         return {k: z[k] for k in z.files}
 
 
@@ -193,7 +196,7 @@ def beam_states(model: str, sol: Solution, beam: Cantilever) -> States:
     flip = alpha < 0  # mirror so that the transverse force points to -y
     alpha, mm = np.abs(alpha), np.where(flip, -mm, mm)
     p, m = np.hypot(fx, fy) * L**2 / EI, mm * L / EI
-    outside = np.hypot(p, m) > PT.RHO_MAX * (1 + 1e-9)
+    outside = np.hypot(p, m) > RHO_MAX * (1 + 1e-9)
     if beam.follower:
         outside |= np.abs(m) > 0  # the follower table has no end moment
     values = lookup(model, p, alpha, m, follower=beam.follower)
@@ -292,7 +295,7 @@ def _outside_text(st: States, i: int) -> str:
             f"outside the atlas: member {st.member!r}'s deformed state is farther than "
             f"{MATCH_MAX:g} from every table state"
         )
-    p, m, lim = float(st.p[i]), float(st.m[i]), f"{PT.RHO_MAX:g}"
+    p, m, lim = float(st.p[i]), float(st.m[i]), f"{RHO_MAX:g}"
     if abs(m) < 1e-12:
         what = f"PL^2/EI = {p:.3g} > {lim}"
     elif p < 1e-12:

@@ -49,7 +49,6 @@ import argparse
 import dataclasses
 import functools
 import math
-import pathlib
 import time
 from collections.abc import Sequence
 
@@ -58,12 +57,10 @@ import numpy as np
 from reduced_models.base import Solution
 from reports import api
 from reports import atlas as A
+from reports.predict import ANGLES, PATH, RHO_MAX
 
-PATH = pathlib.Path(__file__).parent / "data" / "predicted_error.npz"
 MODELS = A.MODELS
-ANGLES = np.array([0.0, 15, 30, 45, 60, 75, 90, 105, 120, 135, 150, 165, 179.9])
 BETAS = np.linspace(-90.0, 90.0, 17)
-RHO_MAX = 10.0
 N_RHO = 20
 RHOS = RHO_MAX * np.arange(1, N_RHO + 1) / N_RHO
 REFERENCE = "elastica"

@@ -70,7 +70,13 @@ from reports.exports import (
     start_render_probe,
 )
 from reports.progress import Progress, stage
-from reports.tables import case_meta, previous_records, step_shapes, write_errors_csv
+from reports.tables import (
+    case_meta,
+    code_hash,
+    previous_records,
+    step_shapes,
+    write_errors_csv,
+)
 from reports.timing import DEFAULT_TIME_LIMIT, QUICK_TIME_LIMIT
 
 
@@ -121,23 +127,6 @@ def quick_scene(scene: Scene, divisor: int = 4, min_steps: int = 4) -> Scene:
         if all(abs(g - round(g)) < 1e-9 for g in grid):
             return dataclasses.replace(scene, analysis=dataclasses.replace(a, steps=n))
     return scene
-
-
-def code_hash() -> str:
-    """Hash of the solver packages' sources: a resumed run never reuses stale answers."""
-    import importlib
-
-    h = hashlib.sha1()
-    for name in ("cases", "reduced_models", "fem_reference"):
-        try:
-            pkg = importlib.import_module(name)
-        except ImportError:
-            continue
-        for base in getattr(pkg, "__path__", []):
-            for f in sorted(Path(base).rglob("*.py")):
-                h.update(str(f.relative_to(base)).encode())
-                h.update(f.read_bytes())
-    return h.hexdigest()[:12]
 
 
 def model_list(scene: Scene, models: Sequence[str] | None, table: dict[str, str]) -> list:

@@ -192,3 +192,20 @@ def case_meta(scene: Scene) -> dict[str, Any]:
         **scene_drawing(scene),
         "scene_hash": scene_hash(scene),
     }
+
+
+def code_hash() -> str:
+    """Hash of the solver packages' sources: a resumed run never reuses stale answers."""
+    import importlib
+
+    h = hashlib.sha1()
+    for name in ("cases", "reduced_models", "fem_reference"):
+        try:
+            pkg = importlib.import_module(name)
+        except ImportError:
+            continue
+        for base in getattr(pkg, "__path__", []):
+            for f in sorted(Path(base).rglob("*.py")):
+                h.update(str(f.relative_to(base)).encode())
+                h.update(f.read_bytes())
+    return h.hexdigest()[:12]

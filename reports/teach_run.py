@@ -7,7 +7,7 @@ every catalog case).  A run already holds most of what the page needs, so here:
   and **deformed shapes** (one job) are pool jobs queued first, so they solve beside the case
   pairs instead of after them; on one worker or Dask they run in this process at the end;
 * each job's result is cached in ``OUT/teaching-cache/<part>-<grid>-<key>.json``, the key
-  hashing the solver packages' sources (``runner.code_hash``), the atlas and page modules,
+  hashing the solver packages' sources (``tables.code_hash``), the atlas and page modules,
   the model list and the grid: a rerun (``--fresh`` included: the key already says when a
   result is stale) or a resumed run with the same code reuses it;
 * the **worked advice** per case is the recommender's judgement and pick

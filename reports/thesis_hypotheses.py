@@ -188,12 +188,11 @@ def state(
 
 @dataclass
 class Totals:
-    """``Lo_tot`` of Part 1 and Part 2 (N, free joints' x, y in chain order), increments,
-    boom lengths at the end of Part 1 (m) and whether both parts finished."""
+    """``Lo_tot`` of Part 1 and Part 2 (N, free joints' x, y in chain order), boom lengths at
+    the end of Part 1 (m) and whether both parts finished."""
 
     part1: np.ndarray
     part2: np.ndarray | None
-    increments: tuple[int, int]
     boom_lengths: tuple[float, ...]
     done: bool
 
@@ -257,8 +256,8 @@ def run(h: Hypothesis, first_deg: float | None = None) -> Totals:
     )
     reached = tuple(float(np.hypot(*(pos[t] - booms.base))) for t in booms.tips)
     if not ok:
-        return Totals(t1, None, (n1, 0), reached, False)
+        return Totals(t1, None, reached, False)
     booms.locked = [True] * len(booms.tips)
     lengths = np.hypot(*np.diff(pos, axis=0).T)  # L_f: Part 2 uses the reached lengths
     _, t2, _, n2, ok = _part(chain, pos, lengths, rel, booms, h, part2=True, first_deg=None)
-    return Totals(t1, t2, (n1, n2), reached, ok)
+    return Totals(t1, t2, reached, ok)
