@@ -35,6 +35,7 @@ with 1 - m < 1e-12) lose ~3e-15 exp(sqrt(P L^2/EI)) near the saddle; the model r
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -106,6 +107,19 @@ class Equilibrium:
         # dr/ds = -cos u e_F - sin u e_perp with e_F = (c, d), e_perp = (-d, c)
         return th, kap, -A * c + B * d, -A * d - B * c, float(U2)
 
+    def ends(self) -> tuple[float, float, float, float, float, float]:
+        """theta(L), kappa(0), kappa(L), x(L), y(L) and int kappa^2 ds (beam frame).
+
+        Forward orbits take the scalar flow at L (a fifth of the cost of sampling the shape).
+        """
+        if self.reverse:
+            th, kap, x, y, U2 = self.sample(np.array([0.0, self.L]))
+            return float(th[-1]), float(kap[0]), float(kap[-1]), float(x[-1]), float(y[-1]), U2
+        u, p, A, B, U2 = pendulum(self.u_start, self.p_start, self.lam, float(self.L), self.m1)
+        c, d = math.cos(self.phi), math.sin(self.phi)
+        th, x, y = float(u - self.u_start), float(-A * c + B * d), float(-A * d - B * c)
+        return th, float(self.p_start), float(p), x, y, float(U2)
+
     def tip(self) -> tuple[float, float, float]:
         """Tip (x, y, theta) in the beam frame."""
         if self.reverse:
@@ -124,6 +138,29 @@ class Equilibrium:
     def max_abs_curvature(self, p_far: float) -> float:
         """Exact max |kappa| over the beam; ``p_far`` = |kappa| at the far end of the span."""
         return max_abs_p(self.u_start, self.p_start, self.lam, self.L, p_far, self.m1)
+
+
+class SampledShape(Mapping):
+    """``Step.shapes`` of one elastica state: member -> (N_SHAPE, 2) deformed centre line
+    (global frame), sampled on first access (a solve whose caller reads only the tip pays
+    nothing for it; picklable: it holds the beam and the state, no closure)."""
+
+    def __init__(self, beam: Cantilever, eq: Equilibrium) -> None:
+        self._beam, self._eq, self._xy = beam, eq, None
+
+    def __getitem__(self, member: str) -> np.ndarray:
+        if member != self._beam.member:
+            raise KeyError(member)
+        if self._xy is None:
+            _, _, x, y, _ = self._eq.sample(np.linspace(0.0, self._beam.L, N_SHAPE))
+            self._xy = self._beam.rotate_to_global(np.column_stack([x, y]))
+        return self._xy
+
+    def __iter__(self) -> Iterator[str]:
+        return iter((self._beam.member,))
+
+    def __len__(self) -> int:
+        return 1
 
 
 LAM_L_MAX = 12.0  # validated range of lam L = sqrt(P L^2/EI) for near-separatrix orbits
@@ -398,24 +435,23 @@ class Elastica:
     def _step(
         self, scene: Scene, beam: Cantilever, t: float, eq: Equilibrium, its: int, stable: bool
     ) -> Step:
-        s = np.linspace(0.0, beam.L, N_SHAPE)
-        th, kap, x, y, U2 = eq.sample(s)
-        outputs = tip_outputs(scene, beam, float(x[-1]), float(y[-1]), float(th[-1]))
-        kmax = eq.max_abs_curvature(float(abs(kap[0] if eq.reverse else kap[-1])))
+        th, k0, kL, x, y, U2 = eq.ends()
+        outputs = tip_outputs(scene, beam, x, y, th)
+        kmax = eq.max_abs_curvature(abs(k0 if eq.reverse else kL))
         if beam.guided:
-            residual = abs(float(th[-1]))
+            residual = abs(th)
         else:
-            kL = t * beam.m / beam.EI
-            residual = abs(float(kap[-1]) - kL) / max(abs(kap[0]) + abs(kL) + eq.lam, 1e-300)
+            kL_load = t * beam.m / beam.EI
+            residual = abs(kL - kL_load) / max(abs(k0) + abs(kL_load) + eq.lam, 1e-300)
         return Step(
             factor=t,
             outputs=outputs,
             energy=0.5 * beam.EI * U2,
             iterations=its,
             stable=stable,
-            shapes={beam.member: beam.rotate_to_global(np.column_stack([x, y]))},
+            shapes=SampledShape(beam, eq),
             max_stress=stress_from_curvature(scene, beam, np.array([kmax])),
-            info={"root_curvature": float(kap[0]), "tip_residual": residual},
+            info={"root_curvature": k0, "tip_residual": residual},
         )
 
     def solve(self, scene: Scene) -> Solution:
