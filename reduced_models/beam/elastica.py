@@ -197,14 +197,15 @@ def follower_equilibrium(L: float, EI: float, P: float, gamma: float, M: float) 
     return Equilibrium(L=L, lam=lam, phi=phi, u_start=uL, p_start=-M / EI, reverse=True)
 
 
-def _g_and_slope(z: float, e: float | None, c: float, zmax: float, lamL: float):
+def _g_and_slope(z, e, c, zmax, lamL):  # noqa: ANN001, ANN202
     """G(z) = K(m) - F(psi*, m) - lam L and dG/dz, with t = 1 - m computed without cancellation.
 
-    ``e`` = zmax - z when known exactly (large-load regime), else None.
+    Arrays of one shape (one entry per load); ``e`` = zmax - z when known exactly (large-load
+    regime), else None.  Returns G, dG/dz and s = sin psi*.
     """
     d2 = e * (2.0 * zmax - e) if e is not None else (zmax - z) * (zmax + z)  # zmax^2 - z^2
     s2 = c * c + d2  # sin^2 psi* = 1 - z^2
-    s = math.sqrt(s2)
+    s = np.sqrt(s2)
     t = d2 / s2  # 1 - m
     m = c * c / s2
     z2 = z * z
@@ -214,25 +215,29 @@ def _g_and_slope(z: float, e: float | None, c: float, zmax: float, lamL: float):
     Ds = s2 * s / 3.0 * elliprd(z2, zmax * zmax, 1.0)
     # dG/dz = (dK/dm - dF/dm) dm/dz + 1/(s Delta*), dm/dz / (2 t) = m z / d2
     slope = ((K - Dc) - (F - Ds - s * z / zmax)) * m * z / d2 + 1.0 / (s * zmax)
-    return float(K - F - lamL), float(slope), s
+    return K - F - lamL, slope, s
 
 
-def _safe_newton(f, x: float, lo: float, hi: float, increasing: bool, lamL: float):  # noqa: ANN001, ANN202
-    """Newton on a monotone g(x) = f(x)[0] bracketed in (lo, hi); bisection when a step
-    leaves the bracket.  Returns (root, iterations)."""
-    for its in range(1, 60):
+def _safe_newton(f, x, lo, hi, increasing: bool, lamL):  # noqa: ANN001, ANN202
+    """Newton on monotone g(x) = f(x)[0], one root per entry of the arrays, each bracketed in
+    (lo, hi); bisection where a step leaves the bracket.  Returns (roots, iterations)."""
+    its = np.full(x.shape, 60)
+    active = np.ones(x.shape, dtype=bool)
+    for it in range(1, 60):
         g, d = f(x)
-        if (g > 0.0) == increasing:
-            hi = x
-        else:
-            lo = x
-        if abs(g) <= 1e-15 * (1.0 + lamL):  # the evaluated state meets the tolerance
-            return x, its
+        up = (g > 0.0) == increasing
+        hi, lo = np.where(active & up, x, hi), np.where(active & ~up, x, lo)
         xn = x - g / d
-        if abs(xn - x) <= 4e-16 * abs(x):  # a correction at round-off: x is the root
-            return x, its
-        x = xn if lo < xn < hi else 0.5 * (lo + hi)
-    return x, 60
+        # the evaluated state meets the tolerance, or the correction is at round-off
+        done = active & (
+            (np.abs(g) <= 1e-15 * (1.0 + lamL)) | (np.abs(xn - x) <= 4e-16 * np.abs(x))
+        )
+        its[done] = it
+        active &= ~done
+        if not active.any():
+            break
+        x = np.where(active, np.where((lo < xn) & (xn < hi), xn, 0.5 * (lo + hi)), x)
+    return x, its
 
 
 def closed_form_dead(L: float, EI: float, fx: float, fy: float) -> tuple[Equilibrium, int]:
@@ -242,54 +247,95 @@ def closed_form_dead(L: float, EI: float, fx: float, fy: float) -> tuple[Equilib
     Newton iterations.  Raises ``ElasticaError`` for a perfect axial compression above the
     Euler load pi^2 EI / (4 L^2) (a bifurcation: no preferred buckling direction).
     """
-    P = math.hypot(fx, fy)
-    if not (L > 0.0 and EI > 0.0 and math.isfinite(P)):
-        raise ElasticaError(f"bad input L={L}, EI={EI}, P={P}")
-    if P == 0.0:
-        return Equilibrium(L=L, lam=0.0, phi=math.pi, u_start=0.0, p_start=0.0), 0
-    lam = math.sqrt(P / EI)
-    phi = math.atan2(fy, fx)
+    ((eq, its),) = closed_form_dead_path(L, EI, fx, fy, np.array([1.0]))
+    if isinstance(eq, ElasticaError):
+        raise eq
+    return eq, its
+
+
+def closed_form_dead_path(
+    L: float, EI: float, fx: float, fy: float, factors: np.ndarray
+) -> list[tuple[Equilibrium | ElasticaError, int]]:
+    """``closed_form_dead`` at the loads t (fx, fy) for every t in ``factors`` (shape (n,)),
+    all Newton solves at once (one array call per special function and iteration).
+
+    Returns (Equilibrium or the ElasticaError of that load, Newton iterations) per factor.
+    """
+    t = np.asarray(factors, dtype=float)
+    P = np.hypot(t * fx, t * fy)
+    if not (L > 0.0 and EI > 0.0 and np.isfinite(P).all()):
+        raise ElasticaError(f"bad input L={L}, EI={EI}, P={P.max()}")
+    lam = np.sqrt(P / EI)
+    phi = np.arctan2(t * fy, t * fx)
     u0 = math.pi - phi
-    u0 = u0 - 2.0 * math.pi if u0 > math.pi else u0  # (-pi, pi]
-    c = abs(math.sin(0.5 * u0))
-    zmax = abs(math.cos(0.5 * u0))
+    u0 = np.where(u0 > math.pi, u0 - 2.0 * math.pi, u0)  # (-pi, pi]
+    c = np.abs(np.sin(0.5 * u0))
+    zmax = np.abs(np.cos(0.5 * u0))
     lamL = lam * L
-    straight = Equilibrium(L=L, lam=lam, phi=phi, u_start=u0, p_start=0.0)
-    if c == 0.0:  # perfect axial compression
-        if lamL > 0.5 * math.pi * (1.0 + 1e-12):
-            raise ElasticaError(
+    # straight: no load, pure tension, or perfect compression (a bifurcation past Euler)
+    straight = (P == 0.0) | (c == 0.0) | (zmax == 0.0) | (c == 1.0)
+    bent = np.flatnonzero(~straight)
+    z, e, its = np.zeros_like(t), np.full_like(t, np.nan), np.zeros(t.shape, dtype=int)
+    if bent.size:
+        cb, zb, lb = c[bent], zmax[bent], lamL[bent]
+        half = 0.5 * zb
+        with np.errstate(divide="ignore", invalid="ignore"):
+            g_half, slope_half, _ = _g_and_slope(half, None, cb, zb, lb)
+            # root in [0, zmax/2]: Newton in z (G smooth and bounded there)
+            iz = np.flatnonzero(g_half >= 0.0)
+            if iz.size:
+
+                def gz(x):  # noqa: ANN001, ANN202
+                    return _g_and_slope(x, None, cb[iz], zb[iz], lb[iz])[:2]
+
+                x0 = np.minimum(lb[iz] * zb[iz], 0.5 * half[iz])
+                z[bent[iz]], its[bent[iz]] = _safe_newton(gz, x0, 0.0, half[iz], True, lb[iz])
+            # root in (zmax/2, zmax): Newton in y = ln(zmax - z); G ~ -y/2 there
+            iy = np.flatnonzero(g_half < 0.0)
+            if iy.size:
+                cy, zy, ly = cb[iy], zb[iy], lb[iy]
+
+                def gy(y):  # noqa: ANN001, ANN202
+                    ey = np.exp(y)
+                    g, d, _ = _g_and_slope(zy - ey, ey, cy, zy, ly)
+                    return g, -ey * d
+
+                hy = half[iy]
+                y0 = np.maximum(np.log(hy) + g_half[iy] / (hy * slope_half[iy]), -744.0)
+                y, its[bent[iy]] = _safe_newton(gy, y0, -745.0, np.log(hy), False, ly)
+                e[bent[iy]] = np.exp(y)
+                z[bent[iy]] = zmax[bent[iy]] - e[bent[iy]]
+        # the residual and sin psi* at the roots, the large-load entries by e = zmax - z exactly
+        with np.errstate(divide="ignore", invalid="ignore"):
+            big = ~np.isnan(e[bent])
+            ze, ee = z[bent], np.where(big, e[bent], zb - z[bent])
+            g, _, sb = _g_and_slope(ze, ee, cb, zb, lb)
+        d2 = ee * (2.0 * zb - ee)
+        d2 = np.where(big, d2, (zb - ze) * (zb + ze))
+        g_all, s_all, d2_all = (np.zeros_like(t) for _ in range(3))
+        g_all[bent], s_all[bent], d2_all[bent] = g, sb, d2
+    out: list[tuple[Equilibrium | ElasticaError, int]] = []
+    for i in range(t.size):
+        if P[i] == 0.0:
+            eq = Equilibrium(L=L, lam=0.0, phi=math.pi, u_start=0.0, p_start=0.0)
+        elif c[i] == 0.0 and lamL[i] > 0.5 * math.pi * (1.0 + 1e-12):
+            eq = ElasticaError(
                 "perfect axial compression above the Euler load pi^2 EI/(4 L^2): bifurcation, "
                 "no preferred buckling direction (add a transverse imperfection)"
             )
-        return straight, 0
-    if zmax == 0.0 or c == 1.0:  # pure tension: straight
-        return straight, 0
-    half = 0.5 * zmax
-    g_half, slope_half, _ = _g_and_slope(half, None, c, zmax, lamL)
-    if g_half >= 0.0:  # root in [0, zmax/2]: Newton in z (G smooth and bounded there)
-
-        def gz(z: float) -> tuple[float, float]:
-            return _g_and_slope(z, None, c, zmax, lamL)[:2]
-
-        z, it = _safe_newton(gz, min(lamL * zmax, 0.5 * half), 0.0, half, True, lamL)
-        e = None
-    else:  # root in (zmax/2, zmax): Newton in y = ln(zmax - z); G ~ -y/2 there
-
-        def gy(y: float) -> tuple[float, float]:
-            e = math.exp(y)
-            g, d, _ = _g_and_slope(zmax - e, e, c, zmax, lamL)
-            return g, -e * d
-
-        y0 = max(math.log(half) + g_half / (half * slope_half), -744.0)
-        y, it = _safe_newton(gy, y0, -745.0, math.log(half), False, lamL)
-        e = math.exp(y)
-        z = zmax - e
-    g, _, s = _g_and_slope(z, e, c, zmax, lamL)
-    if not abs(g) <= 1e-12 * max(1.0, lamL):
-        raise ElasticaError(f"closed form did not converge (residual {g:.3g})")
-    d2 = e * (2.0 * zmax - e) if e is not None else (zmax - z) * (zmax + z)
-    p0 = math.copysign(2.0 * lam * c / s * z, u0)  # |u| grows from the root: inflection-free
-    return Equilibrium(L=L, lam=lam, phi=phi, u_start=u0, p_start=p0, m1=d2 / (s * s)), it
+        elif straight[i]:
+            eq = Equilibrium(L=L, lam=float(lam[i]), phi=float(phi[i]), u_start=float(u0[i]),
+                             p_start=0.0)  # fmt: skip
+        elif not abs(g_all[i]) <= 1e-12 * max(1.0, lamL[i]):
+            eq = ElasticaError(f"closed form did not converge (residual {g_all[i]:.3g})")
+        else:
+            si = float(s_all[i])
+            # |u| grows from the root: inflection-free
+            p0 = math.copysign(2.0 * float(lam[i]) * float(c[i]) / si * float(z[i]), u0[i])
+            eq = Equilibrium(L=L, lam=float(lam[i]), phi=float(phi[i]), u_start=float(u0[i]),
+                             p_start=p0, m1=float(d2_all[i]) / (si * si))  # fmt: skip
+        out.append((eq, int(its[i])))
+    return out
 
 
 def equilibrium(
@@ -426,8 +472,11 @@ class Elastica:
                 # follow_path only accepts states with a positive shooting derivative
                 yield t, Equilibrium(L=L, lam=lam, phi=phi, u_start=u0, p_start=p0), its, True
         else:
-            for t in factors:
-                eq, its = closed_form_dead(L, EI, t * beam.fx, t * beam.fy)
+            for t, (eq, its) in zip(
+                factors, closed_form_dead_path(L, EI, beam.fx, beam.fy, factors)
+            ):
+                if isinstance(eq, ElasticaError):
+                    raise eq
                 # Jacobi test: the shooting derivative d kappa(L)/d kappa(0) stays positive
                 stable = bool(tip_flow(eq.u_start, eq.p_start, eq.lam, L)[2][1, 1] > 0.0)
                 yield float(t), eq, its, stable
