@@ -35,7 +35,7 @@ with 1 - m < 1e-12) lose ~3e-15 exp(sqrt(P L^2/EI)) near the saddle; the model r
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -54,8 +54,8 @@ from reduced_models.beam.elastica_shooting import (
 from reduced_models.beam.single_beam import (
     Cantilever,
     cantilever_of,
+    output_map,
     stress_from_curvature,
-    tip_outputs,
 )
 
 __all__ = [
@@ -200,10 +200,10 @@ def follower_equilibrium(L: float, EI: float, P: float, gamma: float, M: float) 
 def _g_and_slope(z, e, c, zmax, lamL):  # noqa: ANN001, ANN202
     """G(z) = K(m) - F(psi*, m) - lam L and dG/dz, with t = 1 - m computed without cancellation.
 
-    Arrays of one shape (one entry per load); ``e`` = zmax - z when known exactly (large-load
-    regime), else None.  Returns G, dG/dz and s = sin psi*.
+    Arrays of one shape (one entry per load); ``e`` = zmax - z where known exactly (large-load
+    regime), NaN elsewhere.  Returns G, dG/dz and s = sin psi*.
     """
-    d2 = e * (2.0 * zmax - e) if e is not None else (zmax - z) * (zmax + z)  # zmax^2 - z^2
+    d2 = np.where(np.isnan(e), (zmax - z) * (zmax + z), e * (2.0 * zmax - e))  # zmax^2 - z^2
     s2 = c * c + d2  # sin^2 psi* = 1 - z^2
     s = np.sqrt(s2)
     t = d2 / s2  # 1 - m
@@ -218,9 +218,10 @@ def _g_and_slope(z, e, c, zmax, lamL):  # noqa: ANN001, ANN202
     return K - F - lamL, slope, s
 
 
-def _safe_newton(f, x, lo, hi, increasing: bool, lamL):  # noqa: ANN001, ANN202
+def _safe_newton(f, x, lo, hi, increasing, lamL):  # noqa: ANN001, ANN202
     """Newton on monotone g(x) = f(x)[0], one root per entry of the arrays, each bracketed in
-    (lo, hi); bisection where a step leaves the bracket.  Returns (roots, iterations)."""
+    (lo, hi) and increasing or not (``increasing``: bool array); bisection where a step leaves
+    the bracket.  Returns (roots, iterations)."""
     its = np.full(x.shape, 60)
     active = np.ones(x.shape, dtype=bool)
     for it in range(1, 60):
@@ -279,39 +280,29 @@ def closed_form_dead_path(
     if bent.size:
         cb, zb, lb = c[bent], zmax[bent], lamL[bent]
         half = 0.5 * zb
-        with np.errstate(divide="ignore", invalid="ignore"):
-            g_half, slope_half, _ = _g_and_slope(half, None, cb, zb, lb)
-            # root in [0, zmax/2]: Newton in z (G smooth and bounded there)
-            iz = np.flatnonzero(g_half >= 0.0)
-            if iz.size:
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            g_half, slope_half, _ = _g_and_slope(half, np.full_like(half, np.nan), cb, zb, lb)
+            # G(zmax/2) >= 0: the root is in [0, zmax/2], Newton in z (G smooth and bounded
+            # there); else in (zmax/2, zmax), Newton in y = ln(zmax - z) (G ~ -y/2 there).  One
+            # Newton for both kinds of entries: one special-function call per iteration.
+            isy = g_half < 0.0
+            y0 = np.maximum(np.log(half) + g_half / (half * slope_half), -744.0)
+            x0 = np.where(isy, y0, np.minimum(lb * zb, 0.5 * half))
+            lo = np.where(isy, -745.0, 0.0)
+            hi = np.where(isy, np.log(half), half)
 
-                def gz(x):  # noqa: ANN001, ANN202
-                    return _g_and_slope(x, None, cb[iz], zb[iz], lb[iz])[:2]
+            def gzy(x):  # noqa: ANN001, ANN202
+                ey = np.where(isy, np.exp(np.where(isy, x, 0.0)), np.nan)
+                g, d, _ = _g_and_slope(np.where(isy, zb - ey, x), ey, cb, zb, lb)
+                return g, np.where(isy, -ey * d, d)
 
-                x0 = np.minimum(lb[iz] * zb[iz], 0.5 * half[iz])
-                z[bent[iz]], its[bent[iz]] = _safe_newton(gz, x0, 0.0, half[iz], True, lb[iz])
-            # root in (zmax/2, zmax): Newton in y = ln(zmax - z); G ~ -y/2 there
-            iy = np.flatnonzero(g_half < 0.0)
-            if iy.size:
-                cy, zy, ly = cb[iy], zb[iy], lb[iy]
-
-                def gy(y):  # noqa: ANN001, ANN202
-                    ey = np.exp(y)
-                    g, d, _ = _g_and_slope(zy - ey, ey, cy, zy, ly)
-                    return g, -ey * d
-
-                hy = half[iy]
-                y0 = np.maximum(np.log(hy) + g_half[iy] / (hy * slope_half[iy]), -744.0)
-                y, its[bent[iy]] = _safe_newton(gy, y0, -745.0, np.log(hy), False, ly)
-                e[bent[iy]] = np.exp(y)
-                z[bent[iy]] = zmax[bent[iy]] - e[bent[iy]]
-        # the residual and sin psi* at the roots, the large-load entries by e = zmax - z exactly
-        with np.errstate(divide="ignore", invalid="ignore"):
-            big = ~np.isnan(e[bent])
-            ze, ee = z[bent], np.where(big, e[bent], zb - z[bent])
-            g, _, sb = _g_and_slope(ze, ee, cb, zb, lb)
-        d2 = ee * (2.0 * zb - ee)
-        d2 = np.where(big, d2, (zb - ze) * (zb + ze))
+            x, its[bent] = _safe_newton(gzy, x0, lo, hi, ~isy, lb)
+            eb = np.where(isy, np.exp(np.where(isy, x, 0.0)), np.nan)
+            e[bent], z[bent] = eb, np.where(isy, zb - eb, x)
+            # the residual and sin psi* at the roots
+            g, _, sb = _g_and_slope(z[bent], eb, cb, zb, lb)
+        ze = z[bent]
+        d2 = np.where(isy, eb * (2.0 * zb - eb), (zb - ze) * (zb + ze))
         g_all, s_all, d2_all = (np.zeros_like(t) for _ in range(3))
         g_all[bent], s_all[bent], d2_all[bent] = g, sb, d2
     out: list[tuple[Equilibrium | ElasticaError, int]] = []
@@ -478,14 +469,15 @@ class Elastica:
                 if isinstance(eq, ElasticaError):
                     raise eq
                 # Jacobi test: the shooting derivative d kappa(L)/d kappa(0) stays positive
-                stable = bool(tip_flow(eq.u_start, eq.p_start, eq.lam, L)[2][1, 1] > 0.0)
+                stable = bool(tip_flow(eq.u_start, eq.p_start, eq.lam, L, eq.m1)[2][1, 1] > 0.0)
                 yield float(t), eq, its, stable
 
     def _step(
-        self, scene: Scene, beam: Cantilever, t: float, eq: Equilibrium, its: int, stable: bool
-    ) -> Step:
+        self, scene: Scene, beam: Cantilever, t: float, eq: Equilibrium, its: int, stable: bool,
+        outputs_of: Callable[[float, float, float], dict],
+    ) -> Step:  # fmt: skip
         th, k0, kL, x, y, U2 = eq.ends()
-        outputs = tip_outputs(scene, beam, x, y, th)
+        outputs = outputs_of(x, y, th)
         kmax = eq.max_abs_curvature(abs(k0 if eq.reverse else kL))
         if beam.guided:
             residual = abs(th)
@@ -517,12 +509,13 @@ class Elastica:
             factors = load_factors(scene)
         steps: list[Step] = []
         start = None
+        outputs_of = output_map(scene, beam)  # output keys and frames looked up once
         try:
             for t, eq, its, stable in self._states(beam, factors):
                 why = conditioning_issue(eq)
                 if why:
                     raise ElasticaError(f"at factor {t:.6g}: {why}")
-                step = self._step(scene, beam, t, eq, its, stable)
+                step = self._step(scene, beam, t, eq, its, stable, outputs_of)
                 steps.append(step)
                 if a.kind == "path" and a.stop_output and a.stop_value is not None:
                     # stop at the first step on the other side of stop_value than step 0

@@ -39,6 +39,7 @@ conjugate point: limit point or bifurcation, where load control loses the path).
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -142,8 +143,12 @@ class Orbit:
     uw: float
 
 
+@functools.lru_cache(maxsize=16)
 def orbit(u0: float, p0: float, lam: float, m1: float | None = None) -> Orbit:
-    """Parameters of the orbit (``m1`` overrides 1 - m when the caller knows it exactly)."""
+    """Parameters of the orbit (``m1`` overrides 1 - m when the caller knows it exactly).
+
+    Cached for the last few states: a reported state asks for its orbit three times (tip
+    flow, tip state, largest curvature)."""
     j = math.floor((u0 + math.pi) / TWO_PI)
     uw = u0 - j * TWO_PI
     if uw <= -math.pi:
@@ -249,9 +254,12 @@ def _am_m(w: float, sn: float, cn: float, dn: float, ph: float, m: float, m1: fl
     return -(dn * (w - incD(ph, m, m1)) - sn * cn) / (2.0 * m1)
 
 
-def tip_flow(u0: float, p0: float, lam: float, L: float) -> tuple[float, float, np.ndarray]:
-    """Tip state u(L), u'(L) and the (2, 2) Jacobian d(uL, pL)/d(u0, p0) of the exact flow."""
-    o = orbit(u0, p0, lam)
+def tip_flow(
+    u0: float, p0: float, lam: float, L: float, m1: float | None = None
+) -> tuple[float, float, np.ndarray]:
+    """Tip state u(L), u'(L) and the (2, 2) Jacobian d(uL, pL)/d(u0, p0) of the exact flow
+    (``m1``: the orbit's exact 1 - m when the caller knows it)."""
+    o = orbit(u0, p0, lam, m1)
     if o.kind == "rest":  # linearised flow about the equilibrium
         if lam == 0.0:
             return u0, 0.0, np.array([[1.0, L], [0.0, 1.0]])
