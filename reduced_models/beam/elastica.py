@@ -55,7 +55,6 @@ from reduced_models.beam.single_beam import (
     Cantilever,
     cantilever_of,
     output_map,
-    stress_from_curvature,
 )
 
 __all__ = [
@@ -473,9 +472,11 @@ class Elastica:
                 yield float(t), eq, its, stable
 
     def _step(
-        self, scene: Scene, beam: Cantilever, t: float, eq: Equilibrium, its: int, stable: bool,
-        outputs_of: Callable[[float, float, float], dict],
+        self, beam: Cantilever, t: float, eq: Equilibrium, its: int, stable: bool,
+        outputs_of: Callable[[float, float, float], dict], Et: float | None,
     ) -> Step:  # fmt: skip
+        """One Step; ``outputs_of`` the scene's output map, ``Et`` = E t of the member (None:
+        no stress), both looked up once per solve."""
         th, k0, kL, x, y, U2 = eq.ends()
         outputs = outputs_of(x, y, th)
         kmax = eq.max_abs_curvature(abs(k0 if eq.reverse else kL))
@@ -491,7 +492,7 @@ class Elastica:
             iterations=its,
             stable=stable,
             shapes=SampledShape(beam, eq),
-            max_stress=stress_from_curvature(scene, beam, np.array([kmax])),
+            max_stress=None if Et is None else float(Et * kmax / 2.0),  # E t |kappa| / 2
             info={"root_curvature": k0, "tip_residual": residual},
         )
 
@@ -510,12 +511,14 @@ class Elastica:
         steps: list[Step] = []
         start = None
         outputs_of = output_map(scene, beam)  # output keys and frames looked up once
+        mem = scene.member(beam.member)
+        Et = None if mem.thickness is None or mem.E is None else mem.E * mem.thickness
         try:
             for t, eq, its, stable in self._states(beam, factors):
                 why = conditioning_issue(eq)
                 if why:
                     raise ElasticaError(f"at factor {t:.6g}: {why}")
-                step = self._step(scene, beam, t, eq, its, stable, outputs_of)
+                step = self._step(beam, t, eq, its, stable, outputs_of, Et)
                 steps.append(step)
                 if a.kind == "path" and a.stop_output and a.stop_value is not None:
                     # stop at the first step on the other side of stop_value than step 0

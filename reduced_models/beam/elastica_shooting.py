@@ -61,6 +61,20 @@ class ElasticaError(RuntimeError):
 # -- elliptic primitives in (m, m1 = 1 - m) -------------------------------------------------
 def jacobi(u: float | np.ndarray, m: float, m1: float) -> tuple:
     """sn, cn, dn, am of u (scalar or array) for parameter m with m1 = 1 - m given exactly."""
+    if isinstance(u, float):
+        return _jacobi_float(u, m, m1)
+    return _jacobi(u, m, m1)
+
+
+@functools.lru_cache(maxsize=16)
+def _jacobi_float(u: float, m: float, m1: float) -> tuple:
+    """``jacobi`` of a float, cached: a reported state's tip flow and tip state both ask for
+    the Jacobi functions at the tip."""
+    return _jacobi(u, m, m1)
+
+
+def _jacobi(u: float | np.ndarray, m: float, m1: float) -> tuple:
+    """``jacobi`` uncached: scipy's ``ellipj``, the AGM from sqrt(m1) near the separatrix."""
     if m1 >= M1_AGM:
         return ellipj(u, m)
     if m1 <= 0.0:  # separatrix: sn = tanh, cn = dn = sech
