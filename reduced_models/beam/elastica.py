@@ -49,7 +49,7 @@ from reduced_models.beam.elastica_shooting import (
     max_abs_p,
     orbit,
     pendulum,
-    tip_flow,
+    tip_states,
 )
 from reduced_models.beam.single_beam import (
     Cantilever,
@@ -71,6 +71,7 @@ __all__ = [
 ]
 
 N_SHAPE = 41
+_STATE = ("u_start", "p_start", "lam", "phi")  # Equilibrium fields of a forward root state
 
 
 @dataclass(frozen=True)
@@ -449,35 +450,46 @@ class Elastica:
 
     # -- path -----------------------------------------------------------------------------
     def _states(self, beam: Cantilever, factors: np.ndarray):
-        """Yield (factor, Equilibrium, iterations, stable) along the load ramp."""
+        """Yield (factor, Equilibrium, iterations, stable, its ``ends()`` or None) along the
+        load ramp."""
         L, EI = beam.L, beam.EI
         if beam.follower and not beam.guided and (beam.fx or beam.fy):
             P, gamma = math.hypot(beam.fx, beam.fy), math.atan2(beam.fy, beam.fx)
             for t in factors:
-                yield float(t), follower_equilibrium(L, EI, t * P, gamma, t * beam.m), 0, None
+                yield float(t), follower_equilibrium(L, EI, t * P, gamma, t * beam.m), 0, None, None
         elif beam.guided or beam.m != 0.0:
             for t, (u0, p0, lam, phi), its in follow_path(
                 L, EI, beam.fx, beam.fy, beam.m, factors, beam.guided
             ):
                 # follow_path only accepts states with a positive shooting derivative
-                yield t, Equilibrium(L=L, lam=lam, phi=phi, u_start=u0, p_start=p0), its, True
+                eq = Equilibrium(L=L, lam=lam, phi=phi, u_start=u0, p_start=p0)
+                yield t, eq, its, True, None
         else:
-            for t, (eq, its) in zip(
-                factors, closed_form_dead_path(L, EI, beam.fx, beam.fy, factors)
+            path = closed_form_dead_path(L, EI, beam.fx, beam.fy, factors)
+            # the tip states and the Jacobi test (the shooting derivative d kappa(L)/d kappa(0)
+            # stays positive) of all states at once, up to the first that failed
+            n = next((i for i, (eq, _) in enumerate(path) if isinstance(eq, ElasticaError)), None)
+            eqs = [eq for eq, _ in path[:n]]
+            u0, p0, lam, phi = (np.array([getattr(e, k) for e in eqs]) for k in _STATE)
+            m1 = np.array([np.nan if e.m1 is None else e.m1 for e in eqs])
+            uL, pL, A, B, U2, slope = tip_states(u0, p0, lam, L, m1)
+            c, d = np.cos(phi), np.sin(phi)
+            # theta(L), kappa(0), kappa(L), x(L), y(L), int kappa^2 (Equilibrium.ends)
+            ends = zip(*(a.tolist() for a in (uL - u0, p0, pL, -A * c + B * d, -A * d - B * c, U2)))
+            for t, (eq, its), stable, end in zip(
+                factors, path, [*(slope > 0.0).tolist(), None], [*ends, None]
             ):
                 if isinstance(eq, ElasticaError):
                     raise eq
-                # Jacobi test: the shooting derivative d kappa(L)/d kappa(0) stays positive
-                stable = bool(tip_flow(eq.u_start, eq.p_start, eq.lam, L, eq.m1)[2][1, 1] > 0.0)
-                yield float(t), eq, its, stable
+                yield float(t), eq, its, stable, end
 
     def _step(
         self, beam: Cantilever, t: float, eq: Equilibrium, its: int, stable: bool,
-        outputs_of: Callable[[float, float, float], dict], Et: float | None,
+        ends: tuple | None, outputs_of: Callable[[float, float, float], dict], Et: float | None,
     ) -> Step:  # fmt: skip
-        """One Step; ``outputs_of`` the scene's output map, ``Et`` = E t of the member (None:
-        no stress), both looked up once per solve."""
-        th, k0, kL, x, y, U2 = eq.ends()
+        """One Step; ``ends`` = ``eq.ends()`` when already computed, ``outputs_of`` the scene's
+        output map, ``Et`` = E t of the member (None: no stress), looked up once per solve."""
+        th, k0, kL, x, y, U2 = eq.ends() if ends is None else ends
         outputs = outputs_of(x, y, th)
         kmax = eq.max_abs_curvature(abs(k0 if eq.reverse else kL))
         if beam.guided:
@@ -514,11 +526,11 @@ class Elastica:
         mem = scene.member(beam.member)
         Et = None if mem.thickness is None or mem.E is None else mem.E * mem.thickness
         try:
-            for t, eq, its, stable in self._states(beam, factors):
+            for t, eq, its, stable, ends in self._states(beam, factors):
                 why = conditioning_issue(eq)
                 if why:
                     raise ElasticaError(f"at factor {t:.6g}: {why}")
-                step = self._step(beam, t, eq, its, stable, outputs_of, Et)
+                step = self._step(beam, t, eq, its, stable, ends, outputs_of, Et)
                 steps.append(step)
                 if a.kind == "path" and a.stop_output and a.stop_value is not None:
                     # stop at the first step on the other side of stop_value than step 0

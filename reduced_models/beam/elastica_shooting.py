@@ -321,6 +321,73 @@ def tip_flow(
     return 2.0 * phL + o.shift, o.amp * dnL, J
 
 
+def tip_states(
+    u0: np.ndarray, p0: np.ndarray, lam: np.ndarray, L: float, m1: np.ndarray
+) -> tuple[np.ndarray, ...]:
+    """The flow to the tip of many states at once (arrays of one shape; ``m1`` NaN where not
+    known): u(L), u'(L), A(L), B(L), U2(L) of ``pendulum`` and the shooting derivative
+    d u'(L) / d u'(0) of ``tip_flow`` (the Jacobi test) of each state of a path.
+
+    Libration orbits with m1 >= ``M1_AGM`` are evaluated on the arrays (the formulas of
+    ``orbit``, ``pendulum`` and ``tip_flow``); any other state one by one.
+    """
+    out = tuple(np.empty(np.shape(u0)) for _ in range(6))
+    j = np.floor((u0 + math.pi) / TWO_PI)
+    uw = u0 - j * TWO_PI
+    j = np.where(uw <= -math.pi, j - 1.0, j)
+    uw = np.where(uw <= -math.pi, uw + TWO_PI, uw)
+    half, q = 0.5 * uw, 0.5 * p0
+    sh, ch = np.sin(half), np.cos(half)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = np.abs(q) / lam
+        vec = (p0 != 0.0) & (lam > 0.0) & (r < ch) & (m1 >= M1_AGM)
+    for i in np.flatnonzero(~vec):
+        mi = None if np.isnan(m1[i]) else float(m1[i])
+        state = (float(u0[i]), float(p0[i]), float(lam[i]))
+        flow = pendulum(*state, float(L), mi)
+        for k in range(5):
+            out[k][i] = flow[k]
+        out[5][i] = tip_flow(*state, L, mi)[2][1, 1]
+    if not vec.any():
+        return out
+    sh, q, lm, m1v, r = sh[vec], q[vec], lam[vec], m1[vec], r[vec]
+    m = 1.0 - m1v
+    k = np.sqrt(r * r + sh * sh)
+    psi0 = np.arctan2(sh, q / lm)
+    # w0 = F(psi0 | m) on the reduced angle (as ``ellF``)
+    n = np.round(psi0 / math.pi)
+    rr = psi0 - n * math.pi
+    sr, cr = np.sin(rr), np.cos(rr)
+    w0 = sr * elliprf(cr * cr, cr * cr + m1v * sr * sr, 1.0) + 2.0 * n * elliprf(0.0, m1v, 1.0)
+    h = lm * L
+    snh, cnh, dnh, phh = ellipj(h, m)
+    sn, cn, dn, ph = ellipj(w0 + h, m)
+    sn0, cn0 = np.sin(psi0), np.cos(psi0)
+    dn0 = np.sqrt(cn0 * cn0 + m1v * sn0 * sn0)
+    S = incD(phh, m, m1v) + sn0 * snh * sn
+    den = cn0 * cn0 + sn0 * sn0 * (cnh * cnh + m1v * snh * snh)
+    dcn = (cn0 * _one_minus_cn(cnh, snh) - m * cn0 * sn0**2 * snh**2 + sn0 * dn0 * snh * dnh) / den
+    out[0][vec] = 2.0 * np.arctan2(k * sn, dn) + j[vec] * TWO_PI
+    out[1][vec] = 2.0 * lm * k * cn
+    out[2][vec] = L - 2.0 * m * S / lm
+    out[3][vec] = 2.0 * k / lm * dcn
+    out[4][vec] = 4.0 * lm * m * (h - S)
+
+    def jac(w, sn, cn, dn, ph):  # noqa: ANN001, ANN202 - tip_flow's libration Jacobian
+        a = _am_m(w, sn, cn, dn, ph, m, m1v)
+        return (
+            2.0 * (sn + 2.0 * m * cn * a) / dn,
+            2.0 * cn,
+            2.0 * lm * (cn - 2.0 * m * sn * a),
+            -2.0 * lm * sn * dn,
+        )
+
+    _, _, a10, a11 = jac(w0 + h, sn, cn, dn, ph)
+    b00, b01, b10, b11 = jac(w0, sn0, cn0, dn0, psi0)
+    out[5][vec] = (a11 * b00 - a10 * b01) / (b00 * b11 - b01 * b10)
+    return out
+
+
 def max_abs_p(u0: float, p0: float, lam: float, L: float, pL: float, m1: float | None = None):  # noqa: ANN201
     """Exact max |u'| over [0, L]: |cn| or dn peaks at w = 2 j K inside the span, else an end."""
     o = orbit(u0, p0, lam, m1)
