@@ -294,6 +294,26 @@ def line_mesh(s: np.ndarray) -> skfem.MeshLine1:
     return mesh
 
 
+_BASES: dict[bytes, tuple[skfem.CellBasis, skfem.CellBasis]] = {}
+BASES_KEPT = 32  # meshes whose bases are kept (a run solves each case's few meshes many times)
+
+
+def _bases(mesh: skfem.MeshLine1) -> tuple[skfem.CellBasis, skfem.CellBasis]:
+    """Hermite and P1 bases of a line mesh, built once per mesh geometry: building a
+    ``CellBasis`` (element maps, quadrature, shape functions) cost a fifth of a 16-element
+    solve, and every solve of a case meshes the same arc lengths again."""
+    key = mesh.p.tobytes() + mesh.t.tobytes()
+    got = _BASES.get(key)
+    if got is None:
+        if len(_BASES) >= BASES_KEPT:
+            del _BASES[next(iter(_BASES))]  # the oldest
+        got = _BASES[key] = (
+            skfem.Basis(mesh, skfem.ElementLineHermite()),
+            skfem.Basis(mesh, skfem.ElementLineP1()),
+        )
+    return got
+
+
 def local_matrices(
     mesh: skfem.MeshLine1, EA: float, EI: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -307,8 +327,7 @@ def local_matrices(
     -------
     ka : (ne,) axial stiffness; kb : (ne, 2, 2) bending stiffness; L0 : (ne,) lengths.
     """
-    hb = skfem.Basis(mesh, skfem.ElementLineHermite())
-    pb = skfem.Basis(mesh, skfem.ElementLineP1())
+    hb, pb = _bases(mesh)
     Kb = _bending.coo_data(hb, EI=EI).tolocal()  # (ne, 4, 4)
     Ka = _axial.coo_data(pb, EA=EA).tolocal()  # (ne, 2, 2)
     kb = Kb[:, [1, 3]][:, :, [1, 3]]
@@ -323,5 +342,5 @@ def local_mass(mesh: skfem.MeshLine1, rho_line: float) -> np.ndarray:
     Linear interpolation keeps the mass matrix constant and frame-invariant under large
     rotations (Le, Battini & Hjiaj 2011, Comput. Mech. 48:153-161).
     """
-    pb = skfem.Basis(mesh, skfem.ElementLineP1())
+    pb = _bases(mesh)[1]
     return _mass.coo_data(pb, rho=rho_line).tolocal()

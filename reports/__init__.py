@@ -15,7 +15,6 @@ from reports.api import (
     registry_table,
     solve,
 )
-from reports.recommend import recommend
 
 __all__ = [
     "UnknownModelError",
@@ -27,3 +26,13 @@ __all__ = [
     "recommend",
     "solve",
 ]
+
+
+def __getattr__(name: str) -> object:
+    """``reports.recommend`` on first use: a one-off ``solve`` does not import the
+    recommender (and its statistics, fractions, decimal)."""
+    if name == "recommend":
+        from reports.recommend import recommend
+
+        return recommend
+    raise AttributeError(f"module 'reports' has no attribute {name!r}")

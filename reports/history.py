@@ -9,15 +9,19 @@ two or more runs of it.
 from __future__ import annotations
 
 import argparse
-import sqlite3
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    import sqlite3
 
 MAX_RUNS_DRAWN = 12  # the report's trend shows the last runs only
 
 
 def _connect(path: Path) -> sqlite3.Connection:
+    import sqlite3  # here: the CLI builds this subcommand's parser on every call
+
     if not Path(path).is_file():
         raise ValueError(f"{path}: no such history file")
     con = sqlite3.connect(f"file:{Path(path).resolve()}?mode=ro", uri=True, timeout=30)

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import gc
 import math
-import statistics
 import sys
 import time
 from collections.abc import Callable
@@ -52,6 +51,8 @@ def clocks() -> tuple[float, float]:
 
 
 def _stats(prefix: str, values: list[float]) -> dict[str, float]:
+    import statistics  # here: fractions and decimal cost a one-off solve ~10 ms to import
+
     return {
         f"{prefix}median_s": statistics.median(values),
         f"{prefix}min_s": min(values),

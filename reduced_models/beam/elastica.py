@@ -35,6 +35,7 @@ with 1 - m < 1e-12) lose ~3e-15 exp(sqrt(P L^2/EI)) near the saddle; the model r
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -48,13 +49,12 @@ from reduced_models.beam.elastica_shooting import (
     max_abs_p,
     orbit,
     pendulum,
-    tip_flow,
+    tip_states,
 )
 from reduced_models.beam.single_beam import (
     Cantilever,
     cantilever_of,
-    stress_from_curvature,
-    tip_outputs,
+    output_map,
 )
 
 __all__ = [
@@ -71,6 +71,7 @@ __all__ = [
 ]
 
 N_SHAPE = 41
+_STATE = ("u_start", "p_start", "lam", "phi")  # Equilibrium fields of a forward root state
 
 
 @dataclass(frozen=True)
@@ -106,6 +107,19 @@ class Equilibrium:
         # dr/ds = -cos u e_F - sin u e_perp with e_F = (c, d), e_perp = (-d, c)
         return th, kap, -A * c + B * d, -A * d - B * c, float(U2)
 
+    def ends(self) -> tuple[float, float, float, float, float, float]:
+        """theta(L), kappa(0), kappa(L), x(L), y(L) and int kappa^2 ds (beam frame).
+
+        Forward orbits take the scalar flow at L (a fifth of the cost of sampling the shape).
+        """
+        if self.reverse:
+            th, kap, x, y, U2 = self.sample(np.array([0.0, self.L]))
+            return float(th[-1]), float(kap[0]), float(kap[-1]), float(x[-1]), float(y[-1]), U2
+        u, p, A, B, U2 = pendulum(self.u_start, self.p_start, self.lam, float(self.L), self.m1)
+        c, d = math.cos(self.phi), math.sin(self.phi)
+        th, x, y = float(u - self.u_start), float(-A * c + B * d), float(-A * d - B * c)
+        return th, float(self.p_start), float(p), x, y, float(U2)
+
     def tip(self) -> tuple[float, float, float]:
         """Tip (x, y, theta) in the beam frame."""
         if self.reverse:
@@ -124,6 +138,29 @@ class Equilibrium:
     def max_abs_curvature(self, p_far: float) -> float:
         """Exact max |kappa| over the beam; ``p_far`` = |kappa| at the far end of the span."""
         return max_abs_p(self.u_start, self.p_start, self.lam, self.L, p_far, self.m1)
+
+
+class SampledShape(Mapping):
+    """``Step.shapes`` of one elastica state: member -> (N_SHAPE, 2) deformed centre line
+    (global frame), sampled on first access (a solve whose caller reads only the tip pays
+    nothing for it; picklable: it holds the beam and the state, no closure)."""
+
+    def __init__(self, beam: Cantilever, eq: Equilibrium) -> None:
+        self._beam, self._eq, self._xy = beam, eq, None
+
+    def __getitem__(self, member: str) -> np.ndarray:
+        if member != self._beam.member:
+            raise KeyError(member)
+        if self._xy is None:
+            _, _, x, y, _ = self._eq.sample(np.linspace(0.0, self._beam.L, N_SHAPE))
+            self._xy = self._beam.rotate_to_global(np.column_stack([x, y]))
+        return self._xy
+
+    def __iter__(self) -> Iterator[str]:
+        return iter((self._beam.member,))
+
+    def __len__(self) -> int:
+        return 1
 
 
 LAM_L_MAX = 12.0  # validated range of lam L = sqrt(P L^2/EI) for near-separatrix orbits
@@ -160,14 +197,15 @@ def follower_equilibrium(L: float, EI: float, P: float, gamma: float, M: float) 
     return Equilibrium(L=L, lam=lam, phi=phi, u_start=uL, p_start=-M / EI, reverse=True)
 
 
-def _g_and_slope(z: float, e: float | None, c: float, zmax: float, lamL: float):
+def _g_and_slope(z, e, c, zmax, lamL):  # noqa: ANN001, ANN202
     """G(z) = K(m) - F(psi*, m) - lam L and dG/dz, with t = 1 - m computed without cancellation.
 
-    ``e`` = zmax - z when known exactly (large-load regime), else None.
+    Arrays of one shape (one entry per load); ``e`` = zmax - z where known exactly (large-load
+    regime), NaN elsewhere.  Returns G, dG/dz and s = sin psi*.
     """
-    d2 = e * (2.0 * zmax - e) if e is not None else (zmax - z) * (zmax + z)  # zmax^2 - z^2
+    d2 = np.where(np.isnan(e), (zmax - z) * (zmax + z), e * (2.0 * zmax - e))  # zmax^2 - z^2
     s2 = c * c + d2  # sin^2 psi* = 1 - z^2
-    s = math.sqrt(s2)
+    s = np.sqrt(s2)
     t = d2 / s2  # 1 - m
     m = c * c / s2
     z2 = z * z
@@ -177,25 +215,30 @@ def _g_and_slope(z: float, e: float | None, c: float, zmax: float, lamL: float):
     Ds = s2 * s / 3.0 * elliprd(z2, zmax * zmax, 1.0)
     # dG/dz = (dK/dm - dF/dm) dm/dz + 1/(s Delta*), dm/dz / (2 t) = m z / d2
     slope = ((K - Dc) - (F - Ds - s * z / zmax)) * m * z / d2 + 1.0 / (s * zmax)
-    return float(K - F - lamL), float(slope), s
+    return K - F - lamL, slope, s
 
 
-def _safe_newton(f, x: float, lo: float, hi: float, increasing: bool, lamL: float):  # noqa: ANN001, ANN202
-    """Newton on a monotone g(x) = f(x)[0] bracketed in (lo, hi); bisection when a step
-    leaves the bracket.  Returns (root, iterations)."""
-    for its in range(1, 60):
+def _safe_newton(f, x, lo, hi, increasing, lamL):  # noqa: ANN001, ANN202
+    """Newton on monotone g(x) = f(x)[0], one root per entry of the arrays, each bracketed in
+    (lo, hi) and increasing or not (``increasing``: bool array); bisection where a step leaves
+    the bracket.  Returns (roots, iterations)."""
+    its = np.full(x.shape, 60)
+    active = np.ones(x.shape, dtype=bool)
+    for it in range(1, 60):
         g, d = f(x)
-        if (g > 0.0) == increasing:
-            hi = x
-        else:
-            lo = x
-        if abs(g) <= 1e-15 * (1.0 + lamL):  # the evaluated state meets the tolerance
-            return x, its
+        up = (g > 0.0) == increasing
+        hi, lo = np.where(active & up, x, hi), np.where(active & ~up, x, lo)
         xn = x - g / d
-        if abs(xn - x) <= 4e-16 * abs(x):  # a correction at round-off: x is the root
-            return x, its
-        x = xn if lo < xn < hi else 0.5 * (lo + hi)
-    return x, 60
+        # the evaluated state meets the tolerance, or the correction is at round-off
+        done = active & (
+            (np.abs(g) <= 1e-15 * (1.0 + lamL)) | (np.abs(xn - x) <= 4e-16 * np.abs(x))
+        )
+        its[done] = it
+        active &= ~done
+        if not active.any():
+            break
+        x = np.where(active, np.where((lo < xn) & (xn < hi), xn, 0.5 * (lo + hi)), x)
+    return x, its
 
 
 def closed_form_dead(L: float, EI: float, fx: float, fy: float) -> tuple[Equilibrium, int]:
@@ -205,57 +248,88 @@ def closed_form_dead(L: float, EI: float, fx: float, fy: float) -> tuple[Equilib
     Newton iterations.  Raises ``ElasticaError`` for a perfect axial compression above the
     Euler load pi^2 EI / (4 L^2) (a bifurcation: no preferred buckling direction).
     """
-    P = math.hypot(fx, fy)
-    if not (L > 0.0 and EI > 0.0 and math.isfinite(P)):
-        raise ElasticaError(f"bad input L={L}, EI={EI}, P={P}")
-    if P == 0.0:
-        return Equilibrium(L=L, lam=0.0, phi=math.pi, u_start=0.0, p_start=0.0), 0
-    lam = math.sqrt(P / EI)
-    phi = math.atan2(fy, fx)
+    ((eq, its),) = closed_form_dead_path(L, EI, fx, fy, np.array([1.0]))
+    if isinstance(eq, ElasticaError):
+        raise eq
+    return eq, its
+
+
+def closed_form_dead_path(
+    L: float, EI: float, fx: float, fy: float, factors: np.ndarray
+) -> list[tuple[Equilibrium | ElasticaError, int]]:
+    """``closed_form_dead`` at the loads t (fx, fy) for every t in ``factors`` (shape (n,)),
+    all Newton solves at once (one array call per special function and iteration).
+
+    Returns (Equilibrium or the ElasticaError of that load, Newton iterations) per factor.
+    """
+    t = np.asarray(factors, dtype=float)
+    P = np.hypot(t * fx, t * fy)
+    if not (L > 0.0 and EI > 0.0 and np.isfinite(P).all()):
+        raise ElasticaError(f"bad input L={L}, EI={EI}, P={P.max()}")
+    lam = np.sqrt(P / EI)
+    phi = np.arctan2(t * fy, t * fx)
     u0 = math.pi - phi
-    u0 = u0 - 2.0 * math.pi if u0 > math.pi else u0  # (-pi, pi]
-    c = abs(math.sin(0.5 * u0))
-    zmax = abs(math.cos(0.5 * u0))
+    u0 = np.where(u0 > math.pi, u0 - 2.0 * math.pi, u0)  # (-pi, pi]
+    c = np.abs(np.sin(0.5 * u0))
+    zmax = np.abs(np.cos(0.5 * u0))
     lamL = lam * L
-    straight = Equilibrium(L=L, lam=lam, phi=phi, u_start=u0, p_start=0.0)
-    if c == 0.0:  # perfect axial compression
-        if lamL > 0.5 * math.pi * (1.0 + 1e-12):
-            raise ElasticaError(
+    # straight: no load, pure tension, or perfect compression (a bifurcation past Euler)
+    straight = (P == 0.0) | (c == 0.0) | (zmax == 0.0) | (c == 1.0)
+    bent = np.flatnonzero(~straight)
+    z, e, its = np.zeros_like(t), np.full_like(t, np.nan), np.zeros(t.shape, dtype=int)
+    if bent.size:
+        cb, zb, lb = c[bent], zmax[bent], lamL[bent]
+        half = 0.5 * zb
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            g_half, slope_half, _ = _g_and_slope(half, np.full_like(half, np.nan), cb, zb, lb)
+            # G(zmax/2) >= 0: the root is in [0, zmax/2], Newton in z (G smooth and bounded
+            # there); else in (zmax/2, zmax), Newton in y = ln(zmax - z) (G ~ -y/2 there).  One
+            # Newton for both kinds of entries: one special-function call per iteration.
+            isy = g_half < 0.0
+            y0 = np.maximum(np.log(half) + g_half / (half * slope_half), -744.0)
+            x0 = np.where(isy, y0, np.minimum(lb * zb, 0.5 * half))
+            lo = np.where(isy, -745.0, 0.0)
+            hi = np.where(isy, np.log(half), half)
+
+            def gzy(x):  # noqa: ANN001, ANN202
+                ey = np.where(isy, np.exp(np.where(isy, x, 0.0)), np.nan)
+                g, d, _ = _g_and_slope(np.where(isy, zb - ey, x), ey, cb, zb, lb)
+                return g, np.where(isy, -ey * d, d)
+
+            x, its[bent] = _safe_newton(gzy, x0, lo, hi, ~isy, lb)
+            eb = np.where(isy, np.exp(np.where(isy, x, 0.0)), np.nan)
+            e[bent], z[bent] = eb, np.where(isy, zb - eb, x)
+            # the residual and sin psi* at the roots
+            g, _, sb = _g_and_slope(z[bent], eb, cb, zb, lb)
+        ze = z[bent]
+        d2 = np.where(isy, eb * (2.0 * zb - eb), (zb - ze) * (zb + ze))
+        g_all, s_all, d2_all = (np.zeros_like(t) for _ in range(3))
+        g_all[bent], s_all[bent], d2_all[bent] = g, sb, d2
+    out: list[tuple[Equilibrium | ElasticaError, int]] = []
+    for i in range(t.size):
+        if P[i] == 0.0:
+            eq = Equilibrium(L=L, lam=0.0, phi=math.pi, u_start=0.0, p_start=0.0)
+        elif c[i] == 0.0 and lamL[i] > 0.5 * math.pi * (1.0 + 1e-12):
+            eq = ElasticaError(
                 "perfect axial compression above the Euler load pi^2 EI/(4 L^2): bifurcation, "
                 "no preferred buckling direction (add a transverse imperfection)"
             )
-        return straight, 0
-    if zmax == 0.0 or c == 1.0:  # pure tension: straight
-        return straight, 0
-    half = 0.5 * zmax
-    g_half, slope_half, _ = _g_and_slope(half, None, c, zmax, lamL)
-    if g_half >= 0.0:  # root in [0, zmax/2]: Newton in z (G smooth and bounded there)
-
-        def gz(z: float) -> tuple[float, float]:
-            return _g_and_slope(z, None, c, zmax, lamL)[:2]
-
-        z, it = _safe_newton(gz, min(lamL * zmax, 0.5 * half), 0.0, half, True, lamL)
-        e = None
-    else:  # root in (zmax/2, zmax): Newton in y = ln(zmax - z); G ~ -y/2 there
-
-        def gy(y: float) -> tuple[float, float]:
-            e = math.exp(y)
-            g, d, _ = _g_and_slope(zmax - e, e, c, zmax, lamL)
-            return g, -e * d
-
-        y0 = max(math.log(half) + g_half / (half * slope_half), -744.0)
-        y, it = _safe_newton(gy, y0, -745.0, math.log(half), False, lamL)
-        e = math.exp(y)
-        z = zmax - e
-    g, _, s = _g_and_slope(z, e, c, zmax, lamL)
-    if not abs(g) <= 1e-12 * max(1.0, lamL):
-        raise ElasticaError(f"closed form did not converge (residual {g:.3g})")
-    d2 = e * (2.0 * zmax - e) if e is not None else (zmax - z) * (zmax + z)
-    p0 = math.copysign(2.0 * lam * c / s * z, u0)  # |u| grows from the root: inflection-free
-    # 1 - m = d2 / s^2 rounds above 1 when m = c^2 / s^2 < eps (a column with a 1e-9
-    # imperfection below Euler): a negative m makes every Jacobi function NaN
-    m1 = min(d2 / (s * s), 1.0)
-    return Equilibrium(L=L, lam=lam, phi=phi, u_start=u0, p_start=p0, m1=m1), it
+        elif straight[i]:
+            eq = Equilibrium(L=L, lam=float(lam[i]), phi=float(phi[i]), u_start=float(u0[i]),
+                             p_start=0.0)  # fmt: skip
+        elif not abs(g_all[i]) <= 1e-12 * max(1.0, lamL[i]):
+            eq = ElasticaError(f"closed form did not converge (residual {g_all[i]:.3g})")
+        else:
+            si = float(s_all[i])
+            # |u| grows from the root: inflection-free
+            p0 = math.copysign(2.0 * float(lam[i]) * float(c[i]) / si * float(z[i]), u0[i])
+            # 1 - m = d2 / s^2 rounds above 1 when m = c^2 / s^2 < eps (a column with a 1e-9
+            # imperfection below Euler): a negative m makes every Jacobi function NaN
+            m1 = min(float(d2_all[i]) / (si * si), 1.0)
+            eq = Equilibrium(L=L, lam=float(lam[i]), phi=float(phi[i]), u_start=float(u0[i]),
+                             p_start=p0, m1=m1)  # fmt: skip
+        out.append((eq, int(its[i])))
+    return out
 
 
 def equilibrium(
@@ -379,46 +453,62 @@ class Elastica:
 
     # -- path -----------------------------------------------------------------------------
     def _states(self, beam: Cantilever, factors: np.ndarray):
-        """Yield (factor, Equilibrium, iterations, stable) along the load ramp."""
+        """Yield (factor, Equilibrium, iterations, stable, its ``ends()`` or None) along the
+        load ramp."""
         L, EI = beam.L, beam.EI
         if beam.follower and not beam.guided and (beam.fx or beam.fy):
             P, gamma = math.hypot(beam.fx, beam.fy), math.atan2(beam.fy, beam.fx)
             for t in factors:
-                yield float(t), follower_equilibrium(L, EI, t * P, gamma, t * beam.m), 0, None
+                yield float(t), follower_equilibrium(L, EI, t * P, gamma, t * beam.m), 0, None, None
         elif beam.guided or beam.m != 0.0:
             for t, (u0, p0, lam, phi), its in follow_path(
                 L, EI, beam.fx, beam.fy, beam.m, factors, beam.guided
             ):
                 # follow_path only accepts states with a positive shooting derivative
-                yield t, Equilibrium(L=L, lam=lam, phi=phi, u_start=u0, p_start=p0), its, True
+                eq = Equilibrium(L=L, lam=lam, phi=phi, u_start=u0, p_start=p0)
+                yield t, eq, its, True, None
         else:
-            for t in factors:
-                eq, its = closed_form_dead(L, EI, t * beam.fx, t * beam.fy)
-                # Jacobi test: the shooting derivative d kappa(L)/d kappa(0) stays positive
-                stable = bool(tip_flow(eq.u_start, eq.p_start, eq.lam, L)[2][1, 1] > 0.0)
-                yield float(t), eq, its, stable
+            path = closed_form_dead_path(L, EI, beam.fx, beam.fy, factors)
+            # the tip states and the Jacobi test (the shooting derivative d kappa(L)/d kappa(0)
+            # stays positive) of all states at once, up to the first that failed
+            n = next((i for i, (eq, _) in enumerate(path) if isinstance(eq, ElasticaError)), None)
+            eqs = [eq for eq, _ in path[:n]]
+            u0, p0, lam, phi = (np.array([getattr(e, k) for e in eqs]) for k in _STATE)
+            m1 = np.array([np.nan if e.m1 is None else e.m1 for e in eqs])
+            uL, pL, A, B, U2, slope = tip_states(u0, p0, lam, L, m1)
+            c, d = np.cos(phi), np.sin(phi)
+            # theta(L), kappa(0), kappa(L), x(L), y(L), int kappa^2 (Equilibrium.ends)
+            ends = zip(*(a.tolist() for a in (uL - u0, p0, pL, -A * c + B * d, -A * d - B * c, U2)))
+            for t, (eq, its), stable, end in zip(
+                factors, path, [*(slope > 0.0).tolist(), None], [*ends, None]
+            ):
+                if isinstance(eq, ElasticaError):
+                    raise eq
+                yield float(t), eq, its, stable, end
 
     def _step(
-        self, scene: Scene, beam: Cantilever, t: float, eq: Equilibrium, its: int, stable: bool
-    ) -> Step:
-        s = np.linspace(0.0, beam.L, N_SHAPE)
-        th, kap, x, y, U2 = eq.sample(s)
-        outputs = tip_outputs(scene, beam, float(x[-1]), float(y[-1]), float(th[-1]))
-        kmax = eq.max_abs_curvature(float(abs(kap[0] if eq.reverse else kap[-1])))
+        self, beam: Cantilever, t: float, eq: Equilibrium, its: int, stable: bool,
+        ends: tuple | None, outputs_of: Callable[[float, float, float], dict], Et: float | None,
+    ) -> Step:  # fmt: skip
+        """One Step; ``ends`` = ``eq.ends()`` when already computed, ``outputs_of`` the scene's
+        output map, ``Et`` = E t of the member (None: no stress), looked up once per solve."""
+        th, k0, kL, x, y, U2 = eq.ends() if ends is None else ends
+        outputs = outputs_of(x, y, th)
+        kmax = eq.max_abs_curvature(abs(k0 if eq.reverse else kL))
         if beam.guided:
-            residual = abs(float(th[-1]))
+            residual = abs(th)
         else:
-            kL = t * beam.m / beam.EI
-            residual = abs(float(kap[-1]) - kL) / max(abs(kap[0]) + abs(kL) + eq.lam, 1e-300)
+            kL_load = t * beam.m / beam.EI
+            residual = abs(kL - kL_load) / max(abs(k0) + abs(kL_load) + eq.lam, 1e-300)
         return Step(
             factor=t,
             outputs=outputs,
             energy=0.5 * beam.EI * U2,
             iterations=its,
             stable=stable,
-            shapes={beam.member: beam.rotate_to_global(np.column_stack([x, y]))},
-            max_stress=stress_from_curvature(scene, beam, np.array([kmax])),
-            info={"root_curvature": float(kap[0]), "tip_residual": residual},
+            shapes=SampledShape(beam, eq),
+            max_stress=None if Et is None else float(Et * kmax / 2.0),  # E t |kappa| / 2
+            info={"root_curvature": k0, "tip_residual": residual},
         )
 
     def solve(self, scene: Scene) -> Solution:
@@ -435,12 +525,15 @@ class Elastica:
             factors = load_factors(scene)
         steps: list[Step] = []
         start = None
+        outputs_of = output_map(scene, beam)  # output keys and frames looked up once
+        mem = scene.member(beam.member)
+        Et = None if mem.thickness is None or mem.E is None else mem.E * mem.thickness
         try:
-            for t, eq, its, stable in self._states(beam, factors):
+            for t, eq, its, stable, ends in self._states(beam, factors):
                 why = conditioning_issue(eq)
                 if why:
                     raise ElasticaError(f"at factor {t:.6g}: {why}")
-                step = self._step(scene, beam, t, eq, its, stable)
+                step = self._step(beam, t, eq, its, stable, ends, outputs_of, Et)
                 steps.append(step)
                 if a.kind == "path" and a.stop_output and a.stop_value is not None:
                     # stop at the first step on the other side of stop_value than step 0

@@ -39,6 +39,7 @@ conjugate point: limit point or bifurcation, where load control loses the path).
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -60,6 +61,20 @@ class ElasticaError(RuntimeError):
 # -- elliptic primitives in (m, m1 = 1 - m) -------------------------------------------------
 def jacobi(u: float | np.ndarray, m: float, m1: float) -> tuple:
     """sn, cn, dn, am of u (scalar or array) for parameter m with m1 = 1 - m given exactly."""
+    if isinstance(u, float):
+        return _jacobi_float(u, m, m1)
+    return _jacobi(u, m, m1)
+
+
+@functools.lru_cache(maxsize=16)
+def _jacobi_float(u: float, m: float, m1: float) -> tuple:
+    """``jacobi`` of a float, cached: a reported state's tip flow and tip state both ask for
+    the Jacobi functions at the tip."""
+    return _jacobi(u, m, m1)
+
+
+def _jacobi(u: float | np.ndarray, m: float, m1: float) -> tuple:
+    """``jacobi`` uncached: scipy's ``ellipj``, the AGM from sqrt(m1) near the separatrix."""
     if m1 >= M1_AGM:
         return ellipj(u, m)
     if m1 <= 0.0:  # separatrix: sn = tanh, cn = dn = sech
@@ -142,8 +157,12 @@ class Orbit:
     uw: float
 
 
+@functools.lru_cache(maxsize=16)
 def orbit(u0: float, p0: float, lam: float, m1: float | None = None) -> Orbit:
-    """Parameters of the orbit (``m1`` overrides 1 - m when the caller knows it exactly)."""
+    """Parameters of the orbit (``m1`` overrides 1 - m when the caller knows it exactly).
+
+    Cached for the last few states: a reported state asks for its orbit three times (tip
+    flow, tip state, largest curvature)."""
     j = math.floor((u0 + math.pi) / TWO_PI)
     uw = u0 - j * TWO_PI
     if uw <= -math.pi:
@@ -230,14 +249,31 @@ def _sn2_diff(sn0, cn0, dn0, snh, cnh, dnh, sn, cn, m, m1):  # noqa: ANN001, ANN
     return np.where(cd >= 0.0, near, (cn0 - cn) * (cn0 + cn))
 
 
+def _times_inverse(a: tuple, b: tuple) -> np.ndarray:
+    """A B^-1 of two 2x2 matrices given row-major as 4-tuples of floats (plain floats: a
+    numpy 2x2 product and inverse cost ~10x more than the arithmetic)."""
+    a00, a01, a10, a11 = a
+    b00, b01, b10, b11 = b
+    det = b00 * b11 - b01 * b10
+    return np.array(
+        [
+            [(a00 * b11 - a01 * b10) / det, (a01 * b00 - a00 * b01) / det],
+            [(a10 * b11 - a11 * b10) / det, (a11 * b00 - a10 * b01) / det],
+        ]
+    )
+
+
 def _am_m(w: float, sn: float, cn: float, dn: float, ph: float, m: float, m1: float) -> float:
     """d am(w|m)/dm at fixed w (from dF/dm, DLMF 19.4.2, with E = F - m D)."""
     return -(dn * (w - incD(ph, m, m1)) - sn * cn) / (2.0 * m1)
 
 
-def tip_flow(u0: float, p0: float, lam: float, L: float) -> tuple[float, float, np.ndarray]:
-    """Tip state u(L), u'(L) and the (2, 2) Jacobian d(uL, pL)/d(u0, p0) of the exact flow."""
-    o = orbit(u0, p0, lam)
+def tip_flow(
+    u0: float, p0: float, lam: float, L: float, m1: float | None = None
+) -> tuple[float, float, np.ndarray]:
+    """Tip state u(L), u'(L) and the (2, 2) Jacobian d(uL, pL)/d(u0, p0) of the exact flow
+    (``m1``: the orbit's exact 1 - m when the caller knows it)."""
+    o = orbit(u0, p0, lam, m1)
     if o.kind == "rest":  # linearised flow about the equilibrium
         if lam == 0.0:
             return u0, 0.0, np.array([[1.0, L], [0.0, 1.0]])
@@ -254,34 +290,102 @@ def tip_flow(u0: float, p0: float, lam: float, L: float) -> tuple[float, float, 
     dn0 = math.sqrt(cn0 * cn0 + m1 * sn0 * sn0)
     if o.kind == "lib":
 
-        def jac(w: float, sn: float, cn: float, dn: float, ph: float) -> np.ndarray:
+        def jac(w: float, sn: float, cn: float, dn: float, ph: float) -> tuple:
             a = _am_m(w, sn, cn, dn, ph, m, m1)
             # columns d/dk at fixed w and (d/dw)/k (scaled so that k -> 0 stays regular)
-            return np.array(
-                [
-                    [2.0 * (sn + 2.0 * m * cn * a) / dn, 2.0 * cn],
-                    [2.0 * lam * (cn - 2.0 * m * sn * a), -2.0 * lam * sn * dn],
-                ]
+            return (
+                2.0 * (sn + 2.0 * m * cn * a) / dn,
+                2.0 * cn,
+                2.0 * lam * (cn - 2.0 * m * sn * a),
+                -2.0 * lam * sn * dn,
             )
 
-        J = jac(wL, snL, cnL, dnL, phL) @ np.linalg.inv(jac(o.w0, sn0, cn0, dn0, o.a0))
+        J = _times_inverse(jac(wL, snL, cnL, dnL, phL), jac(o.w0, sn0, cn0, dn0, o.a0))
         return 2.0 * math.atan2(o.k * snL, dnL) + o.shift, o.amp * cnL, J
     sig, omega = math.copysign(1.0, o.rate), o.k
 
-    def jac_r(w: float, sn: float, cn: float, dn: float, ph: float) -> np.ndarray:
+    def jac_r(w: float, sn: float, cn: float, dn: float, ph: float) -> tuple:
         a = _am_m(w, sn, cn, dn, ph, m, m1)
         dn_m = -(sn * sn + 2.0 * m * sn * cn * a) / (2.0 * dn)
         # coordinates (omega, w); m = lam^2/omega^2, dm/domega = -2 m/omega
-        return np.array(
-            [
-                [-4.0 * m * a / omega, 2.0 * dn],
-                [2.0 * sig * (dn - 2.0 * m * dn_m), -2.0 * sig * omega * m * sn * cn],
-            ]
+        return (
+            -4.0 * m * a / omega,
+            2.0 * dn,
+            2.0 * sig * (dn - 2.0 * m * dn_m),
+            -2.0 * sig * omega * m * sn * cn,
         )
 
-    T = np.array([[1.0, 0.0], [sig * L, 1.0]])  # w_L = w0 + sig omega L
-    J = jac_r(wL, snL, cnL, dnL, phL) @ T @ np.linalg.inv(jac_r(o.w0, sn0, cn0, dn0, o.a0))
+    a, b, c, d = jac_r(wL, snL, cnL, dnL, phL)
+    # times T = [[1, 0], [sig L, 1]] (w_L = w0 + sig omega L)
+    J = _times_inverse((a + b * sig * L, b, c + d * sig * L, d), jac_r(o.w0, sn0, cn0, dn0, o.a0))
     return 2.0 * phL + o.shift, o.amp * dnL, J
+
+
+def tip_states(
+    u0: np.ndarray, p0: np.ndarray, lam: np.ndarray, L: float, m1: np.ndarray
+) -> tuple[np.ndarray, ...]:
+    """The flow to the tip of many states at once (arrays of one shape; ``m1`` NaN where not
+    known): u(L), u'(L), A(L), B(L), U2(L) of ``pendulum`` and the shooting derivative
+    d u'(L) / d u'(0) of ``tip_flow`` (the Jacobi test) of each state of a path.
+
+    Libration orbits with m1 >= ``M1_AGM`` are evaluated on the arrays (the formulas of
+    ``orbit``, ``pendulum`` and ``tip_flow``); any other state one by one.
+    """
+    out = tuple(np.empty(np.shape(u0)) for _ in range(6))
+    j = np.floor((u0 + math.pi) / TWO_PI)
+    uw = u0 - j * TWO_PI
+    j = np.where(uw <= -math.pi, j - 1.0, j)
+    uw = np.where(uw <= -math.pi, uw + TWO_PI, uw)
+    half, q = 0.5 * uw, 0.5 * p0
+    sh, ch = np.sin(half), np.cos(half)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = np.abs(q) / lam
+        vec = (p0 != 0.0) & (lam > 0.0) & (r < ch) & (m1 >= M1_AGM)
+    for i in np.flatnonzero(~vec):
+        mi = None if np.isnan(m1[i]) else float(m1[i])
+        state = (float(u0[i]), float(p0[i]), float(lam[i]))
+        flow = pendulum(*state, float(L), mi)
+        for k in range(5):
+            out[k][i] = flow[k]
+        out[5][i] = tip_flow(*state, L, mi)[2][1, 1]
+    if not vec.any():
+        return out
+    sh, q, lm, m1v, r = sh[vec], q[vec], lam[vec], m1[vec], r[vec]
+    m = 1.0 - m1v
+    k = np.sqrt(r * r + sh * sh)
+    psi0 = np.arctan2(sh, q / lm)
+    # w0 = F(psi0 | m) on the reduced angle (as ``ellF``)
+    n = np.round(psi0 / math.pi)
+    rr = psi0 - n * math.pi
+    sr, cr = np.sin(rr), np.cos(rr)
+    w0 = sr * elliprf(cr * cr, cr * cr + m1v * sr * sr, 1.0) + 2.0 * n * elliprf(0.0, m1v, 1.0)
+    h = lm * L
+    snh, cnh, dnh, phh = ellipj(h, m)
+    sn, cn, dn, ph = ellipj(w0 + h, m)
+    sn0, cn0 = np.sin(psi0), np.cos(psi0)
+    dn0 = np.sqrt(cn0 * cn0 + m1v * sn0 * sn0)
+    S = incD(phh, m, m1v) + sn0 * snh * sn
+    den = cn0 * cn0 + sn0 * sn0 * (cnh * cnh + m1v * snh * snh)
+    dcn = (cn0 * _one_minus_cn(cnh, snh) - m * cn0 * sn0**2 * snh**2 + sn0 * dn0 * snh * dnh) / den
+    out[0][vec] = 2.0 * np.arctan2(k * sn, dn) + j[vec] * TWO_PI
+    out[1][vec] = 2.0 * lm * k * cn
+    out[2][vec] = L - 2.0 * m * S / lm
+    out[3][vec] = 2.0 * k / lm * dcn
+    out[4][vec] = 4.0 * lm * m * (h - S)
+
+    def jac(w, sn, cn, dn, ph):  # noqa: ANN001, ANN202 - tip_flow's libration Jacobian
+        a = _am_m(w, sn, cn, dn, ph, m, m1v)
+        return (
+            2.0 * (sn + 2.0 * m * cn * a) / dn,
+            2.0 * cn,
+            2.0 * lm * (cn - 2.0 * m * sn * a),
+            -2.0 * lm * sn * dn,
+        )
+
+    _, _, a10, a11 = jac(w0 + h, sn, cn, dn, ph)
+    b00, b01, b10, b11 = jac(w0, sn0, cn0, dn0, psi0)
+    out[5][vec] = (a11 * b00 - a10 * b01) / (b00 * b11 - b01 * b10)
+    return out
 
 
 def max_abs_p(u0: float, p0: float, lam: float, L: float, pL: float, m1: float | None = None):  # noqa: ANN201

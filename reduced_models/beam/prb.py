@@ -128,7 +128,7 @@ class PRBModel:
         if isinstance(ready, str):
             return not_applicable(scene, self.name, ready)
         beam, (matrix, rot_factor, note) = ready
-        chain = PRBChain(matrix, beam.L, beam.EI, beam.EA)
+        chain = self._chain_of(matrix, beam)
         f1 = np.array([beam.fx, beam.fy, 0.0 if beam.guided else beam.m])
         path = equilibrium_path(chain, f1, load_factors(scene), guided=beam.guided)
         steps = []
@@ -192,19 +192,40 @@ class PRBModel:
         if not sol.steps or not self.shapes:
             return sol
         beam = self._beam(scene)
-        chain = PRBChain(np.asarray(sol.extras["prb_matrix"]), beam.L, beam.EI, beam.EA)
+        chain = self._chain_of(np.asarray(sol.extras["prb_matrix"]), beam)
         Q = np.asarray(sol.extras["prb_states"], dtype=float).reshape(len(sol.steps), chain.n)
         f1 = np.array([beam.fx, beam.fy, 0.0 if beam.guided else beam.m])
         lam = np.array([s.factor for s in sol.steps])
         loads, rank = recover_tip_loads_batch(chain, Q, None if beam.guided else lam[:, None] * f1)
+        shapes, stress = shape_and_stress(scene, beam, chain, Q, loads)
+        stress = [None] * len(Q) if stress is None else stress.tolist()
         steps = []
-        for step, q, f, r in zip(sol.steps, Q, loads, rank):
-            shapes, stress = shape_and_stress(scene, beam, chain, q, f)
-            info = dict(step.info)
-            info.update(load_fx=float(f[0]), load_fy=float(f[1]), load_m=float(f[2]))
-            info["jt_rank"] = float(r)
-            steps.append(replace(step, shapes=shapes, max_stress=stress, info=info))
+        for step, xy, (fx, fy, fm), r, sig in zip(
+            sol.steps, shapes, loads.tolist(), rank.tolist(), stress
+        ):
+            info = {**step.info, "load_fx": fx, "load_fy": fy, "load_m": fm, "jt_rank": float(r)}
+            steps.append(
+                Step(
+                    step.factor,
+                    step.outputs,
+                    step.energy,
+                    step.iterations,
+                    step.stable,
+                    {beam.member: xy},
+                    sig,
+                    info,
+                )  # fmt: skip
+            )
         return replace(sol, steps=tuple(steps))
+
+    def _chain_of(self, matrix: np.ndarray, beam: Cantilever) -> PRBChain:
+        """The PRBChain of this PRB matrix and beam, built once for a solve and its
+        postprocess (the last one is kept)."""
+        key = (matrix.tobytes(), matrix.shape, beam.L, beam.EI, beam.EA)
+        last = self.__dict__.get("_chain")
+        if last is None or last[0] != key:
+            self._chain = last = (key, PRBChain(matrix, beam.L, beam.EI, beam.EA))
+        return last[1]
 
 
 # ---------------------------------------------------------------------------------------------

@@ -170,10 +170,13 @@ class PRBChain:
         return np.column_stack([self.L + t.real, t.imag, X[:, self.nj - 1]])
 
     def points(self, x: np.ndarray) -> np.ndarray:
-        """Joint and end points of the chain, shape (S + 1, 2), beam frame."""
-        p = np.concatenate([[0.0], np.cumsum(self._displacements(x))])
+        """Joint and end points of the chain, shape (..., S + 1, 2), beam frame (x: one
+        state (n,) or a stack (..., n))."""
+        d = self._displacements(x)
+        p = np.zeros(d.shape[:-1] + (d.shape[-1] + 1,), dtype=complex)
+        np.cumsum(d, axis=-1, out=p[..., 1:])
         s = np.concatenate([[0.0], np.cumsum(self.gL)])
-        return np.column_stack([s + p.real, p.imag])
+        return np.stack([s + p.real, p.imag], axis=-1)
 
     def jacobian_T(self, x: np.ndarray) -> np.ndarray:
         """J^T: one row per spring coordinate (theta_p, then u_e), columns d(X, Y, Phi),
@@ -436,22 +439,37 @@ def recover_tip_loads_batch(
     """
     JT = chain.jacobian_T(X)  # (m, k, 3)
     tau = chain.spring_forces(X)  # (m, k)
+    if JT.shape[1] == 1 and f_known is not None:  # one spring row r: closed form, no SVD
+        r, t = JT[:, 0, :], tau[:, 0]
+        r2 = (r * r).sum(axis=1)
+        rank = (np.sqrt(r2) > 1e-12).astype(int)
+        inv = np.where(rank > 0, 1.0 / np.where(rank > 0, r2, 1.0), 0.0)
+        # f = pinv(r) tau + (I - r r^T / |r|^2) f_known
+        fk = np.asarray(f_known, dtype=float)
+        f = fk + r * (inv * (t - (r * fk).sum(axis=1)))[:, None]
+        return _drop_round_off(f, chain.L), rank
     U, sv, Vt = np.linalg.svd(JT, full_matrices=False)  # (m, k, r), (m, r), (m, r, 3)
     keep = sv > 1e-12 * np.maximum(1.0, sv[:, :1])
     rank = keep.sum(axis=1)
-    coef = np.einsum("mkr,mk->mr", U, tau) / np.where(keep, sv, 1.0) * keep
-    f = np.einsum("mr,mrj->mj", coef, Vt)
+    # matmul, not einsum: einsum parses its subscripts on every call (~20 us each)
+    coef = (tau[:, None, :] @ U)[:, 0] / np.where(keep, sv, 1.0) * keep
+    f = (coef[:, None, :] @ Vt)[:, 0]
     if f_known is not None:
         # rank < 3: complete the null-space component of J^T from the known loads
         fk = np.asarray(f_known, dtype=float)
         Vk = Vt * keep[:, :, None]
-        null = fk - np.einsum("mrj,mr->mj", Vk, np.einsum("mrj,mj->mr", Vk, fk))
+        null = fk - ((Vk @ fk[:, :, None]).transpose(0, 2, 1) @ Vk)[:, 0]
         f = f + np.where((rank < 3)[:, None], null, 0.0)
-    # components at round-off level (below the equilibrium tolerance) are zero: a tip moment
-    # of 1e-16 would otherwise send the elastica to its slower combined-load route
-    size = np.abs(f) * np.array([1.0, 1.0, 1.0 / chain.L])
+    return _drop_round_off(f, chain.L), rank
+
+
+def _drop_round_off(f: np.ndarray, L: float) -> np.ndarray:
+    """End loads (m, 3) with components at round-off level (below the equilibrium tolerance)
+    set to zero: a tip moment of 1e-16 would otherwise send the elastica to its slower
+    combined-load route."""
+    size = np.abs(f) * np.array([1.0, 1.0, 1.0 / L])
     tiny = size < 1e-10 * np.maximum(size.max(axis=1, keepdims=True), 1e-300)
-    return np.where(tiny, 0.0, f), rank
+    return np.where(tiny, 0.0, f)
 
 
 def recover_tip_loads(
@@ -471,21 +489,24 @@ def recover_tip_loads(
 
 
 def shape_and_stress(
-    scene: Scene, beam: Cantilever, chain: PRBChain, x: np.ndarray, f: np.ndarray
-) -> tuple[dict, float | None]:
-    """The PRB's own deformed shape (global points) and largest bending stress.
+    scene: Scene, beam: Cantilever, chain: PRBChain, X: np.ndarray, F: np.ndarray
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """The PRB's own deformed shapes (global points) and largest bending stresses of a stack
+    of states X (m, n) under end loads F (m, 3), all states at once.
 
-    Shape: the root, every pivot and the tip of the rigid links, shape (S + 1, 2).  Stress:
-    the bending moment ``m + (tip - p) x f`` of the end loads ``f`` (recovered from the
-    PRB's spring forces) is linear along each rigid link, so its largest magnitude is at the
-    root, a pivot or the tip; ``|M| t / (2 I)``.  Returns ``(shapes, max_stress)``.
+    Shape: the root, every pivot and the tip of the rigid links, shape (m, S + 1, 2).
+    Stress: the bending moment ``m + (tip - p) x f`` of the end loads ``f`` (recovered from
+    the PRB's spring forces) is linear along each rigid link, so its largest magnitude is at
+    the root, a pivot or the tip; ``|M| t / (2 I)``, shape (m,).  Returns ``(shapes,
+    max_stress)``, ``max_stress`` None when the member's thickness or E is unknown.
     """
     mem = scene.member(beam.member)
-    xy = chain.points(x)
+    xy = chain.points(X)
     stress = None
     if mem.thickness is not None and mem.E is not None:
-        tip = xy[-1]
-        p = np.vstack([[0.0, 0.0], xy[chain.jidx], tip])
-        M = f[2] + (tip[0] - p[:, 0]) * f[1] - (tip[1] - p[:, 1]) * f[0]
-        stress = float(mem.E * mem.thickness * np.max(np.abs(M)) / (2.0 * chain.EI))
-    return {beam.member: beam.rotate_to_global(xy)}, stress
+        tip = xy[:, -1:, :]
+        p = np.concatenate([np.zeros_like(tip), xy[:, chain.jidx], tip], axis=1)
+        arm = tip - p
+        M = F[:, 2:3] + arm[..., 0] * F[:, 1:2] - arm[..., 1] * F[:, 0:1]
+        stress = mem.E * mem.thickness * np.max(np.abs(M), axis=1) / (2.0 * chain.EI)
+    return beam.rotate_to_global(xy), stress
