@@ -31,3 +31,11 @@ _.solverType
 _.reuseAnalyzedPattern
 _.numberOfThreads
 _.computationTime
+
+# reduced_models/beam/prb.py: the chain cache of a solve and its postprocess, read back through
+# self.__dict__.get (as _ready above)
+_chain
+
+# reports/__init__.py: the module __getattr__ (PEP 562) that imports reports.recommend on first
+# use; Python calls it, no code does
+__getattr__
