@@ -36,6 +36,6 @@ _.computationTime
 # self.__dict__.get (as _ready above)
 _chain
 
-# reports/__init__.py: the module __getattr__ (PEP 562) that imports reports.recommend on first
-# use; Python calls it, no code does
+# reports/__init__.py: the module __getattr__ (PEP 562) that imports reports.recommend (from
+# reports.verdicts.recommend) on first use; Python calls it, no code does
 __getattr__

@@ -314,7 +314,8 @@ class DesignTolerance:
 
     ``output`` is an output key (``stage.uy``), a point name (``stage``: the magnitude of that
     point's displacement error) or ``factor``.  Exactly one of ``rel`` (relative to the
-    output's own excursion along the reference path, the yardstick of ``reports.errors``) and
+    output's own excursion along the reference path, the yardstick of ``reports.verdicts.errors``)
+    and
     ``abs`` (case units: length, rad, force, ...) is set.  ``floor`` (case units, optional)
     replaces the default floor under the excursion: an output whose excursion is below it is
     judged against the floor, never divided by ~0.  ``why`` says where the number comes from.

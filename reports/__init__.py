@@ -1,9 +1,17 @@
 """FlexBench reports: the one place that knows every model registry.
 
 ``reports.solve(scene, "prb-3r") -> Solution``, ``reports.make_model(name, scene)``,
-``reports.model_names()``; ``reports.runner.run_matrix`` runs the case x model matrix,
-``reports.compare`` checks regressions, ``reports.render`` writes report.html/.md, and
-``reports.cli`` is the ``flexbench`` command.  Nothing imports ``reports``.
+``reports.model_names()``, ``reports.recommend(scene, tol)``.  The rooms inside:
+
+* ``api`` (this package's door to every model) and ``cli`` (the ``flexbench`` command) on top;
+* ``run/``: the benchmark matrix run, timed, guarded, journalled and stored
+  (``reports.run.runner.run_matrix``; ``reports.run.compare`` checks regressions);
+* ``verdicts/``: what a solution is worth: errors on the yardstick, tolerances, grades, the
+  recommender and its pick, claims, atlases, predicted errors;
+* ``render/``: report.html/.md, the teaching page and their figures;
+* ``bench/``: benchmarks against limits and peers, memory and browser probes.
+
+Nothing imports ``reports``.
 """
 
 from reports.api import (
@@ -32,7 +40,7 @@ def __getattr__(name: str) -> object:
     """``reports.recommend`` on first use: a one-off ``solve`` does not import the
     recommender (and its statistics, fractions, decimal)."""
     if name == "recommend":
-        from reports.recommend import recommend
+        from reports.verdicts.recommend import recommend
 
         return recommend
     raise AttributeError(f"module 'reports' has no attribute {name!r}")

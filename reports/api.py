@@ -19,7 +19,7 @@ from cases.schema import Scene
 from reduced_models import registry as _registry
 from reduced_models.base import Model, ModelCard, Solution, not_applicable, post_process
 from reduced_models.options import OptionError
-from reports.errors import SPEED_BASELINES  # noqa: F401  (re-exported)
+from reports.verdicts.errors import SPEED_BASELINES  # noqa: F401  (re-exported)
 
 UnknownModelError = _registry.UnknownModelError
 
@@ -138,7 +138,7 @@ def card_of(name: str) -> ModelCard | None:
 
 def run_model(model: Model, scene: Scene, *, catch: bool = True, post: bool = True) -> Solution:
     """Ask ``applies_to`` then ``solve`` (then ``postprocess`` and the predicted error of a
-    reduced model, ``reports.predict``, when ``post``); an exception becomes a ``failed``
+    reduced model, ``reports.verdicts.predict``, when ``post``); an exception becomes a ``failed``
     Solution.
 
     The traceback is kept in ``extras["traceback"]`` (``catch=False`` re-raises instead).
@@ -181,13 +181,13 @@ def checked(scene: Scene, sol: Solution) -> Solution:
 
 def _post_process(model: Model, scene: Scene, sol: Solution) -> Solution:
     """The model's ``postprocess`` (shapes, stress), then, for a synthesis the assembler ran,
-    the fem-auto re-solve of the synthesised scene (``reports.fecheck``)."""
+    the fem-auto re-solve of the synthesised scene (``reports.verdicts.fecheck``)."""
     if getattr(model, "postprocess", None) is None or not sol.steps:
         return sol
     sol = post_process(model, scene, sol)
     if scene.analysis.kind != "synthesis":
         return sol
-    from reports.fecheck import fe_check
+    from reports.verdicts.fecheck import fe_check
 
     return fe_check(scene, sol)
 
@@ -205,9 +205,9 @@ def finish(model: Model, scene: Scene, sol: Solution) -> Solution:
 
 
 def _predicted(name: str, scene: Scene, sol: Solution) -> Solution:
-    """``sol`` with a reduced model's predicted error (``reports.predict``), after the timed
-    solve: the table is a file a report may read and a model may not."""
-    from reports import predict  # lazy: scipy.ndimage/spatial only when a solve finishes
+    """``sol`` with a reduced model's predicted error (``reports.verdicts.predict``), after the
+    timed solve: the table is a file a report may read and a model may not."""
+    from reports.verdicts import predict  # lazy: scipy.ndimage/spatial only when a solve finishes
 
     return predict.attach(name, scene, sol)
 

@@ -38,9 +38,10 @@ from pathlib import Path
 from typing import Any
 
 from reduced_models.base import Solution
-from reports import api, timing
-from reports.compare import DEFAULT_ABS_TOL, DEFAULT_REL_FACTOR
-from reports.timing import DEFAULT_TIME_LIMIT, QUICK_TIME_LIMIT  # not the runner: lazy
+from reports import api
+from reports.run import timing
+from reports.run.compare import DEFAULT_ABS_TOL, DEFAULT_REL_FACTOR
+from reports.run.timing import DEFAULT_TIME_LIMIT, QUICK_TIME_LIMIT  # not the runner: lazy
 
 PROG = "flexbench"
 SOLVE_TIME_LIMIT = 600.0  # s: `flexbench solve` ends a model that runs away
@@ -66,7 +67,7 @@ def _fail(message: str) -> int:
 
 
 def _user_errors() -> tuple[type[BaseException], ...]:
-    from reports.journal import LockedError, OutputError
+    from reports.run.journal import LockedError, OutputError
 
     errs: list[type[BaseException]] = [UsageError, api.UnknownModelError, api.OptionError]
     errs += [OutputError, LockedError]
@@ -117,7 +118,7 @@ def solution_json(sol: Any, wall_s: float) -> dict[str, Any]:
     # estimate, observed orders, limit points, dynamic jumps and validity flags, when present.
     extra = {k: sol.extras[k] for k in _JSON_EXTRAS if k in sol.extras}
     if extra:
-        from reports.store import extras_json
+        from reports.run.store import extras_json
 
         out["extras"] = extras_json(extra)
     return out
@@ -196,7 +197,7 @@ def _option_key(scene: Any, model: str) -> str:
 
 
 def cmd_solve(args: argparse.Namespace) -> int:
-    from reports import limits
+    from reports.run import limits
 
     _CONTEXT.update(case=args.case, model=args.model)
     _check_limits(args)
@@ -245,8 +246,8 @@ def _one_blas_thread() -> None:
 
 
 def cmd_recommend(args: argparse.Namespace) -> int:
-    from reports.recommend import format_text, recommend
-    from reports.tolerance import ToleranceError, parse_tolerance
+    from reports.verdicts.recommend import format_text, recommend
+    from reports.verdicts.tolerance import ToleranceError, parse_tolerance
 
     try:
         tol = None if args.tol is None else parse_tolerance(args.tol)
@@ -258,7 +259,7 @@ def cmd_recommend(args: argparse.Namespace) -> int:
 
 
 def cmd_claims(args: argparse.Namespace) -> int:
-    from reports import claims
+    from reports.verdicts import claims
 
     ids = [c.id for c in claims.CLAIMS]
     if args.id and args.id not in ids:
@@ -309,7 +310,7 @@ def _check_limits(args: argparse.Namespace) -> None:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from reports import journal, runner
+    from reports.run import journal, runner
 
     _CONTEXT.update(case=args.cases or "(catalog)", model=args.models or "(defaults)")
     _check_limits(args)
@@ -330,7 +331,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     scenes = select_cases(args.cases)
     tol = None
     if args.tol is not None:
-        from reports.tolerance import ToleranceError, parse_tolerance
+        from reports.verdicts.tolerance import ToleranceError, parse_tolerance
 
         try:
             tol = parse_tolerance(args.tol)
@@ -402,7 +403,7 @@ def _summary(res: Any) -> int:
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
-    from reports import compare, store
+    from reports.run import compare, store
 
     if args.abs_tol < 0 or args.rel_factor < 1:
         raise UsageError("--abs-tol must be >= 0 and --rel-factor >= 1")
@@ -417,8 +418,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 
 def cmd_report(args: argparse.Namespace) -> int:
-    from reports import store
     from reports.render import render_report
+    from reports.run import store
 
     try:
         payload = store.read_results(args.dir)
@@ -433,7 +434,7 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 
 def cmd_history(args: argparse.Namespace) -> int:
-    from reports import history
+    from reports.run import history
 
     try:
         return history.cmd_history(args)
@@ -450,7 +451,7 @@ def cmd_fit_prb(argv: Sequence[str]) -> int:
 
 
 def _memory_flag(p: argparse.ArgumentParser) -> None:
-    from reports.limits import DEFAULT_MEMORY_LIMIT_MB
+    from reports.run.limits import DEFAULT_MEMORY_LIMIT_MB
 
     p.add_argument(
         "--memory-limit",
@@ -537,7 +538,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="require pyvista renders (default: pyvista when it works, else matplotlib)",
     )
     rp.set_defaults(func=cmd_report)
-    from reports.history import add_parser as add_history
+    from reports.run.history import add_parser as add_history
 
     add_history(sub)
     sub.choices["history"].set_defaults(func=cmd_history)

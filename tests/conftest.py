@@ -13,14 +13,14 @@ import pytest
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
-from reports import timing  # noqa: E402  (after the variables, so a BLAS loaded now obeys)
+from reports.run import timing  # noqa: E402  (after the variables, so a BLAS loaded now obeys)
 
 timing.pin_blas()
 
 
 @pytest.fixture(scope="session", autouse=True)
 def cost_cache(tmp_path_factory):
-    """Cost estimates (``reports.cost``) of the whole session go to a temporary directory,
+    """Cost estimates (``reports.verdicts.cost``) of the whole session go to a temporary directory,
     never to the user's ``~/.cache/flexbench``."""
     with pytest.MonkeyPatch.context() as mp:
         path = tmp_path_factory.mktemp("flexbench-cache")
@@ -33,7 +33,7 @@ def teaching_run(tmp_path_factory):
     """One small ``run_matrix`` with its teaching page (tiny atlas grid): (out dir, result,
     the keyword arguments to run it again)."""
     import cases
-    from reports import runner
+    from reports.run import runner
 
     out = tmp_path_factory.mktemp("teaching-run")
     kw = dict(workers=2, progress=False, teaching=(5, 3), render_shapes=False, export=None)

@@ -176,7 +176,7 @@ def test_graph_is_read():
     graph = import_graph()
     assert "cases.load" in graph
     assert "cases.schema" in graph["cases.load"]
-    assert any(dst.startswith("cases") for dst in graph["reports.runner"])
+    assert any(dst.startswith("cases") for dst in graph["reports.run.runner"])
 
 
 def test_no_import_circle():
@@ -195,7 +195,7 @@ def test_planted_circle_and_wrong_arrow_are_seen():
     assert _strongly_connected(graph) == [["a", "b", "c"]]
     assert _package_edge("reports.render", "reports.render.html")
     assert not _package_edge("reports.render.scenes", "reports.render")
-    assert not _package_edge("reports.render", "reports.runner")
+    assert not _package_edge("reports.render", "reports.run.runner")
 
 
 if __name__ == "__main__":

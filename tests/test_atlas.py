@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import reports
-from reports import atlas
+from reports.verdicts import atlas
 
 SMALL = {"n_mag": 8, "n_ang": 5}
 

@@ -11,7 +11,7 @@ import pytest
 
 import cases
 import reports
-from reports import atlas_mech as AM
+from reports.verdicts import atlas_mech as AM
 
 
 @pytest.fixture(scope="module")

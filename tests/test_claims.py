@@ -1,4 +1,4 @@
-"""Published claims judged on their own terms (``reports.claims``, ``flexbench claims``).
+"""Published claims judged on their own terms (``reports.verdicts.claims``, ``flexbench claims``).
 
 Howell's metric is checked on tips with a known answer (on and off the characteristic-radius
 circle), then on the exact elastica against Howell's own published numbers: at n = 0 his
@@ -18,7 +18,8 @@ import numpy as np
 import pytest
 
 from reduced_models.beam import prb_tables as T
-from reports import atlas, claims, claims_howell, cli
+from reports import cli
+from reports.verdicts import atlas, claims, claims_howell
 
 GAMMA0 = T.HOWELL_N0["gamma"]
 THETA0 = T.HOWELL_N0["Theta_max_deg"]

@@ -58,7 +58,7 @@ def test_models_that_drive_one_boom_decline(model, scene):
 def test_thesis_force_method_pushes_on_as_the_thesis(scene, kinetostatic):
     # the thesis's Part 1 stops on boom1 alone: boom2 is pushed past its 0.28 m; Part 1's
     # load totals are then Table 4-10's (printed again as Table 4-5), F2x .. F5y
-    from reports.thesis_identify import TABLES, digits
+    from reports.verdicts.thesis_identify import TABLES, digits
 
     sol = api.solve(scene, "thesis-force-method")
     assert sol.status == "converged", sol.message

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from reports.errors import reference_checks
+from reports.verdicts.errors import reference_checks
 
 
 def steps(factors):
@@ -59,7 +59,7 @@ def test_a_path_stuck_short_of_the_reference_is_not_called_accurate():
     """A snap-through traced against apex.uy (factor rises, falls, rises): a model that never
     moves (an axially locked, inextensible truss) must score the displacement it never
     reached, not ~0 from pairing every one of its steps with the reference's first point."""
-    from reports.errors import path_errors
+    from reports.verdicts.errors import path_errors
 
     ref = _path([(0.0, 0.0), (0.3, -0.05), (0.38, -0.1), (0.0, -0.15), (-0.3, -0.2), (1.0, -0.25)])
     stuck = _path([(f, 0.0) for f in (0.0, 5.0, 50.0, 100.0)])

@@ -8,7 +8,8 @@ import csv
 import pytest
 
 import cases
-from reports import grading, runner
+from reports.run import runner
+from reports.verdicts import grading
 
 
 def rec(model: str, family: str, err: float | None, **more) -> dict:
@@ -33,13 +34,14 @@ def test_family_defaults_separate_good_from_bad_reduced_models():
 
 
 def test_prb1r_warns_past_howells_theta_max():
-    from reports import atlas, solve
+    from reports import solve
+    from reports.verdicts import atlas
 
     far = solve(cases.load("cantilever-tip-load"), "prb-1r")  # Theta reaches ~71 deg
     assert far.extras["validity_warning"] and "64.3 deg" in far.extras["validity_message"]
     near = solve(atlas.scene_for("force", 2.0, 90.0, 10), "prb-1r")  # Theta ~ 35 deg
     # inside Howell's range no range warning; the predicted error (3.1 %, measured 3.2 % on
-    # the tip rotation) still warns (reports.predict)
+    # the tip rotation) still warns (reports.verdicts.predict)
     assert near.ok and "64.3 deg" not in near.extras.get("validity_message", "")
 
 

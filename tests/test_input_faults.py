@@ -22,7 +22,8 @@ import numpy as np
 import pytest
 
 from reduced_models import registry
-from reports import cli, journal, limits, runner
+from reports import cli
+from reports.run import journal, limits, runner
 from tests.test_runner import DUMMIES, LinearTip, dummy_scene
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -184,9 +184,9 @@ def test_solve_time_limit_fails_a_runaway_model(tmp_path, monkeypatch, capsys):
 
 
 def test_markdown_escapes_user_text_and_file_names_are_sanitised(monkeypatch, tmp_path):
-    from reports import exports, runner
     from reports.render import build_document, slug
     from reports.render.md import to_markdown
+    from reports.run import exports, runner
     from tests.test_input_faults import register_dummies
     from tests.test_runner import CASE_TOML
 

@@ -76,7 +76,7 @@ def test_unstable_end_is_said(monkeypatch):
 
 
 def test_runner_does_not_score_against_an_unstable_reference():
-    from reports.errors import choose_reference
+    from reports.verdicts.errors import choose_reference
 
     steps = [{"factor": 1.0, "outputs": {"tip.uy": 0.0}}]
     bad = {"status": "converged", "steps": steps, "message": "ends unstable"}

@@ -21,7 +21,7 @@ import cases
 import reports
 from cases.schema import Driver, Load, Synthesis
 from reports.render import synthnote
-from reports.store import extras_json
+from reports.run.store import extras_json
 
 EX4 = cases.load("das2d-ex4-bistable-fourbar")
 

@@ -1,4 +1,4 @@
-"""Figures drawn in the solving pool while a run solves (reports/overlap.py)."""
+"""Figures drawn in the solving pool while a run solves (reports/run/overlap.py)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import re
 
 import pytest
 
-from reports import overlap, runner, store
+from reports.run import overlap, runner, store
 from tests.test_report import MODELS, PNG, dummies  # noqa: F401  (fixture)
 from tests.test_runner import dummy_scene
 

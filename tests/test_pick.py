@@ -1,4 +1,5 @@
-"""One pick everywhere: the rule (``reports.pick``), the a-priori unknowns it breaks ties with,
+"""One pick everywhere: the rule (``reports.verdicts.pick``), the a-priori unknowns it breaks ties
+with,
 ``flexbench recommend`` run after run, and the report's front page and teaching page on the
 same records.
 
@@ -18,9 +19,11 @@ import numpy as np
 import pytest
 
 import cases
-from reports import cli, cost, pick, runner, teach_run
-from reports.pick import Option, choose
+from reports import cli
 from reports.render import frontpage
+from reports.run import runner, teach_run
+from reports.verdicts import cost, pick
+from reports.verdicts.pick import Option, choose
 
 TENSION = "cantilever-inclined-tension"
 # PRB models of near-equal cost (0.55-0.67 ms each, one code path with 2 or 3 pivots)
@@ -87,8 +90,8 @@ def test_unknowns_follow_the_models_definitions():
 
 
 def _simulated_costs(monkeypatch, scatter: float) -> None:
-    """``reports.cost.estimate`` replaced: near-equal true costs (ms) scattered uniformly by
-    +-``scatter`` per call (seeded), noise 2 %."""
+    """``reports.verdicts.cost.estimate`` replaced: near-equal true costs (ms) scattered uniformly
+    by +-``scatter`` per call (seeded), noise 2 %."""
     true_ms = {"prb-2r": 0.60, "prb-3r": 0.60, "prb-3r-force": 0.60, "prb-3r-moment": 0.60}
     true_ms |= {"prb-fsm-2": 0.58, "prb-fsm-4": 0.66, "elastica": 4.5}
     rng = np.random.default_rng(19)
@@ -101,7 +104,7 @@ def _simulated_costs(monkeypatch, scatter: float) -> None:
 
 
 def _prb_only(monkeypatch):
-    mod = sys.modules["reports.recommend"]  # the attribute reports.recommend is the function
+    mod = sys.modules["reports.verdicts.recommend"]  # the attribute reports.recommend: the function
     monkeypatch.setattr(mod, "ladders", lambda s, r: [list(lad) for lad in PRB])
     return mod.recommend
 

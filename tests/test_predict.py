@@ -11,8 +11,9 @@ import pytest
 
 import cases
 import reports
-from reports import api, predict
-from reports import predict_table as PT
+from reports import api
+from reports.verdicts import predict
+from reports.verdicts import predict_table as PT
 
 
 def table_index(model: str) -> int:
@@ -133,7 +134,8 @@ def test_silent_errors_now_warn(case, model):
 def elastica_error(scene, sol) -> float:
     """The measured ``error_rel`` of a single-beam solution against the exact elastica
     (closed-form references of these cases)."""
-    from reports import errors, store, tables
+    from reports.run import store, tables
+    from reports.verdicts import errors
 
     ref = reports.solve(scene, "elastica")
     meta = tables.case_meta(scene)

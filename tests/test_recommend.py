@@ -1,8 +1,8 @@
 """``flexbench recommend``: never a model outside the tolerance, never a cheaper one skipped.
 
-Errors are re-measured here independently of ``reports.errors``: the model's tip path against
-the exact elastica (``reduced_models.beam.elastica`` closed forms), as max |difference| / L for
-translations and max |difference| in rad for the tip rotation.  Cost in the brute-force check is
+Errors are re-measured here independently of ``reports.verdicts.errors``: the model's tip path
+against the exact elastica (``reduced_models.beam.elastica`` closed forms), as max |difference| / L
+for translations and max |difference| in rad for the tip rotation.  Cost in the brute-force check is
 a deterministic count of unknowns (timings are never asserted).
 """
 
@@ -21,9 +21,9 @@ import cases
 import reports
 from reduced_models.beam import elastica
 from reports import cli
-from reports.pick import TIE
-from reports.recommend import auto_candidates, ladders, recommend
-from reports.tolerance import ToleranceError, parse_tolerance
+from reports.verdicts.pick import TIE
+from reports.verdicts.recommend import auto_candidates, ladders, recommend
+from reports.verdicts.tolerance import ToleranceError, parse_tolerance
 
 CASES = ("cantilever-tip-load", "cantilever-inclined-compression", "pure-moment-rollup")
 
@@ -155,7 +155,7 @@ def test_cli_bad_tolerance_one_line_exit_2(tol: str, capsys):
 
 
 def test_says_plainly_when_nothing_qualifies(monkeypatch):
-    mod = sys.modules["reports.recommend"]  # the attribute reports.recommend is the function
+    mod = sys.modules["reports.verdicts.recommend"]  # the attribute reports.recommend: the function
     monkeypatch.setattr(mod, "ladders", lambda s, r: [["linear-1"], ["prb-1r"]])
     monkeypatch.setattr(mod, "EXACT", ())  # the exact elastica reference is no candidate here
     rec = mod.recommend(cases.load("cantilever-tip-load"), "1%")

@@ -1,5 +1,5 @@
 """``flexbench recommend`` on mechanism scenes: the pick is within the tolerance of ``fem-auto``
-(re-measured here, not by ``reports.errors``) on load, energy and distance analyses, and no
+(re-measured here, not by ``reports.verdicts.errors``) on load, energy and distance analyses, and no
 cheaper qualifying candidate (ladders and ``*-auto``) is skipped (brute force).  Cost is the
 deterministic count of unknowns of ``test_recommend`` (timings are never asserted)."""
 
@@ -13,8 +13,8 @@ import pytest
 
 import cases
 import reports
-from reports.pick import TIE
-from reports.recommend import auto_candidates, ladders, recommend
+from reports.verdicts.pick import TIE
+from reports.verdicts.recommend import auto_candidates, ladders, recommend
 from tests.test_recommend import unknowns
 
 NODE = ("ux", "uy", "rot")
@@ -157,8 +157,8 @@ def test_rigid_scene_picks_exact_kinetostatic_over_a_costlier_model_within_toler
 def test_fe_pick_names_a_dearer_reduced_model_within_tolerance():
     """When the FE wins on cost but a reduced model is also within tolerance (Ex. 2 at 0.1 %:
     the elastica member law), the reason says so instead of 'no reduced model qualifies'."""
-    from reports.recommend import Candidate, _verdict
-    from reports.tolerance import parse_tolerance
+    from reports.verdicts.recommend import Candidate, _verdict
+    from reports.verdicts.tolerance import parse_tolerance
 
     tol = parse_tolerance("0.1%")
 

@@ -11,8 +11,9 @@ import sqlite3
 import numpy as np
 import pytest
 
-from reports import cli, compare, runner, store
+from reports import cli
 from reports.render import build_document, figures, paths
+from reports.run import compare, runner, store
 from tests.test_runner import DUMMIES, EPS, P, dummy_scene
 
 MODELS = ["dummy-scaled", "dummy-half", "dummy-crash", "dummy-na"]

@@ -12,9 +12,10 @@ import numpy as np
 import pytest
 
 import cases
-from reports import cli, progress, runner
+from reports import cli
 from reports.bench import browser
 from reports.render import figures, mechfig, slug
+from reports.run import progress, runner
 from tests.test_report import MODELS, dummies  # noqa: F401  (fixture)
 from tests.test_runner import dummy_scene
 

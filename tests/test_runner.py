@@ -22,7 +22,8 @@ import pytest
 import cases
 from reduced_models import registry
 from reduced_models.base import ModelCard, Solution, Step, load_factors
-from reports import errors, runner, store
+from reports.run import runner, store
+from reports.verdicts import errors
 
 # -- dummy models (small-deflection cantilever: uy = P L^3 / 3EI, rot = P L^2 / 2EI) -----------
 

@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import cases
-from reports import runner
 from reports.render import stability_maps
 from reports.render.md import to_markdown
+from reports.run import runner
 
 BASE = (cases.CATALOG / "thesis-sixbar-config4-sweep-rest.toml").read_text()
 

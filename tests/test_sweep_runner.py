@@ -4,7 +4,7 @@ coordinates, parent-named models only (no default list per point)."""
 from __future__ import annotations
 
 import cases
-from reports import runner
+from reports.run import runner
 
 
 def test_plan_expands_points():

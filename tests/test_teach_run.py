@@ -12,9 +12,10 @@ import numpy as np
 import pytest
 
 import reports
-from reports import atlas, runner, teach_run
-from reports.pick import TIE
 from reports.render import mech_atlas
+from reports.run import runner, teach_run
+from reports.verdicts import atlas
+from reports.verdicts.pick import TIE
 
 GRID = (5, 3)  # as conftest.teaching_run
 CASE = "cantilever-tip-load"

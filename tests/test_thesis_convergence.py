@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 import cases
-from reports.thesis_study import increment_convergence
+from reports.verdicts.thesis_study import increment_convergence
 
 
 def test_orders_and_error_at_thesis_setting():

@@ -13,8 +13,8 @@ import json
 
 import pytest
 
-from reports.thesis_hypotheses import Hypothesis, run
-from reports.thesis_identify import TABLES, digits, hypotheses, main, match
+from reports.verdicts.thesis_hypotheses import Hypothesis, run
+from reports.verdicts.thesis_identify import TABLES, digits, hypotheses, main, match
 
 CONFIG2 = Hypothesis(True, "end", ("J4",))
 CONFIG3 = Hypothesis(False, "end", ("J3",))
@@ -109,7 +109,7 @@ def test_solve_json_holds_the_table(capsys):
 
 
 def test_report_names_ties_and_the_margin_to_the_best_other():
-    from reports.thesis_identify import Match, report
+    from reports.verdicts.thesis_identify import Match, report
 
     ranked = [
         Match(CONFIG4, 11.7, 8.4),

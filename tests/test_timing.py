@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import cases
 from reduced_models.base import Solution, Step
-from reports import api, errors, runner, timing
+from reports import api
+from reports.run import runner, timing
+from reports.verdicts import errors
 
 
 class CountingModel:

@@ -9,7 +9,8 @@ their descriptions):
 * ``flexure-cross-axis-pivot``: two such leaves crossing at their midpoints, 25 N mm on the
   stage; rotation theta = M L / (2 EI) = 0.0300 rad.
 
-Errors are re-measured here, independently of ``reports.errors``: the judged output's largest
+Errors are re-measured here, independently of ``reports.verdicts.errors``: the judged output's
+largest
 ``|model - reference|`` along the path over the largest reference value of that output, against
 the closed form at each load factor or against fem-auto's path (paired by load factor).  Costs
 in ``recommend`` are deterministic (``tests.test_recommend.unknowns``, or an adversarial
@@ -31,10 +32,12 @@ from hypothesis import strategies as st
 import cases
 import reports
 from cases.load import CaseError
-from reports import cli, errors, store
-from reports import yardstick as Y
-from reports.recommend import recommend
-from reports.tables import case_meta
+from reports import cli
+from reports.run import store
+from reports.run.tables import case_meta
+from reports.verdicts import errors
+from reports.verdicts import yardstick as Y
+from reports.verdicts.recommend import recommend
 from tests.test_recommend import unknowns
 
 PG, XP = "flexure-parallel-guide", "flexure-cross-axis-pivot"
@@ -75,7 +78,8 @@ def remeasured(case: str, model: str, against: str = "closed-form") -> float:
 
 
 def path_errors(case: str, model: str) -> dict:
-    """``reports.errors.path_errors`` of ``model`` against fem-auto (what records carry)."""
+    """``reports.verdicts.errors.path_errors`` of ``model`` against fem-auto (what records
+    carry)."""
     scene = cases.load(case)
     meta = case_meta(scene)
     ref, _, _ = store.steps_json(solved(case, "fem-auto"))
@@ -272,7 +276,8 @@ def test_cli_tol_1_is_refused(capsys):
 def test_cli_absolute_tolerance(capsys, monkeypatch):
     """``--tol stage.uy=abs:0.01`` (mm) judges the stage deflection absolutely: prb-fsm-2's
     0.31 mm miss is out, the pick is within 0.01 mm of fem-auto."""
-    module = importlib.import_module("reports.recommend")  # ``reports.recommend`` is the function
+    # the module (the attribute reports.recommend is the function)
+    module = importlib.import_module("reports.verdicts.recommend")
     monkeypatch.setattr(module, "recommend", functools.partial(recommend, cost=unknowns))
     assert cli.main(["recommend", PG, "--tol", "stage.uy=abs:0.01"]) == 0
     out = capsys.readouterr().out

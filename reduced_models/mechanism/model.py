@@ -293,7 +293,7 @@ def finish(scene: Scene, name: str, r: analyses.Run) -> Solution:
 
 class _Post:
     """The assembled system and the state of every step, kept in ``extras["_post"]`` for
-    ``postprocess`` (not JSON: ``reports.store.extras_json`` drops it)."""
+    ``postprocess`` (not JSON: ``reports.run.store.extras_json`` drops it)."""
 
     def __init__(self, sysm: MechanismSystem, qs: list[np.ndarray]) -> None:
         self.sysm, self.qs = sysm, qs

@@ -36,9 +36,10 @@ import numpy as np
 
 import cases
 from cases.schema import Scene
-from reports import api, timing
+from reports import api
 from reports.bench.limits import limits_table
 from reports.bench.measure import fit_exponent, ms, post_cost, solve_cost, verdict
+from reports.run import timing
 
 SINGLE_BEAM = (
     "cantilever-tip-load",
@@ -223,7 +224,7 @@ def suite_shares() -> tuple[list[str], list[str]]:
     """CPU share of each model family in the default matrix (no report, one worker): of the
     first solves (the answers) and of all timed solves (first + repeats); and the verdict on
     the replay's share of all timed solves (target < 20 %)."""
-    from reports.runner import run_matrix
+    from reports.run.runner import run_matrix
 
     scenes = [cases.load(c) for c in cases.catalog_names()]
     with tempfile.TemporaryDirectory() as d:

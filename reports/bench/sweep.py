@@ -12,7 +12,7 @@ from collections.abc import Sequence
 from typing import Any
 
 import cases
-from reports import runner
+from reports.run import runner
 
 
 def bench(case: str, model: str, workers: int = 2, dask: bool = False) -> dict[str, Any]:

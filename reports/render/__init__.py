@@ -107,7 +107,7 @@ def _case_figures(job: tuple) -> dict[str, Any]:
 
 def _trend(name: str, cmap: Mapping, figdir: Path, hist_db: Any) -> tuple[Path | None, str | None]:
     """The case's trend over the stored runs (None with fewer than two) and why it is missing."""
-    from reports import history as H
+    from reports.run import history as H
 
     if not Path(hist_db).is_file():
         return None, None
@@ -157,7 +157,7 @@ def render_figures(
     are several (matplotlib is single-threaded; ~0.1-0.3 s per figure) and this process has
     not loaded VTK itself (the probe runs in a child process, so normally it has not); any
     pool problem falls back to serial.  ``early``: case -> figures already drawn while the
-    run was solving (``reports.overlap``); only their history trend is added here.
+    run was solving (``reports.run.overlap``); only their history trend is added here.
     """
     import multiprocessing
     import os

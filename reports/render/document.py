@@ -16,11 +16,11 @@ import re
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from reports import grading
 from reports.render import frontpage as FP
 from reports.render import sweep_section as SW
 from reports.render import synthnote
 from reports.render.cells import Cell
+from reports.verdicts import grading
 
 Block = tuple
 FIGURE_ORDER = ("pareto", "path", "driver", "shapes", "errfactor", "render")
@@ -206,7 +206,7 @@ def _model_rows(case: Mapping, recs: Sequence[Mapping]) -> tuple[list[str], list
 
 
 def predicted_cell(rec: Mapping) -> str:
-    """A reduced model's predicted error_rel (``reports.predict``) and its effectivity
+    """A reduced model's predicted error_rel (``reports.verdicts.predict``) and its effectivity
     (predicted / measured) in brackets, as fem-auto's estimate is shown in its note."""
     pred = (rec.get("extras") or {}).get("predicted_error")
     if pred is None:

@@ -1,7 +1,7 @@
 """Effectivity of the reduced models' predicted errors: predicted against measured, catalog-wide.
 
 A pair (case, model) counts when the model converged, states ``extras["predicted_error"]``
-(``reports.predict``) and has a measured ``error_rel`` against the case's reference (the
+(``reports.verdicts.predict``) and has a measured ``error_rel`` against the case's reference (the
 reference itself excluded; a failed solve is its own verdict).  Effectivity = predicted /
 measured (1: exact; > 1: cautious).  Pairs are split into single beams (case tag
 ``single-beam``) and mechanisms: a mechanism's prediction is its members' deflection error,
@@ -31,7 +31,7 @@ import numpy as np
 
 KINDS = ("single beam", "mechanism")
 BAND = 3.0  # the factor a prediction is judged within
-LEVEL = 0.01  # the warning threshold (reports.predict.THRESHOLD)
+LEVEL = 0.01  # the warning threshold (reports.verdicts.predict.THRESHOLD)
 FLOOR = 1e-9  # errors below this are round-off; not a ratio anyone can read
 
 

@@ -1,10 +1,10 @@
 """The front page: which model to pick per case, which models are accurate where, how fast.
 
 The pick of a case is the one ``flexbench recommend`` makes among the models of the run
-(``reports.advice.from_records``: the recommender's judgement of every record, the shared cost
-estimates of ``reports.cost``, ``reports.pick.choose``; ``pick_rule`` says it in words); when no
-model is good enough the most accurate one is named instead.  The accuracy map shows each
-record's ``ERROR`` field.  Errors below ``ROUNDOFF`` are round-off and shown as
+(``reports.verdicts.advice.from_records``: the recommender's judgement of every record, the shared
+cost estimates of ``reports.verdicts.cost``, ``reports.verdicts.pick.choose``; ``pick_rule`` says it
+in words); when no model is good enough the most accurate one is named instead.  The accuracy map
+shows each record's ``ERROR`` field.  Errors below ``ROUNDOFF`` are round-off and shown as
 ``0 (< 1e-12)``.
 """
 
@@ -14,12 +14,13 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from reports.pick import TIE
 from reports.render.cells import Cell
+from reports.verdicts.pick import TIE
 
 TOLERANCE = 1e-2
 ROUNDOFF = 1e-12
-ERROR = "error_rel"  # the records' error field shown in the map (yardstick: reports.yardstick)
+# the records' error field shown in the map (yardstick: reports.verdicts.yardstick)
+ERROR = "error_rel"
 # exact where they apply: beam theory (closed form / BVP), and rigid-body kinematics with springs
 # (kinetostatic declines any scene with a compliant member, so where it runs it is exact)
 EXACT_MODELS = ("elastica", "elastica-bvp", "kinetostatic")
@@ -126,10 +127,10 @@ def candidates(recs: Sequence[Mapping]) -> list[dict]:
 
 
 def pick(case: Mapping, recs: Sequence[Mapping], tol: float = TOLERANCE) -> dict[str, Any] | None:
-    """The pick of one case (``reports.advice.from_records``): ``{"model", "error", "time"
+    """The pick of one case (``reports.verdicts.advice.from_records``): ``{"model", "error", "time"
     (CPU s), "ratio" (reference / model CPU), "within" (good enough?), "n_good", "n_solved",
     "decided_by"}``; None when no model could be judged."""
-    from reports.advice import from_records
+    from reports.verdicts.advice import from_records
 
     rec = from_records(case, recs, tol)
     judged = [c for c in rec.candidates if c.worst_error is not None] if rec else []

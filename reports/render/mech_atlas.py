@@ -1,4 +1,4 @@
-"""Mechanism validity atlases (``reports.atlas_mech``) in the report and the teaching page.
+"""Mechanism validity atlases (``reports.verdicts.atlas_mech``) in the report and the teaching page.
 
 * ``figure(data, path)``: one PNG per case, a panel per model: log10 error over driver x second
   axis, the 0.1 / 1 / 5 % contours, the region of our test of each published claim dashed and
@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from reports import atlas_mech
+from reports.verdicts import atlas_mech
 
 # the teaching page's mechanism atlases: a guide (load direction) and a driven bistable
 # four-bar (member length), small enough for the default run

@@ -28,7 +28,7 @@ from matplotlib.ticker import MaxNLocator
 
 from reports.render.figures import _save, _series, plt
 from reports.render.paths import clip_mark, zoom_range
-from reports.tables import unit_names
+from reports.run.tables import unit_names
 
 SAME_AS_REF = 1e-3  # a model this close to the reference looks identical: named, not drawn
 PIVOT_MAX_POINTS = 16  # a member drawn with this few points is a chain of rigid segments

@@ -16,7 +16,7 @@ import numpy as np
 
 from reports.render.figures import QUANTITIES, _save, _series, plt, reference_error_bars
 from reports.render.frontpage import ROUNDOFF, TOLERANCE
-from reports.tables import unit_names
+from reports.run.tables import unit_names
 
 MARGIN = 0.12  # of the reference's range, each side
 
@@ -125,7 +125,7 @@ def _roundoff_panel(ax: Any, label: str) -> None:
 def step_errors(rec: Mapping, ref_rec: Mapping, out: str, scale: Mapping[str, float]) -> tuple:
     """(factors, ``error_rel`` per step): the largest of |d ux|, |d uy|, |d rot| against the
     reference at the same factor (interpolated on a monotonic reference factor), each over
-    its divisor in ``scale`` (the reference path's yardstick, ``reports.yardstick``)."""
+    its divisor in ``scale`` (the reference path's yardstick, ``reports.verdicts.yardstick``)."""
     f_r, f_m = _series(ref_rec, "factor"), _series(rec, "factor")
     errs = np.zeros_like(f_m)
     mono = f_r.size >= 2 and np.all(np.diff(f_r) > 0)
@@ -155,7 +155,7 @@ def error_factor_figure(
     recs = [r for r in records if r["steps"] and r["model"] != ref and r["status"] != "failed"]
     if not out or ref_rec is None or not recs:
         return None
-    from reports.errors import reference_yardstick
+    from reports.verdicts.errors import reference_yardstick
 
     scale = reference_yardstick(meta, ref_rec["steps"]).scale
     series = [(r, *step_errors(r, ref_rec, out, scale)) for r in recs]

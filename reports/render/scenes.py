@@ -3,7 +3,7 @@
 A pyvista render loads VTK and its EGL/Mesa libraries into the process that draws it: about
 240 MB of PSS that stays for the process's life (measured: a process at 61 MB PSS is at
 300 MB after one off-screen render).  Drawn inside the per-case figure jobs
-(``reports.overlap``), every solving pool worker that ever drew a case carried it, and the
+(``reports.run.overlap``), every solving pool worker that ever drew a case carried it, and the
 run's summed PSS with it.  So the pool's figure jobs draw every figure but this one, and the
 renders of those cases are drawn here at the end of the run, all in one short-lived forked
 child (VTK loaded once, ~0.2 s per render warm) while the parent draws the history trends and

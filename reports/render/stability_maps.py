@@ -296,7 +296,7 @@ def convergence_blocks(payload: Mapping, fig_dir: Path) -> list[tuple]:
     if "thesis-sixbar-config4" not in payload["cases"]:
         return []
     import cases
-    from reports.thesis_study import figure, increment_convergence
+    from reports.verdicts.thesis_study import figure, increment_convergence
 
     study = increment_convergence(cases.load("thesis-sixbar-config4"), (0.02, 0.01, 0.005, 0.0025))
     if "error" in study:

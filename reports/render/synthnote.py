@@ -1,5 +1,5 @@
 """Per-model notes of the synthesis analyses (issue 9): the synthesised EI, the bistable summary
-and the fem-auto re-solve of the synthesised scene (``reports/fecheck.py``)."""
+and the fem-auto re-solve of the synthesised scene (``reports/verdicts/fecheck.py``)."""
 
 from __future__ import annotations
 

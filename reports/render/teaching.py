@@ -2,9 +2,9 @@
 
 Sections: how errors are measured; one section per model family with each model's card, its
 validity atlas (drawn on a canvas from embedded numbers, re-coloured by a tolerance slider,
-with each published claim's own verdict (``reports.claims``) and our test of it outlined, its
-failing points marked), the measured cost scaling (CPU time vs N on one case) and a worked
-"which model should I use" per catalog case from ``reports.recommend``; a load slider that
+with each published claim's own verdict (``reports.verdicts.claims``) and our test of it outlined,
+its failing points marked), the measured cost scaling (CPU time vs N on one case) and a worked
+"which model should I use" per catalog case from ``reports.verdicts.recommend``; a load slider that
 moves every model's deformed shape against the reference for a chosen case.  All data are
 embedded as JSON; inline JS draws.
 
@@ -24,10 +24,11 @@ from typing import Any
 import numpy as np
 
 import cases
-from reports import api, atlas
-from reports import claims as published
-from reports.recommend import format_text, recommend
+from reports import api
 from reports.render import mech_atlas
+from reports.verdicts import atlas
+from reports.verdicts import claims as published
+from reports.verdicts.recommend import format_text, recommend
 
 FAMILIES = {
     "linear": ("Linear beam, single and chained", ("linear-1", "linear-8"), "linear-N"),
@@ -52,8 +53,8 @@ def _r(a: Any, digits: int = 4) -> Any:
 
 def cost_scaling(case: str = "cantilever-tip-load", ns: Sequence[int] = COST_N) -> dict:
     """CPU seconds of a solve vs N for each parametrised family: the cost estimates
-    ``flexbench recommend`` ranks by (``reports.recommend.measured``, cached)."""
-    from reports.recommend import measured
+    ``flexbench recommend`` ranks by (``reports.verdicts.recommend.measured``, cached)."""
+    from reports.verdicts.recommend import measured
 
     scene = cases.load(case)
     out = {}
@@ -121,7 +122,7 @@ def atlas_png(at: atlas.Atlas, model: str) -> str:
 
 def atlas_data(at: atlas.Atlas) -> dict:
     """Embeddable atlas: grid, each model's error and our tests of the published claims on
-    it; the force atlas also carries the claims' own records (``reports.claims``: the
+    it; the force atlas also carries the claims' own records (``reports.verdicts.claims``: the
     publication's verdict, in its own metric, with our reading of this atlas beside it)."""
     claims = [c for c in atlas.CLAIMS if c.family == at.family]
     out: dict[str, Any] = {"mags": _r(at.mags), "angles": _r(at.angles), "models": {}}
@@ -380,7 +381,8 @@ function perStateTable() {
 }
 
 function mechAtlases(root) {
-  // mechanism atlases (reports.atlas_mech): drawn by drawAtlas, re-coloured by the tolerance
+  // mechanism atlases (reports.verdicts.atlas_mech): drawn by drawAtlas, re-coloured by the
+  // tolerance
   const MA = Object.values(D.mech_atlas || {}); if (!MA.length) return;
   root.append(el("h2", {}, "Mechanism validity atlases over the driver range"));
   MA.forEach(A => {

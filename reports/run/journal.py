@@ -29,7 +29,7 @@ import uuid
 from collections.abc import Mapping
 from pathlib import Path
 
-from reports import store
+from reports.run import store
 
 LOCK_NAME = ".flexbench.lock"
 TOKEN_NAME = ".flexbench-run"

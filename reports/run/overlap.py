@@ -21,7 +21,8 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from reports import errors, limits
+from reports.run import limits
+from reports.verdicts import errors
 
 ROLE = "render"  # the ``role`` of a figure job and of what it returns
 PROBE_ENV = "_FLEXBENCH_PYVISTA_OK"  # fem_reference.export.pyvista_available's cache

@@ -4,7 +4,7 @@ Flow: ``plan`` (which pairs) -> ``execute`` (serial, local process pool or Dask;
 finished pair appended to ``DIR/partial.jsonl`` at once) -> ``errors.attach_errors`` per case
 -> ``results.json`` / ``results.csv`` / SQLite history -> ``render.render_report`` (on the
 local pool each case's figures are drawn by the pool as soon as its pairs are in:
-``reports.overlap``).
+``reports.run.overlap``).
 
 A pair record (JSON-level dict built by ``solve_task`` with ``store.record``)::
 
@@ -19,18 +19,18 @@ A pair record (JSON-level dict built by ``solve_task`` with ``store.record``)::
 plus, after ``attach_errors``: ``errors``, ``refchecks``, ``error_rel``,
 ``summary_basis``, ``is_reference``, ``speedup_vs_reference``.
 
-Timing (``reports.timing``): CPU time (``process_time``, the ratios' basis) and wall time of
+Timing (``reports.run.timing``): CPU time (``process_time``, the ratios' basis) and wall time of
 the solve alone, median/min/max/spread over repeats; the model's ``postprocess`` (shapes,
 stress) runs once afterwards and is timed apart (``post_s``, ``post_cpu_s``); BLAS is pinned
 to one thread in the workers.
 
-Limits: ``time_limit`` seconds and ``memory_limit`` MB per pair (``reports.limits``: SIGALRM
+Limits: ``time_limit`` seconds and ``memory_limit`` MB per pair (``reports.run.limits``: SIGALRM
 and an rlimit in pool workers, a watchdog thread on Dask; a pool worker still running
 ``KILL_GRACE_S`` after its time limit is killed); timed-out pairs are ``failed`` and retried on
 resume.
 
 Exports: ParaView series and the replay GIF are written by the worker right after the
-timed solves (``reports.exports``); the record's ``exports`` holds their relative paths.
+timed solves (``reports.run.exports``); the record's ``exports`` holds their relative paths.
 """
 
 from __future__ import annotations
@@ -49,35 +49,25 @@ from pathlib import Path
 from typing import Any
 
 from cases.schema import Scene
-from reports import (
-    api,
-    cost,
-    errors,
-    journal,
-    limits,
-    overlap,
-    pick,
-    store,
-    sweep,
-    teach_run,
-    timing,
-)
-from reports.exports import (
+from reports import api
+from reports.run import journal, limits, overlap, store, sweep, teach_run, timing
+from reports.run.exports import (
     DEFAULT_EXPORT,
     QUICK_EXPORT,
     ExportPolicy,
     export_outputs,
     start_render_probe,
 )
-from reports.progress import Progress, stage
-from reports.tables import (
+from reports.run.progress import Progress, stage
+from reports.run.tables import (
     case_meta,
     code_hash,
     previous_records,
     step_shapes,
     write_errors_csv,
 )
-from reports.timing import DEFAULT_TIME_LIMIT, QUICK_TIME_LIMIT
+from reports.run.timing import DEFAULT_TIME_LIMIT, QUICK_TIME_LIMIT
+from reports.verdicts import cost, errors, pick
 
 
 @dataclasses.dataclass(frozen=True)
@@ -277,7 +267,7 @@ def solve_task(task: dict) -> dict:
 
 
 def pick_inputs(task: dict, solve_again: Any, first_cpu_s: float) -> dict:
-    """A pick candidate's ``cost`` (``reports.cost``: the estimate ``flexbench recommend``
+    """A pick candidate's ``cost`` (``reports.verdicts.cost``: the estimate ``flexbench recommend``
     reads and writes, so the front page ranks by the same numbers) and a-priori
     ``unknowns``; {} for other pairs.  Sweep points (hundreds, timed once) get no estimate:
     their pick ranks by the one CPU time."""
@@ -484,7 +474,8 @@ def run_matrix(
     report does not wait for it.  ``teaching``: (magnitudes, directions) of the teaching
     page's validity atlases ("auto": ``teach_run.GRID``, ``QUICK_GRID`` with ``quick``, none
     when ``models`` is given: the page's atlases and advice are of the default models; None:
-    no page); they are pool jobs beside the pairs, cached in ``out_dir`` (``reports.teach_run``).
+    no page); they are pool jobs beside the pairs, cached in ``out_dir``
+    (``reports.run.teach_run``).
     """
     t_start = time.perf_counter()
     out = Path(out_dir)

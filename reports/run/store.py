@@ -7,7 +7,7 @@
      "config": {...},                   # how the run was asked for
      "cases": {name: case meta},        # title, tags, references with provenance, L, ...
      "models": {name: model card},
-     "results": [pair record, ...]}     # one per (case, model), see reports.runner
+     "results": [pair record, ...]}     # one per (case, model), see reports.run.runner
 
 Non-finite floats are written as ``null`` (strict JSON).
 """
@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from reduced_models.base import Solution
-from reports import errors, grading
+from reports.verdicts import errors, grading
 
 FORMAT = "flexbench-results/1"
 PACKAGES = (
@@ -95,7 +95,7 @@ def jsonable(obj: Any) -> Any:
 
 
 def _git(*args: str) -> str | None:
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     try:
         out = subprocess.run(
             ["git", *args], cwd=root, capture_output=True, text=True, timeout=5, check=False
@@ -145,7 +145,7 @@ MAX_HISTORY_POINTS = 400
 
 
 def record(base: dict, status: str, message: str, **more: Any) -> dict:
-    """A pair record with every field present (see ``reports.runner``)."""
+    """A pair record with every field present (see ``reports.run.runner``)."""
     rec = {**base, "status": status, "message": message, "steps": [], "shapes": {}}
     rec.update({"extras": {}, "card": None, "timing": None, "warnings": [], "traceback": None})
     rec["exports"] = {}  # ParaView series / GIF paths relative to the run directory

@@ -7,7 +7,7 @@ pieces of a pair record the report draws from (shapes along the path, how a scen
     wall_median_s, error_rel
 
 * ``basis = "path"``: ``error`` is the largest deviation from the reference path over the
-  load factors both reached (``reports.errors``): translations divided by the length scale
+  load factors both reached (``reports.verdicts.errors``): translations divided by the length scale
   L (``error_unit = "L"``, value_unit = the case's length unit, ``1`` when
   dimensionless), rotations in rad, anything
   else relative to its largest reference magnitude (``"rel"``).
@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from cases.schema import Scene
-from reports import errors as E
+from reports.verdicts import errors as E
 
 ERRORS_CSV_COLUMNS = (
     "case",

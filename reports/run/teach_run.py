@@ -3,16 +3,16 @@
 ``flexbench teach`` builds the page by itself (minutes: it runs the recommender's ladders on
 every catalog case).  A run already holds most of what the page needs, so here:
 
-* **validity atlases** (``reports.atlas``, one job per load family) and the **cost scaling**
-  and **deformed shapes** (one job) are pool jobs queued first, so they solve beside the case
-  pairs instead of after them; on one worker or Dask they run in this process at the end;
+* **validity atlases** (``reports.verdicts.atlas``, one job per load family) and the **cost
+  scaling** and **deformed shapes** (one job) are pool jobs queued first, so they solve beside the
+  case pairs instead of after them; on one worker or Dask they run in this process at the end;
 * each job's result is cached in ``OUT/teaching-cache/<part>-<grid>-<key>.json``, the key
   hashing the solver packages' sources (``tables.code_hash``), the atlas and page modules,
   the model list and the grid: a rerun (``--fresh`` included: the key already says when a
   result is stale) or a resumed run with the same code reuses it;
 * the **worked advice** per case is the recommender's judgement and pick
-  (``reports.advice.from_records``: the front page's too) applied to the models this run
-  solved, at their shared cost estimates (``reports.cost``): no extra solve.  It differs
+  (``reports.verdicts.advice.from_records``: the front page's too) applied to the models this run
+  solved, at their shared cost estimates (``reports.verdicts.cost``): no extra solve.  It differs
   from ``flexbench recommend`` where the recommender's ladders try an N the run did not
   (e.g. ``prb-fsm-32``); the page says so.
 
@@ -29,7 +29,8 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from reports import atlas, limits
+from reports.run import limits
+from reports.verdicts import atlas
 
 ROLE = "teaching"  # the ``role`` of a teaching job and of what it returns
 CACHE_DIR = "teaching-cache"
@@ -47,10 +48,10 @@ def mech_n_axis(grid: tuple[int, int]) -> int:
 
 
 _SOURCES = (
-    "reports/atlas.py",
-    "reports/atlas_mech.py",
-    "reports/claims.py",
-    "reports/claims_howell.py",
+    "reports/verdicts/atlas.py",
+    "reports/verdicts/atlas_mech.py",
+    "reports/verdicts/claims.py",
+    "reports/verdicts/claims_howell.py",
     "reports/render/teaching.py",
     "reports/render/mech_atlas.py",
     "reports/api.py",
@@ -68,7 +69,7 @@ def parts() -> tuple[str, ...]:
 def cache_key(part: str, grid: tuple[int, int], code: str) -> str:
     """Hash of what a part's result depends on: solver code, page code, models, grid."""
     h = hashlib.sha1(f"{code}|{part}|{grid}|{atlas.MODELS}".encode())
-    root = Path(__file__).resolve().parent.parent
+    root = Path(__file__).resolve().parents[2]  # the repository: _SOURCES are relative to it
     for rel in _SOURCES:
         h.update((root / rel).read_bytes())
     return h.hexdigest()[:12]
@@ -101,8 +102,8 @@ def plan_jobs(
 
 def run_job(job: Mapping) -> dict:
     """Compute one part (in a pool worker or in-process), cache it; never raises."""
-    from reports import timing
     from reports.render import mech_atlas, teaching
+    from reports.run import timing
 
     out = {k: job[k] for k in ("key", "case", "model", "role")}
     timing.pin_blas()
@@ -192,9 +193,9 @@ class TeachingJobs:
 # -- the page --------------------------------------------------------------------------------
 def advice(payload: Mapping, tolerances: Sequence[str] = TOLERANCES) -> list[dict]:
     """The recommender's verdict per (case, tolerance) over the models this run solved."""
-    from reports.advice import from_records
-    from reports.recommend import format_text
     from reports.render import teaching
+    from reports.verdicts.advice import from_records
+    from reports.verdicts.recommend import format_text
 
     out = []
     for name, case in payload["cases"].items():

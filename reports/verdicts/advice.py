@@ -1,7 +1,7 @@
 """``recommend``'s judgement and pick over the records of a ``flexbench run``: the report's
 front page and the teaching page name the model ``flexbench recommend`` would name among the
-same models (same ``judge``, same costs: ``reports.cost``'s shared estimates, same
-``reports.pick.choose``), without solving anything.
+same models (same ``judge``, same costs: ``reports.verdicts.cost``'s shared estimates, same
+``reports.verdicts.pick.choose``), without solving anything.
 """
 
 from __future__ import annotations
@@ -11,10 +11,10 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from reduced_models.base import Solution, Step
-from reports import errors
-from reports.pick import EXCLUDED
-from reports.recommend import Candidate, Recommendation, _verdict, exact_candidate, judge
-from reports.tolerance import Tolerance, for_case
+from reports.verdicts import errors
+from reports.verdicts.pick import EXCLUDED
+from reports.verdicts.recommend import Candidate, Recommendation, _verdict, exact_candidate, judge
+from reports.verdicts.tolerance import Tolerance, for_case
 
 
 def from_records(
@@ -22,7 +22,7 @@ def from_records(
 ) -> Recommendation | None:
     """The recommendation over the records of one case of a ``flexbench run`` (no solve):
     every ``model`` record judged against the reference record (``judge``), costs from the
-    records' shared estimates (``rec["cost"]``, ``reports.cost``; the run's CPU median with
+    records' shared estimates (``rec["cost"]``, ``reports.verdicts.cost``; the run's CPU median with
     noise 0 where a pair has none), the exact reference with error 0, then ``_verdict``.
     None without a converged reference."""
     tolerance = for_case(case.get("tolerances") or (), tol)  # the case's judged outputs

@@ -18,8 +18,8 @@ the tip position error over L).  ``locus`` is the distance from
 the model's tip to the elastica's tip path of the same direction, divided by the tip
 deflection: our stricter reading of Howell's 0.5 % claim (the model's own tip, not the
 characteristic-radius circle Howell measures; the claim itself is judged in
-``reports.claims``); for the ``force`` family that path is solved ``FINE`` times denser than
-the grid, for the others (no claim reads their locus) it is the grid's own.
+``reports.verdicts.claims``); for the ``force`` family that path is solved ``FINE`` times denser
+than the grid, for the others (no claim reads their locus) it is the grid's own.
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ from reduced_models.base import Solution
 from reduced_models.beam import prb_tables as T
 from reduced_models.registry import DEFAULT_NAMES
 from reports import api
-from reports import yardstick as Y
+from reports.verdicts import yardstick as Y
 
 # the default run's reduced single-beam models: not the exact references (the atlas is
 # measured against the elastica), the mechanism-only models or the self-refining *-auto
@@ -151,8 +151,8 @@ def state_error_rel(d: np.ndarray, ref: np.ndarray) -> np.ndarray:
 
     ``d`` and ``ref`` are (a, m, 3) tip (ux, uy, rot) errors and exact values.  The state at
     magnitude m is the end of a ramp from zero, so its yardstick is that ramp's (as for a path
-    error, ``reports.yardstick``): translations over the tip's largest displacement up to m,
-    the rotation over its largest rotation up to m, each floored at ``FLOOR_FRACTION`` of the
+    error, ``reports.verdicts.yardstick``): translations over the tip's largest displacement up to
+    m, the rotation over its largest rotation up to m, each floored at ``FLOOR_FRACTION`` of the
     ramp's characteristic motion (its displacement, or displacement / L with L = 1) and at
     round-off (``ROUNDOFF_FRACTION``).
     """
@@ -240,10 +240,11 @@ def compute(
 # -- our readings of the published claims on this atlas ----------------------------------------
 @dataclass(frozen=True)
 class Claim:
-    """Our test of a published claim (``reports.claims``, linked by ``claim_id``) on an atlas:
+    """Our test of a published claim (``reports.verdicts.claims``, linked by ``claim_id``) on an
+    atlas:
     where (``region`` of the reference state) and how good (``accuracy`` on ``metric``:
     ``locus``, ``pos`` or ``error``).  The publication's own verdict is the record's
-    (``reports.claims.evaluate_all``); these are FlexBench's stricter or wider readings."""
+    (``reports.verdicts.claims.evaluate_all``); these are FlexBench's stricter or wider readings."""
 
     model: str
     family: str
@@ -281,7 +282,7 @@ def _bcm_region(at: Atlas) -> np.ndarray:
     return (np.abs(at.ref[..., 1]) <= 0.1) & (p > -(math.pi**2) / 4)
 
 
-_OURS = "FlexBench validity atlas (reports.atlas): our test, not the publication's claim"
+_OURS = "FlexBench validity atlas (reports.verdicts.atlas): our test, not the publication's claim"
 _LOCUS = (
     "locus: distance of the prb-1r model's tip (gamma, K_Theta from Howell's curve fits) to "
     "the elastica's tip path of the same load direction, over the deflection"

@@ -29,14 +29,14 @@ reference of every model at that value) and per model one path-following solve a
 driver (the case's own continuation), so an a x d atlas of m models is a (1 + m) solves, not
 a d (1 + m) separate ones.
 
-Error at a state: on the report's default yardstick (``error_rel``, ``reports.yardstick``) of
-the reference path along the driver at that axis value: |d ux|, |d uy| over the point's
+Error at a state: on the report's default yardstick (``error_rel``, ``reports.verdicts.yardstick``)
+of the reference path along the driver at that axis value: |d ux|, |d uy| over the point's
 largest displacement on that path, |d rot| over its largest rotation (floored where an output
 barely moves) and, for driver analyses, the driven quantity (driver force / torque of energy
 analyses, the load factor of distance analyses) over its largest reference magnitude.
 
 Our tests of the published claims (on the reference's member shapes at each state;
-``CLAIMS``, each linked to its record in ``reports.claims``, where the publication's own
+``CLAIMS``, each linked to its record in ``reports.verdicts.claims``, where the publication's own
 verdict is made): Awtar's BCM range |y| <= 0.1 L and the seed's "within 10 % slope change" per
 BCM segment (``bcm``, ``cbcm-N``: the member split into N equal segments), Howell's PRB-1R
 range Theta <= 64.3 deg per member (with the mechanism's average gamma 0.85).
@@ -57,7 +57,7 @@ from cases.schema import Scene
 from reduced_models.base import Solution, load_factors
 from reduced_models.beam import prb_tables as T
 from reports import api
-from reports import yardstick as Y
+from reports.verdicts import yardstick as Y
 
 MODELS = (
     "linear-1",
@@ -282,7 +282,7 @@ def member_measures(sol: Solution, scene: Scene, grid: np.ndarray, n: int) -> np
 
 @dataclass(frozen=True)
 class Claim:
-    """Our test of a published claim (``reports.claims``, linked by ``claim_id``) read on
+    """Our test of a published claim (``reports.verdicts.claims``, linked by ``claim_id``) read on
     mechanisms: in ``region`` (from the member measures of the model's segment count) the
     model's error is at most ``accuracy``.  The publication's own verdict is the record's;
     this is FlexBench's reading, applied to members of a mechanism."""
@@ -303,7 +303,9 @@ def _bcm_segments(name: str) -> int | None:
     return int(n) if fam == "cbcm" and n.isdigit() else None
 
 
-_OURS = "FlexBench mechanism atlas (reports.atlas_mech): our test, not the publication's claim"
+_OURS = (
+    "FlexBench mechanism atlas (reports.verdicts.atlas_mech): our test, not the publication's claim"
+)
 CLAIMS = (
     Claim(
         "our test (awtar-bcm): |y| <= 0.1 L per segment, error <= 1 %",
@@ -517,12 +519,15 @@ def as_json(at: MechAtlas) -> dict:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m reports.atlas_mech CASE...``: atlas time, per-state cost ratio, claims."""
+    """``python -m reports.verdicts.atlas_mech CASE...``: atlas time, per-state cost ratio,
+    claims."""
     import argparse
 
     from cases.load import CaseError
 
-    parser = argparse.ArgumentParser(prog="python -m reports.atlas_mech", description=main.__doc__)
+    parser = argparse.ArgumentParser(
+        prog="python -m reports.verdicts.atlas_mech", description=main.__doc__
+    )
     parser.add_argument("cases", nargs="+", help="catalog names or TOML paths")
     for name in parser.parse_args(argv).cases:
         try:

@@ -3,12 +3,12 @@
 A ``Claim`` record holds what the publication said (source, its words, the metric and region it
 states, the parameter values it used) and names the evaluator that checks it exactly so.  Where
 FlexBench's own reading is stricter (another metric, a wider region, our fitted parameters), it
-is evaluated beside the record as ``ours`` on the validity atlas (``reports.atlas.CLAIMS``,
+is evaluated beside the record as ``ours`` on the validity atlas (``reports.verdicts.atlas.CLAIMS``,
 linked by ``claim_id``) and labelled as our test, never as the publication's failure.
 
 Evaluators:
 
-* ``howell_locus`` (``reports.claims_howell``) -- Howell's PRB-1R in his own metric: the
+* ``howell_locus`` (``reports.verdicts.claims_howell``) -- Howell's PRB-1R in his own metric: the
   radial distance of the exact elastica's tip from the characteristic-radius circle over the
   deflection, with the TABULATED gamma(n), up to Theta_max(n); figure n = 0, ``rows`` every
   tabulated n.
@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from reduced_models.beam import prb_tables as T
-from reports import claims_howell
+from reports.verdicts import claims_howell
 
 # force-atlas grid of the ``ours`` readings: the teaching page's default (40 magnitudes in
 # (0, 10], 41 directions), so the CLI and the page report the same figures
@@ -195,7 +195,7 @@ _METRICS = {
 
 
 def _atlas_test(test: Any, at: Any) -> dict[str, Any]:
-    """One of our atlas tests (``reports.atlas.Claim``) on ``at``: worst inside its region,
+    """One of our atlas tests (``reports.verdicts.atlas.Claim``) on ``at``: worst inside its region,
     where, and its verdict (a state where the model failed counts as failing)."""
     region = test.region(at) & np.all(np.isfinite(at.ref), axis=-1)
     metric = getattr(at, test.metric)[test.model]
@@ -217,8 +217,8 @@ def _atlas_test(test: Any, at: Any) -> dict[str, Any]:
 
 def ours(claim: Claim, at: Any) -> dict[str, Any] | None:
     """Our stricter reading of ``claim`` on the force atlas ``at``: the widest of its atlas
-    tests (listed last in ``reports.atlas.CLAIMS``); the narrower ones go into the note."""
-    from reports import atlas
+    tests (listed last in ``reports.verdicts.atlas.CLAIMS``); the narrower ones go into the note."""
+    from reports.verdicts import atlas
 
     tests = [t for t in atlas.CLAIMS if t.claim_id == claim.id and t.model in at.error]
     if not tests:
@@ -270,7 +270,7 @@ def evaluate(claim: Claim, at: Any = None) -> dict[str, Any]:
 
 def force_atlas(grid: tuple[int, int]) -> Any:
     """The force atlas of the models the claims are about (our readings are read on it)."""
-    from reports import atlas
+    from reports.verdicts import atlas
 
     models = tuple(dict.fromkeys(c.model for c in CLAIMS))
     return atlas.compute("force", models, *grid)
@@ -287,12 +287,13 @@ def cache_dir() -> Path:
 
 def _cache_key(grid: tuple[int, int]) -> str:
     """Code version of everything the records depend on: solver packages, atlas, this file."""
-    from reports.tables import code_hash
+    from reports.run.tables import code_hash
 
     h = hashlib.sha1(f"{code_hash()}|{grid}".encode())
     here = Path(__file__).resolve().parent
-    for name in ("claims.py", "claims_howell.py", "atlas.py", "api.py"):
-        h.update((here / name).read_bytes())
+    for path in (here / "claims.py", here / "claims_howell.py", here / "atlas.py"):
+        h.update(path.read_bytes())
+    h.update((here.parent / "api.py").read_bytes())
     return h.hexdigest()[:12]
 
 

@@ -47,12 +47,12 @@ SAMPLE_S = 1e-3  # CPU s per sample at least (fast solves are batched)
 MIN_SAMPLES = 3
 MAX_SAMPLES = 20
 # stop when the median's 95 % interval half-width is within 5 % of it: well inside the pick's
-# 20 % tie band (reports.pick.TIE); a tighter target mostly buys samples on a loaded machine
-# (at load 12 on 2 cores most estimates ran into a 30-sample cap at 3 %)
+# 20 % tie band (reports.verdicts.pick.TIE); a tighter target mostly buys samples on a loaded
+# machine (at load 12 on 2 cores most estimates ran into a 30-sample cap at 3 %)
 REL = 0.05
 BUDGET_S = 0.3  # CPU s of samples after which the estimate stands as it is
 _PACKAGES = ("cases", "reduced_models", "fem_reference")
-_FILES = ("reports/api.py", "reports/cost.py")
+_FILES = ("reports/api.py", "reports/verdicts/cost.py")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -80,7 +80,7 @@ def code_version() -> str:
     """Hash of the sources the timed solve runs and of this module (see module docstring)."""
     import importlib
 
-    root = Path(__file__).resolve().parent.parent
+    root = Path(__file__).resolve().parents[2]  # the repository: _FILES are relative to it
     files = [root / f for f in _FILES]
     for name in _PACKAGES:
         for base in getattr(importlib.import_module(name), "__path__", []):

@@ -1,14 +1,14 @@
 """Errors of a model's path against the case's reference, and checks against published values.
 
-Everything here works on the JSON-level pair records of ``reports.runner`` (steps are dicts
+Everything here works on the JSON-level pair records of ``reports.run.runner`` (steps are dicts
 ``{"factor", "outputs", "energy", ...}``; missing/non-finite numbers are ``None``), so errors
 can be recomputed from a ``results.json`` alone.
 
 Definitions (also printed in the report)
 ----------------------------------------
 * **Path error** of output ``k``: the largest ``|model - reference|`` over the load factors
-  both paths reached, on two yardsticks (``reports.yardstick``): ``error_rel`` divides by the
-  output's own excursion along the reference path (the default everywhere) and ``error_L``
+  both paths reached, on two yardsticks (``reports.verdicts.yardstick``): ``error_rel`` divides by
+  the output's own excursion along the reference path (the default everywhere) and ``error_L``
   divides translations by the case's length scale L and leaves rotations in rad.  Factors are
   matched exactly when both paths report the same factors (load analyses), else the reference
   is interpolated linearly (flagged ``interpolated``).
@@ -29,8 +29,8 @@ from typing import Any
 
 import numpy as np
 
-from reports import yardstick as Y
-from reports.yardstick import TRANSLATIONS
+from reports.verdicts import yardstick as Y
+from reports.verdicts.yardstick import TRANSLATIONS
 
 SUMMARY_QUANTITIES = ("ux", "uy", "rot")
 FALLBACK_REFERENCES = ("fem-auto", "elastica", "kinetostatic")
@@ -95,7 +95,7 @@ def path_errors(
     length : the case's length scale L (case units).
     stop_output : the output a path analysis stops on (its abscissa when the load factor is
         not monotonic).
-    meta : the case's meta (``reports.tables.case_meta``): its ``tolerances`` name the judged
+    meta : the case's meta (``reports.run.tables.case_meta``): its ``tolerances`` name the judged
         outputs and any floors.
 
     Returns

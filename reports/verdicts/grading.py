@@ -14,7 +14,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from reports.tolerance import for_case, judged_errors
+from reports.verdicts.tolerance import for_case, judged_errors
 
 # family (ModelCard.family) -> default tolerance on the summary error, and why
 FAMILY_TOLERANCE: dict[str, tuple[float, str]] = {

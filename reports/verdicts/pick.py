@@ -7,7 +7,7 @@ told apart are a tie broken by a fixed order:
 
 1. *cost*: ``c0`` is the lowest cost of a qualifying model.  A qualifying model with cost
    ``c`` is tied with it when ``c - c0 <= max(noise + noise0, TIE * c0)``: within the two
-   estimates' measured noise (``reports.cost``: half-widths of their 95 % intervals), or
+   estimates' measured noise (``reports.verdicts.cost``: half-widths of their 95 % intervals), or
    within ``TIE`` of ``c0``: the spread of one model's estimate between processes on a shared
    machine (cache state, frequency, neighbours' memory traffic), which no repetition inside
    one process shows.  Measured on the project's 2-core machine under load: five fresh

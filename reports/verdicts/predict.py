@@ -12,7 +12,7 @@ of reduced models"):
   model's own warning and this one, joined) where the prediction exceeds ``THRESHOLD`` or a
   state lies outside the table ("outside the atlas: PL^2/EI = 14 > 10").
 
-The load state of a member, in its own frame (``reports.predict_table``):
+The load state of a member, in its own frame (``reports.verdicts.predict_table``):
 
 * a single beam (``cantilever_of``): the scene's tip loads times the step's load factor; a
   guided tip adds the guide's reaction moment M = -(r x F) / 2 (the guided elastica is point
@@ -50,7 +50,7 @@ THRESHOLD = 0.01
 # table states are ~0.05-0.3 apart (L units / rad) in (ux, uy, rot); farther is off the table
 MATCH_MAX = 0.3
 RING = 0.1  # |(uy/L, rot)| below which a member's state is matched on its direction only
-# the table's file and grid edges (``reports.predict_table`` builds it on this grid)
+# the table's file and grid edges (``reports.verdicts.predict_table`` builds it on this grid)
 PATH = pathlib.Path(__file__).parent / "data" / "predicted_error.npz"
 ANGLES = np.array([0.0, 15, 30, 45, 60, 75, 90, 105, 120, 135, 150, 165, 179.9])
 RHO_MAX = 10.0
@@ -58,7 +58,7 @@ RHO_MAX = 10.0
 
 @functools.lru_cache(maxsize=1)
 def table() -> dict[str, np.ndarray]:
-    """The shipped table (``reports/data/predicted_error.npz``)."""
+    """The shipped table (``reports/verdicts/data/predicted_error.npz``)."""
     with np.load(PATH) as z:
         return {k: z[k] for k in z.files}
 
@@ -153,7 +153,7 @@ class States:
         """(k,) each state's error over the path's excursion, not the ramp's to that state.
 
         The table's error at a state is over the exact tip's largest motion on the ramp to it;
-        a path is judged over its largest motion (``reports.yardstick``), so each state's
+        a path is judged over its largest motion (``reports.verdicts.yardstick``), so each state's
         error is rescaled by motion-so-far / motion-over-the-path (for the translations and,
         on a free end, the rotation).
         """

@@ -5,7 +5,7 @@ end b) is loaded by an end force of magnitude P at angle alpha from its axis and
 M.  Nondimensionalised (PL^2/EI, alpha, ML/EI) and mirrored so that the force's transverse
 component points to -y (alpha in [0, 180] deg; M > 0 then *opposes* the force's bending, as a
 guide's reaction does), this three-parameter state is what decides a member law's error.
-The table holds every reduced model's ``error_rel`` (``reports.atlas.state_error_rel``, the
+The table holds every reduced model's ``error_rel`` (``reports.verdicts.atlas.state_error_rel``, the
 atlases' yardstick) at
 
 * ``dead``: dead force plus moment on the polar grid ``PL^2/EI = rho cos beta``,
@@ -18,13 +18,13 @@ Arrays: ``dead_error`` (models, alpha, beta, rho, 2) and ``follower_error`` (mod
 rho, 2), log10 of the errors (``stored``), the last axis the error of the tip translations and
 of the tip rotation, each on its own excursion (a guided end is judged on the first alone);
 ``dead_ref`` (alpha, beta, rho, 3) and ``follower_ref`` the exact tip (ux, uy, rot), from which
-a deformed member's end state is looked up (``reports.predict``).
+a deformed member's end state is looked up (``reports.verdicts.predict``).
 
 The last angle is 179.9 deg, not 180: an exactly axial compression stays straight in every
 model (error 0) while any real column (the catalog's has a 1e-3 imperfection, 0.057 deg) takes
 the post-buckled branch; states closer to 180 deg read that row.
 
-Batching as in ``reports.atlas``: one proportional ramp of ``N_RHO`` equal steps per
+Batching as in ``reports.verdicts.atlas``: one proportional ramp of ``N_RHO`` equal steps per
 (alpha, beta) for each model and for the exact elastica, so the table is
 13 x 16 + 13 ramps per model (beta = +-90 is one ramp: alpha plays no part without a force).
 
@@ -40,7 +40,7 @@ on which a model leaves the elastica's branch between two table ramps (prb-3r at
 beta 28.1 deg: 457 % measured, 42 % predicted, both far above the 1 % warning), and bcm in
 compression, whose own error diverges near its buckling load.  ``tests/test_predict.py``
 checks a few cell centres (within 1.6x) and regenerates a few ramps against the shipped file.
-Regenerate with ``python -m reports.predict_table`` (about a minute of CPU time).
+Regenerate with ``python -m reports.verdicts.predict_table`` (about a minute of CPU time).
 """
 
 from __future__ import annotations
@@ -56,8 +56,8 @@ import numpy as np
 
 from reduced_models.base import Solution
 from reports import api
-from reports import atlas as A
-from reports.predict import ANGLES, PATH, RHO_MAX
+from reports.verdicts import atlas as A
+from reports.verdicts.predict import ANGLES, PATH, RHO_MAX
 
 MODELS = A.MODELS
 BETAS = np.linspace(-90.0, 90.0, 17)
@@ -170,7 +170,7 @@ def stored(err: np.ndarray) -> np.ndarray:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Regenerate ``PATH`` (``python -m reports.predict_table [--workers N]``)."""
+    """Regenerate ``PATH`` (``python -m reports.verdicts.predict_table [--workers N]``)."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--workers", type=int, default=1, help="processes (one model each)")
     args = ap.parse_args(argv)

@@ -17,22 +17,22 @@ a fixed model such as ``prb-3r`` is a ladder of one), cheapest first:
 
 *Qualifies* means: the model converged over the whole path (it reaches the reference's last
 load factor) and, for every judged output, the largest error along the path on the default
-yardstick (``error_rel`` of ``reports.errors``: the output's error over its own excursion along
-the reference path, against a floor where that excursion is ~0) is within that output's
+yardstick (``error_rel`` of ``reports.verdicts.errors``: the output's error over its own excursion
+along the reference path, against a floor where that excursion is ~0) is within that output's
 tolerance.  Judged outputs: the case's ``[[tolerances]]`` when it names them (merged with the
 user's ``--tol``), else displacements and rotations of the case's named outputs (``.ux``,
 ``.uy``, ``.rot``), the load factor of path analyses and any non-node output.
 
-Cost is the model's own solve on this scene, estimated by ``reports.cost`` (CPU time, BLAS
+Cost is the model's own solve on this scene, estimated by ``reports.verdicts.cost`` (CPU time, BLAS
 pinned, sampled until the median is stable, cached per code version: the runner reads the same
-numbers).  The pick among the qualifying models is ``reports.pick.choose``: the cheapest, where
-costs within their measured noise or ``pick.TIE`` of each other are a tie broken by fewer
+numbers).  The pick among the qualifying models is ``reports.verdicts.pick.choose``: the cheapest,
+where costs within their measured noise or ``pick.TIE`` of each other are a tie broken by fewer
 a-priori unknowns (``pick.unknowns``), then name; ``decided_by`` names the rule that decided.
 The reference model is what the others are measured against and no candidate, except where it
 is exact (``pick.EXACT``: the elastica on a single beam, kinetostatic on rigid links and
-springs): it then joins with error 0 at its own cost.  ``reports.advice.from_records`` applies
-the same judgement and pick to the records of a ``flexbench run`` (the report's front page and
-the teaching page).
+springs): it then joins with error 0 at its own cost.  ``reports.verdicts.advice.from_records``
+applies the same judgement and pick to the records of a ``flexbench run`` (the report's front page
+and the teaching page).
 """
 
 from __future__ import annotations
@@ -47,10 +47,11 @@ from typing import Any
 
 from cases.schema import Scene
 from reduced_models.base import Solution
-from reports import api, errors, pick
-from reports import cost as costing
-from reports.pick import EXACT, EXCLUDED
-from reports.tolerance import (
+from reports import api
+from reports.verdicts import cost as costing
+from reports.verdicts import errors, pick
+from reports.verdicts.pick import EXACT, EXCLUDED
+from reports.verdicts.tolerance import (
     Tolerance,
     ToleranceError,
     for_case,
@@ -67,7 +68,7 @@ LADDER_N: dict[str, tuple[int, ...]] = {
     "fem-N": (2, 4, 8, 16, 32, 64, 128),
 }
 DEFAULT_N = (1, 2, 4, 8, 16, 32)  # a parametrised family registered by another package
-YARDSTICK = "error_rel"  # the errors' yardstick (reports.errors), named in the JSON
+YARDSTICK = "error_rel"  # the errors' yardstick (reports.verdicts.errors), named in the JSON
 
 
 @dataclass
@@ -218,7 +219,7 @@ def judge(
     ``uncertainty`` (``error_rel``) is the reference's own error estimate: a model qualifies
     only if its measured error plus that stays within the tolerance.
     """
-    from reports import store  # lazy: ``import reports`` (the CLI) does not need sqlite
+    from reports.run import store  # lazy: ``import reports`` (the CLI) does not need sqlite
 
     steps, _, _ = store.steps_json(sol)
     stop = errors.abscissa_output(meta)
@@ -312,10 +313,10 @@ def recommend(
     scene : Scene or catalog name / path.
     tol : ``"1%"``, ``1e-3``, ``"tip.uy=0.5%,tip.rot=abs:1e-3"`` or a Tolerance; None: the
         case's ``[[tolerances]]`` (1 % on every output when it names none).  Merged with the
-        case's by ``reports.tolerance.for_case``.
+        case's by ``reports.verdicts.tolerance.for_case``.
     cost : ``(model name, measured CPU s) -> cost`` to rank by (default: the CPU time
-        estimate of ``reports.cost``, cached); tests pass a deterministic cost (each model is
-        then solved once and nothing is sampled or cached).
+        estimate of ``reports.verdicts.cost``, cached); tests pass a deterministic cost (each model
+        is then solved once and nothing is sampled or cached).
     brute_force : run every ladder member (no early exit), for verification.
 
     Raises
@@ -323,7 +324,7 @@ def recommend(
     ToleranceError
         Unreadable tolerance or an output name the scene does not report.
     """
-    from reports.tables import case_meta
+    from reports.run.tables import case_meta
 
     t_start = time.perf_counter()
     if isinstance(scene, str):
@@ -350,7 +351,7 @@ def recommend(
         reason = f"no reference path could be computed ({ref_note})"
         return Recommendation(scene.name, tol, None, reason, None, None, [])
     meta = case_meta(scene)
-    from reports import store
+    from reports.run import store
 
     ref_steps, _, _ = store.steps_json(ref_sol)
     est = ref_sol.extras.get("error_estimate")

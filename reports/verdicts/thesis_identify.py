@@ -3,8 +3,8 @@
 Tables 4-5 to 4-10 of seed 001 print ``Lo_tot`` (the sum of the applied joint loads over all
 increments) of Part 1 and Part 2 at every moving joint, 15 significant digits.  They survive;
 the figures saying where each configuration's boom is anchored do not.  The thesis's own
-increments (``reports.thesis_hypotheses``) run over every :class:`Hypothesis` with the right
-number of moving joints reproduce a table to 8-12 digits when, and only when, the hypothesis
+increments (``reports.verdicts.thesis_hypotheses``) run over every :class:`Hypothesis` with the
+right number of moving joints reproduce a table to 8-12 digits when, and only when, the hypothesis
 is right: a wrong anchor, spring set or staging misses by percents.
 
 Score: ``digits = -log10(max_i |ours_i - table_i| / max_i |table_i|)``, per part.  Part 1
@@ -16,7 +16,7 @@ best two of each table are refined by one continuous unknown, the direction of t
 push (the listing types the boom's start angle ``th(7)`` by hand, 4 decimals like its 5.7392):
 that fit turns an exact hypothesis from 5 into 12 digits and leaves a wrong one at percents.
 
-``python -m reports.thesis_identify [TABLE ...]`` prints each table's best hypotheses.
+``python -m reports.verdicts.thesis_identify [TABLE ...]`` prints each table's best hypotheses.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from itertools import permutations, product
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from reports.thesis_hypotheses import Hypothesis, Totals, build, run
+from reports.verdicts.thesis_hypotheses import Hypothesis, Totals, build, run
 
 ACCEPT_DIGITS = 5.0
 

@@ -5,7 +5,7 @@ moves the joints along the first-order mechanism modes (d = M phi), so every inc
 a second-order length error ~|d|^2 / L; the listing re-places joints II..V along the chain but
 not bar VI or the boom, and Part 1 stops at the first increment past the deployed length
 (overshoot up to one increment).  Both errors are proportional to the increment size, i.e. to
-gamma.  Measured on Configuration 4 (``python -m reports.thesis_study``): the error of the
+gamma.  Measured on Configuration 4 (``python -m reports.verdicts.thesis_study``): the error of the
 final state is the overshoot alone (the thesis's Part 2 then finds the exact equilibrium at
 the length it overshot to, up to a drift that converges at second order, 5e-8 m at 0.005);
 the overshoot is bounded by the last increment (first order in gamma) but lands anywhere
@@ -13,7 +13,7 @@ below it, so the error is not monotone in gamma: 0.096 mm at the thesis's 0.005.
 
 ``increment_convergence(scene, factors)`` measures it against ``kinetostatic`` (the exact
 equilibrium of the same idealised scene, constrained Newton to 1e-10) and returns a table; run
-``python -m reports.thesis_study [CASE] [OUT.png]`` for the table and the figure.
+``python -m reports.verdicts.thesis_study [CASE] [OUT.png]`` for the table and the figure.
 """
 
 from __future__ import annotations
@@ -100,7 +100,8 @@ def figure(study: dict, path: str | Path) -> Path:
 
 
 def main(argv: Sequence[str]) -> int:
-    """``python -m reports.thesis_study [CASE] [OUT.png]``: print the table, write the figure."""
+    """``python -m reports.verdicts.thesis_study [CASE] [OUT.png]``: print the table, write the
+    figure."""
     import cases
 
     scene = cases.load(argv[0] if argv else "thesis-sixbar-config4")

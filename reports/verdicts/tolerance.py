@@ -1,6 +1,6 @@
 """Tolerances a user or a case gives: ``1%``, ``1e-3``, ``stage.uy=0.5%,stage.rot=abs:1e-4``.
 
-A relative value is on the default yardstick (``error_rel`` of ``reports.yardstick``: the
+A relative value is on the default yardstick (``error_rel`` of ``reports.verdicts.yardstick``: the
 output's error over its own excursion along the reference path); ``abs:`` marks an absolute
 value in the case's units (length, rad, force, ...).  ``%`` divides by 100.  A value without
 an output name applies to every judged output; with names only, only those outputs are
@@ -21,7 +21,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from reports.yardstick import TRANSLATIONS
+from reports.verdicts.yardstick import TRANSLATIONS
 
 __all__ = ["Tolerance", "ToleranceError", "for_case", "judged_errors", "parse_tolerance", "pct"]
 # the node quantities judged by default (.x/.y repeat .ux/.uy)
