@@ -22,7 +22,7 @@ import pytest
 import cases
 from reduced_models import registry
 from reduced_models.base import ModelCard, Solution, Step, load_factors
-from reports.run import runner, store
+from reports.run import pool, runner, store
 from reports.verdicts import errors
 
 # -- dummy models (small-deflection cantilever: uy = P L^3 / 3EI, rot = P L^2 / 2EI) -----------
@@ -452,7 +452,7 @@ def test_time_limit_soft_in_process_and_hard_kill_in_pool(dummies, tmp_path, mon
     assert rec["status"] == "failed" and "time limit of 0.3 s exceeded" in rec["message"]
     assert by_model(serial)["dummy-exact"]["status"] == "converged"
 
-    monkeypatch.setattr(runner, "KILL_GRACE_S", 0.5)
+    monkeypatch.setattr(pool, "KILL_GRACE_S", 0.5)
     models = ["dummy-sleep", "dummy-deaf", "dummy-scaled"]
     t0 = time.monotonic()
     res = runner.run_matrix([scene], models, tmp_path / "p", workers=2, render=False,

@@ -9,7 +9,7 @@ from __future__ import annotations
 import cases
 from reduced_models.base import Solution, Step
 from reports import api
-from reports.run import runner, timing
+from reports.run import pair, runner, timing
 from reports.verdicts import errors
 
 
@@ -56,7 +56,7 @@ def test_record_has_cpu_wall_noise_and_post_times_and_prb_shapes():
         "options": {},
         "timing": runner.QUICK_TIMING,
     }
-    rec = runner.solve_task(task)
+    rec = pair.solve_task(task)
     t = rec["timing"]
     for p in ("", "cpu_"):
         assert t[f"{p}min_s"] <= t[f"{p}median_s"] <= t[f"{p}max_s"]

@@ -1,12 +1,12 @@
 """The benchmark matrix: every (case, model) pair solved, timed, compared and stored.
 
-Flow: ``plan`` (which pairs) -> ``execute`` (serial, local process pool or Dask; every
+Flow: ``plan`` (which pairs) -> ``pool.execute`` (serial, local process pool or Dask; every
 finished pair appended to ``DIR/partial.jsonl`` at once) -> ``errors.attach_errors`` per case
 -> ``results.json`` / ``results.csv`` / SQLite history -> ``render.render_report`` (on the
 local pool each case's figures are drawn by the pool as soon as its pairs are in:
 ``reports.run.overlap``).
 
-A pair record (JSON-level dict built by ``solve_task`` with ``store.record``)::
+A pair record (JSON-level dict built by ``pair.solve_task`` with ``store.record``)::
 
     {"key", "case", "model", "role": "model" | "reference" | "baseline",
      "status", "message", "steps": [{"factor", "outputs", "energy", "iterations", "stable",
@@ -26,7 +26,7 @@ to one thread in the workers.
 
 Limits: ``time_limit`` seconds and ``memory_limit`` MB per pair (``reports.run.limits``: SIGALRM
 and an rlimit in pool workers, a watchdog thread on Dask; a pool worker still running
-``KILL_GRACE_S`` after its time limit is killed); timed-out pairs are ``failed`` and retried on
+``pool.KILL_GRACE_S`` after its time limit is killed); timed-out pairs are ``failed`` and retried on
 resume.
 
 Exports: ParaView series and the replay GIF are written by the worker right after the
@@ -36,38 +36,35 @@ timed solves (``reports.run.exports``); the record's ``exports`` holds their rel
 from __future__ import annotations
 
 import collections
-import concurrent.futures as cf
 import dataclasses
 import hashlib
 import json
 import math
-import multiprocessing
 import os
 import time
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from cases.schema import Scene
 from reports import api
-from reports.run import journal, limits, overlap, store, sweep, teach_run, timing
+from reports.run import journal, limits, overlap, store, sweep, teach_run
 from reports.run.exports import (
     DEFAULT_EXPORT,
     QUICK_EXPORT,
     ExportPolicy,
-    export_outputs,
     start_render_probe,
 )
+from reports.run.pool import execute
 from reports.run.progress import Progress, stage
 from reports.run.tables import (
     case_meta,
     code_hash,
     previous_records,
-    step_shapes,
     write_errors_csv,
 )
 from reports.run.timing import DEFAULT_TIME_LIMIT, QUICK_TIME_LIMIT
-from reports.verdicts import cost, errors, pick
+from reports.verdicts import errors
 
 
 @dataclasses.dataclass(frozen=True)
@@ -85,7 +82,6 @@ class TimingPolicy:
 
 
 DEFAULT_TIMING = TimingPolicy()
-KILL_GRACE_S = 5.0  # after the soft limit (SIGALRM in the worker), the worker is killed
 QUICK_TIMING = TimingPolicy(min_total_s=0.02, max_runs=3, cold_cap_s=0.02, min_runs=2)
 
 
@@ -204,238 +200,6 @@ def plan(
         )
     )
     return tasks, fixed, metas
-
-
-# -- solving one pair (runs in workers) ------------------------------------------------------
-
-
-def solve_task(task: dict) -> dict:
-    """Solve, time and serialise one pair; never raises (a crash becomes ``failed``).
-
-    ``task["time_limit"]`` (s, optional) bounds the first solve; timing repeats stop early
-    rather than run past it.
-    """
-    base = {k: task[k] for k in ("key", "case", "model", "role")}
-    scene: Scene = task["scene"]
-    limit = task.get("time_limit")
-    try:
-        model = api.build(task["model"], task["target"], task["n"], task["options"])
-    except Exception as exc:
-        return store.record(base, "failed", f"cannot build model: {type(exc).__name__}: {exc}")
-    card = getattr(model, "card", None)
-    card = store.jsonable(dataclasses.asdict(card)) if dataclasses.is_dataclass(card) else None
-    timing.pin_blas()
-    t_start, c_start = timing.clocks()
-    sol = None
-    try:
-        with limits.guard(limit, task.get("memory_limit")):
-            sol = api.run_model(model, scene, post=False)  # the solve alone is timed
-            sol = limits.explain(sol, task.get("memory_limit"))
-            first = (time.perf_counter() - t_start, time.process_time() - c_start)
-            if sol.status == "not-applicable":
-                return store.record(base, sol.status, sol.message, card=card)
-            deadline = t_start + 0.8 * limit if limit else math.inf
-            solve_again = lambda: api.run_model(model, scene, post=False)  # noqa: E731
-            times = timing.repeat(solve_again, first, task["timing"], deadline)
-            more = pick_inputs(task, solve_again, first[1])
-            sol, post_s, post_cpu_s = timing.timed(lambda: api.finish(model, scene, sol))
-            times.update(post_s=post_s, post_cpu_s=post_cpu_s)
-    except limits.LimitExceeded as exc:
-        if sol is None:
-            return store.record(base, "failed", str(exc), card=card, retry=True)
-        policy = dataclasses.replace(task["timing"], cold_cap_s=0)
-        times = timing.repeat(lambda: None, first, policy)
-        more = {}
-    trace = sol.extras.get("traceback") if isinstance(sol.extras, Mapping) else None
-    steps, shapes, warnings = store.steps_json(sol)
-    more["shape_steps"] = store.jsonable(step_shapes(sol))  # report: shapes along the path
-    exports, export_warnings = export_outputs(task, sol)
-    return store.record(
-        base,
-        sol.status,
-        sol.message,
-        steps=store.jsonable(steps),
-        shapes=store.jsonable(shapes),
-        extras=store.extras_json(dict(sol.extras)),
-        card=card,
-        timing=times,
-        warnings=warnings + export_warnings,
-        traceback=trace,
-        exports=store.jsonable(exports),
-        **more,
-    )
-
-
-def pick_inputs(task: dict, solve_again: Any, first_cpu_s: float) -> dict:
-    """A pick candidate's ``cost`` (``reports.verdicts.cost``: the estimate ``flexbench recommend``
-    reads and writes, so the front page ranks by the same numbers) and a-priori
-    ``unknowns``; {} for other pairs.  Sweep points (hundreds, timed once) get no estimate:
-    their pick ranks by the one CPU time."""
-    scene, name = task["scene"], task["model"]
-    if task["role"] != "model" and name not in pick.EXACT:
-        return {}
-    out: dict[str, Any] = {"unknowns": pick.unknowns(name, scene)}
-    if scene.sweep_parent is None:
-        est = cost.estimate(scene, name, task["options"], solve_again, first_cpu_s)
-        out["cost"] = est.as_json()
-    return out
-
-
-def solve_and_trim(task: dict) -> dict:
-    """``solve_task`` in a pool worker, then the heap trimmed after a long pair (a long solve
-    is the one that grows the heap; trimming costs ~1 ms)."""
-    rec = solve_task(task)
-    if ((rec.get("timing") or {}).get("first_cpu_s") or 0.0) >= 0.05:
-        limits.trim_heap()
-    return rec
-
-
-def solve_batch(tasks: Sequence[dict]) -> list[dict]:
-    """Several pairs in one worker call (amortises Dask's per-task overhead)."""
-    return [solve_task(t) for t in tasks]
-
-
-def _crashed(task: dict, why: str) -> dict:
-    """A pair lost to its worker (killed, timed out): ``failed``, retried on resume."""
-    base = {k: task[k] for k in ("key", "case", "model", "role")}
-    return store.record(base, "failed", why, retry=True)
-
-
-# -- execution backends -----------------------------------------------------------------------
-def _preimport(tasks: Iterable[dict]) -> None:
-    """Import model modules once before forking so no worker pays it inside a timing."""
-    for target in {t["target"] for t in tasks if "target" in t}:  # not figure/teaching jobs
-        try:
-            api.factory(target)
-        except Exception:
-            pass  # the task itself will report the import error
-
-
-def _pool_context() -> multiprocessing.context.BaseContext:
-    methods = multiprocessing.get_all_start_methods()
-    return multiprocessing.get_context("fork" if "fork" in methods else "spawn")
-
-
-def _kill(ex: cf.ProcessPoolExecutor) -> None:
-    """Stop a pool now: pending work cancelled, running workers terminated."""
-    procs = list((getattr(ex, "_processes", None) or {}).values())  # private, guarded
-    ex.shutdown(wait=False, cancel_futures=True)
-    for p in procs:
-        if p.is_alive():
-            p.terminate()
-    for p in procs:
-        p.join(2)
-
-
-def _submit(
-    ex: cf.ProcessPoolExecutor, running: dict, task: dict, suspect: bool, origin: Any
-) -> None:
-    """Submit one task; if the pool has just died, put it back into ``origin`` and re-raise."""
-    from concurrent.futures.process import BrokenProcessPool
-
-    try:
-        fut = ex.submit(task.get("call", solve_and_trim), task)  # or a figure job (overlap.py)
-    except BrokenProcessPool:
-        origin.appendleft(task)
-        raise
-    running[fut] = (task, time.monotonic(), suspect)
-
-
-def run_pool(tasks: Sequence[dict], workers: int, time_limit: float | None = None) -> Iterator:
-    """Local process pool, at most one task in flight per worker (so a task's start time is
-    known).  A pair running past ``time_limit`` + ``KILL_GRACE_S`` has its worker killed; a worker
-    that dies takes only its own pair (the pairs in flight with it are re-run one at a time
-    to find the culprit).  Killed and timed-out pairs are ``failed`` and retried on resume.
-    A deque ``tasks`` is used as the queue itself: the caller may add jobs while iterating."""
-    from concurrent.futures.process import BrokenProcessPool
-
-    pending = tasks if isinstance(tasks, collections.deque) else collections.deque(tasks)
-    suspects: collections.deque = collections.deque()  # in flight when a worker died
-    hard = time_limit + KILL_GRACE_S if time_limit else math.inf
-    while pending or suspects:
-        ex = cf.ProcessPoolExecutor(workers, mp_context=_pool_context())
-        running: dict = {}  # future -> (task, submit time, suspect?)
-        broken = killed = False
-
-        try:
-            while (pending or suspects or running) and not (broken or killed):
-                try:
-                    if suspects and not running:  # a suspect always runs alone
-                        _submit(ex, running, suspects.popleft(), True, suspects)
-                    while pending and not suspects and len(running) < workers:
-                        _submit(ex, running, pending.popleft(), False, pending)
-                except BrokenProcessPool:
-                    broken = True
-                    continue
-                done, _ = cf.wait(running, timeout=0.25, return_when=cf.FIRST_COMPLETED)
-                for fut in done:
-                    task, _, suspect = running.pop(fut)
-                    try:
-                        yield fut.result()
-                    except BrokenProcessPool:
-                        broken = True
-                        if suspect:
-                            yield _crashed(task, "worker process died while solving")
-                        else:
-                            suspects.append(task)
-                    except Exception as exc:  # pickling errors and the like
-                        yield _crashed(task, f"worker error: {type(exc).__name__}: {exc}")
-                now = time.monotonic()
-                for fut, (task, t0, _) in list(running.items()):
-                    if now - t0 > hard and task.get("killable", True):
-                        running.pop(fut)
-                        yield _crashed(task, f"time limit of {time_limit:g} s exceeded (killed)")
-                        killed = True
-            # tasks still in flight: after a death any of them may be the culprit
-            for task, _, suspect in running.values():
-                if broken or suspect:
-                    suspects.append(task)
-                else:
-                    pending.appendleft(task)
-        finally:
-            if broken or killed or running:
-                _kill(ex)
-            else:
-                ex.shutdown(wait=True)
-
-
-def run_dask(tasks: Sequence[dict], address: str) -> Iterator[dict]:
-    """The same tasks on a Dask cluster, batched (about four batches per worker thread)."""
-    from distributed import Client, as_completed
-
-    client = Client(address, timeout="15s")
-    try:
-        threads = max(1, sum(client.nthreads().values()))
-        size = max(1, math.ceil(len(tasks) / (4 * threads)))
-        batches = [list(tasks[i : i + size]) for i in range(0, len(tasks), size)]
-        futs = client.map(solve_batch, batches, pure=False)
-        owner = {f.key: b for f, b in zip(futs, batches)}
-        for fut in as_completed(futs):
-            try:
-                yield from fut.result()
-            except Exception as exc:
-                for t in owner[fut.key]:
-                    yield _crashed(t, f"dask task failed: {type(exc).__name__}: {exc}")
-    finally:
-        client.close()
-
-
-def execute(
-    tasks: Sequence[dict],
-    workers: int | None = None,
-    dask: str | None = None,
-    time_limit: float | None = None,
-) -> Iterator[dict]:
-    """Records as they finish (order not guaranteed)."""
-    if not tasks:
-        return iter(())
-    if dask:
-        return run_dask(tasks, dask)
-    workers = workers or os.cpu_count() or 1
-    if workers == 1 or len(tasks) == 1:
-        return (solve_task(t) for t in tasks)
-    _preimport(tasks)
-    return run_pool(tasks, min(workers, len(tasks)), time_limit)
 
 
 # -- the whole run ---------------------------------------------------------------------------
