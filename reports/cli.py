@@ -246,7 +246,8 @@ def _one_blas_thread() -> None:
 
 
 def cmd_recommend(args: argparse.Namespace) -> int:
-    from reports.verdicts.recommend import format_text, recommend
+    from reports.verdicts.recommend import recommend
+    from reports.verdicts.recommendation import format_text
     from reports.verdicts.tolerance import ToleranceError, parse_tolerance
 
     try:

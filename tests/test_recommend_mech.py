@@ -157,7 +157,7 @@ def test_rigid_scene_picks_exact_kinetostatic_over_a_costlier_model_within_toler
 def test_fe_pick_names_a_dearer_reduced_model_within_tolerance():
     """When the FE wins on cost but a reduced model is also within tolerance (Ex. 2 at 0.1 %:
     the elastica member law), the reason says so instead of 'no reduced model qualifies'."""
-    from reports.verdicts.recommend import Candidate, _verdict
+    from reports.verdicts.recommendation import Candidate, verdict
     from reports.verdicts.tolerance import parse_tolerance
 
     tol = parse_tolerance("0.1%")
@@ -168,8 +168,8 @@ def test_fe_pick_names_a_dearer_reduced_model_within_tolerance():
         return c
 
     cands = [cand("fem-16", 9e-4, 0.030), cand("elastica", 1e-6, 0.046), cand("cbcm-8", 2e-3, 0.02)]
-    pick, reason, _ = _verdict(cands, tol, lambda name, cpu: cpu)
+    pick, reason, _ = verdict(cands, tol, lambda name, cpu: cpu)
     assert pick == "fem-16"
     assert "no reduced model qualifies" not in reason and "elastica" in reason
-    pick, reason, _ = _verdict(cands[::2], tol, lambda name, cpu: cpu)
+    pick, reason, _ = verdict(cands[::2], tol, lambda name, cpu: cpu)
     assert pick == "fem-16" and "no reduced model qualifies: closest cbcm-8" in reason

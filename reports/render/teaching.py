@@ -28,7 +28,8 @@ from reports import api
 from reports.render import mech_atlas
 from reports.verdicts import atlas
 from reports.verdicts import claims as published
-from reports.verdicts.recommend import format_text, recommend
+from reports.verdicts.recommend import recommend
+from reports.verdicts.recommendation import format_text
 
 FAMILIES = {
     "linear": ("Linear beam, single and chained", ("linear-1", "linear-8"), "linear-N"),

@@ -195,7 +195,7 @@ def advice(payload: Mapping, tolerances: Sequence[str] = TOLERANCES) -> list[dic
     """The recommender's verdict per (case, tolerance) over the models this run solved."""
     from reports.render import teaching
     from reports.verdicts.advice import from_records
-    from reports.verdicts.recommend import format_text
+    from reports.verdicts.recommendation import format_text
 
     out = []
     for name, case in payload["cases"].items():

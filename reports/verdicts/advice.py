@@ -13,7 +13,8 @@ from typing import Any
 from reduced_models.base import Solution, Step
 from reports.verdicts import errors
 from reports.verdicts.pick import EXCLUDED
-from reports.verdicts.recommend import Candidate, Recommendation, _verdict, exact_candidate, judge
+from reports.verdicts.recommend import exact_candidate, judge
+from reports.verdicts.recommendation import Candidate, Recommendation, verdict
 from reports.verdicts.tolerance import Tolerance, for_case
 
 
@@ -23,7 +24,7 @@ def from_records(
     """The recommendation over the records of one case of a ``flexbench run`` (no solve):
     every ``model`` record judged against the reference record (``judge``), costs from the
     records' shared estimates (``rec["cost"]``, ``reports.verdicts.cost``; the run's CPU median with
-    noise 0 where a pair has none), the exact reference with error 0, then ``_verdict``.
+    noise 0 where a pair has none), the exact reference with error 0, then ``verdict``.
     None without a converged reference."""
     tolerance = for_case(case.get("tolerances") or (), tol)  # the case's judged outputs
     ref_name = case.get("reference")
@@ -44,7 +45,7 @@ def from_records(
             judge(cand, sol, ref["steps"], case, tolerance, case.get("uncertainty") or 0)
         cand.ratio_to_reference = cand.cpu_s / ref_cpu if cand.cpu_s and ref_cpu else None
         cands.append(cand)
-    best, reason, decided_by = _verdict(cands, tolerance, lambda name, cpu: cpu)
+    best, reason, decided_by = verdict(cands, tolerance, lambda name, cpu: cpu)
     rec = Recommendation(case["name"], tolerance, best, reason, ref_name, ref_cpu, cands)
     rec.decided_by = decided_by
     return rec
