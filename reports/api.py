@@ -5,14 +5,17 @@
 ``"module:Factory"``.  This module merges them, parses concrete names (``"cbcm-4"``,
 ``"fem-64"``) and builds models with the case's options.  ``solve`` never raises for a model
 that crashes: the exception becomes a ``failed`` Solution (a user mistake -- unknown model,
-bad options -- still raises, so the CLI can say so).
+bad options -- still raises, so the CLI can say so).  ``solution_json`` is a Solution as the
+``flexbench solve --json`` object of DESIGN.md.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import importlib
+import math
 import traceback
+from typing import Any
 
 from cases.limits import state_violation
 from cases.schema import Scene
@@ -230,3 +233,69 @@ def solve(
         scene = cases.load(scene)
     m = make_model(model, scene, options) if isinstance(model, str) else model
     return run_model(m, scene, catch=catch)
+
+
+# -- the solve --json object ---------------------------------------------------------------
+def _floats(x: Any) -> Any:
+    """Float or None (JSON has no NaN/inf)."""
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def solution_json(sol: Any, wall_s: float) -> dict[str, Any]:
+    """The ``solve --json`` object of DESIGN.md (non-finite numbers -> null)."""
+    out = {
+        "case": sol.case,
+        "model": sol.model,
+        "status": sol.status,
+        "message": sol.message,
+        "steps": [
+            {
+                "factor": _floats(s.factor),
+                "outputs": {str(k): _floats(v) for k, v in s.outputs.items()},
+                "energy": _floats(s.energy),
+                "iterations": int(s.iterations),
+                "stable": None if s.stable is None else bool(s.stable),
+            }
+            for s in sol.steps
+        ],
+        "wall_s": float(wall_s),
+    }
+    # Extension (DESIGN.md allows extending, never breaking): the reference's own error
+    # estimate, observed orders, limit points, dynamic jumps and validity flags, when present.
+    extra = {k: sol.extras[k] for k in _JSON_EXTRAS if k in sol.extras}
+    if extra:
+        from reports.run.store import extras_json
+
+        out["extras"] = extras_json(extra)
+    return out
+
+
+_JSON_EXTRAS = (
+    "error_estimate",
+    "observed_order",
+    "limit_points",
+    "critical_points",
+    "reference_usable",
+    "mesh_error_worst",
+    "jumps",
+    "validity_warning",
+    "validity_message",
+    # mechanism analyses (issue 9)
+    "equilibria",
+    "barrier",
+    "synthesis",
+    "bistable",
+    "mobility",
+    "mobility_rank",
+    "range",
+    # deploy: the thesis's load totals (Tables 4-5 .. 4-10), its stability number, the booms
+    "load_total_rows",
+    "part1_load_total",
+    "part2_load_total",
+    "part1_increments",
+    "part2_increments",
+    "stability_number",
+    "boom_reached",
+    "boom_bar_force",
+)

@@ -20,6 +20,9 @@ Exit codes: 0 success, 1 regression (compare) or a report that could not be rend
 or full --out included), 3 an internal error (one line naming case, model and exception type;
 ``--debug`` anywhere on the line shows the traceback), 130 interrupted (finished pairs are
 kept in DIR/partial.jsonl; rerun to resume).
+
+The commands are here (``COMMANDS``); their flags are in ``reports.cli_args``, the ``solve
+--json`` object in ``reports.api.solution_json``.
 """
 
 from __future__ import annotations
@@ -39,25 +42,12 @@ from typing import Any
 
 from reduced_models.base import Solution
 from reports import api
+from reports.api import solution_json
+from reports.cli_args import PROG, UsageError, build_parser
 from reports.run import timing
-from reports.run.compare import DEFAULT_ABS_TOL, DEFAULT_REL_FACTOR
-from reports.run.timing import DEFAULT_TIME_LIMIT, QUICK_TIME_LIMIT  # not the runner: lazy
 
-PROG = "flexbench"
-SOLVE_TIME_LIMIT = 600.0  # s: `flexbench solve` ends a model that runs away
 # what the command was working on, for the one-line internal-error message
 _CONTEXT: dict[str, str] = {}
-
-
-class UsageError(Exception):
-    """A user's mistake: printed as one line, exit 2."""
-
-
-class _Parser(argparse.ArgumentParser):
-    """argparse that raises instead of printing usage + error over several lines."""
-
-    def error(self, message: str) -> None:  # type: ignore[override]
-        raise UsageError(message)
 
 
 def _fail(message: str) -> int:
@@ -87,71 +77,6 @@ def _load(case: str) -> Any:
         return cases.load(case)
     except (FileNotFoundError, IsADirectoryError, PermissionError) as exc:
         raise UsageError(f"{case}: cannot read case file ({exc.strerror or exc})") from None
-
-
-def _floats(x: Any) -> Any:
-    """Float or None (JSON has no NaN/inf)."""
-    x = float(x)
-    return x if math.isfinite(x) else None
-
-
-def solution_json(sol: Any, wall_s: float) -> dict[str, Any]:
-    """The ``solve --json`` object of DESIGN.md (non-finite numbers -> null)."""
-    out = {
-        "case": sol.case,
-        "model": sol.model,
-        "status": sol.status,
-        "message": sol.message,
-        "steps": [
-            {
-                "factor": _floats(s.factor),
-                "outputs": {str(k): _floats(v) for k, v in s.outputs.items()},
-                "energy": _floats(s.energy),
-                "iterations": int(s.iterations),
-                "stable": None if s.stable is None else bool(s.stable),
-            }
-            for s in sol.steps
-        ],
-        "wall_s": float(wall_s),
-    }
-    # Extension (DESIGN.md allows extending, never breaking): the reference's own error
-    # estimate, observed orders, limit points, dynamic jumps and validity flags, when present.
-    extra = {k: sol.extras[k] for k in _JSON_EXTRAS if k in sol.extras}
-    if extra:
-        from reports.run.store import extras_json
-
-        out["extras"] = extras_json(extra)
-    return out
-
-
-_JSON_EXTRAS = (
-    "error_estimate",
-    "observed_order",
-    "limit_points",
-    "critical_points",
-    "reference_usable",
-    "mesh_error_worst",
-    "jumps",
-    "validity_warning",
-    "validity_message",
-    # mechanism analyses (issue 9)
-    "equilibria",
-    "barrier",
-    "synthesis",
-    "bistable",
-    "mobility",
-    "mobility_rank",
-    "range",
-    # deploy: the thesis's load totals (Tables 4-5 .. 4-10), its stability number, the booms
-    "load_total_rows",
-    "part1_load_total",
-    "part2_load_total",
-    "part1_increments",
-    "part2_increments",
-    "stability_number",
-    "boom_reached",
-    "boom_bar_force",
-)
 
 
 # -- commands ------------------------------------------------------------------------------------
@@ -451,102 +376,18 @@ def cmd_fit_prb(argv: Sequence[str]) -> int:
     return int(fit_prb_cli(list(argv)) or 0)
 
 
-def _memory_flag(p: argparse.ArgumentParser) -> None:
-    from reports.run.limits import DEFAULT_MEMORY_LIMIT_MB
-
-    p.add_argument(
-        "--memory-limit",
-        type=float,
-        default=DEFAULT_MEMORY_LIMIT_MB,
-        metavar="MB",
-        help=f"memory per solve before it is failed (0: none; default {DEFAULT_MEMORY_LIMIT_MB:g})",
-    )
-
-
-def build_parser() -> argparse.ArgumentParser:
-    """The argument parser (exposed for docs and tests)."""
-    p = _Parser(prog=PROG, description="FEA-validated benchmark of reduced compliant-beam models")
-    sub = p.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    sub.add_parser("cases", help="list the case catalog").set_defaults(func=cmd_cases)
-    sub.add_parser("models", help="list the models").set_defaults(func=cmd_models)
-    s = sub.add_parser("solve", help="solve one case with one model")
-    s.add_argument("case", help="catalog name or path to a .toml case file")
-    s.add_argument("--model", "-m", required=True, help="registry name, e.g. elastica, linear-8")
-    s.add_argument("--json", action="store_true", help="print the contract JSON object")
-    s.add_argument(
-        "--time-limit",
-        type=float,
-        default=SOLVE_TIME_LIMIT,
-        metavar="S",
-        help=f"seconds before the solve is failed (0: none; default {SOLVE_TIME_LIMIT:g})",
-    )
-    _memory_flag(s)
-    s.set_defaults(func=cmd_solve)
-    rc = sub.add_parser("recommend", help="the cheapest model within a tolerance for one case")
-    rc.add_argument("case", help="catalog name or path to a .toml case file")
-    rc.add_argument(
-        "--tol",
-        default=None,
-        help="error allowed, relative to each output's own excursion: 1%%, 1e-3 or "
-        "tip.uy=0.5%%,tip.rot=abs:1e-3 (default: the case's [[tolerances]], else 1%%)",
-    )
-    rc.add_argument("--json", action="store_true", help="print the contract JSON object")
-    rc.set_defaults(func=cmd_recommend)
-    cl = sub.add_parser("claims", help="published validity claims, judged on their own terms")
-    cl.add_argument("--json", action="store_true", help="print the contract JSON object")
-    cl.add_argument("--id", help="only this claim (e.g. howell-prb-1r)")
-    cl.set_defaults(func=cmd_claims)
-    te = sub.add_parser("teach", help="write the teaching page (atlases, which model to use)")
-    te.add_argument("--out", default="out", help="output directory (default: out)")
-    te.add_argument("--cases", help="catalog globs for the worked recommendations (default: all)")
-    te.add_argument("--quick", action="store_true", help="20 x 21 atlases, 1 %% only")
-    te.add_argument("--workers", type=int, default=2, help="processes for the atlases")
-    te.set_defaults(func=cmd_teach)
-    r = sub.add_parser("run", help="run the case x model matrix and render the report")
-    r.add_argument("--cases", help="comma-separated catalog globs or .toml paths (default: all)")
-    r.add_argument("--models", help="comma-separated model names (default: case list + defaults)")
-    r.add_argument("--out", default="out", help="output directory (default: out)")
-    r.add_argument("--quick", action="store_true", help="fewer load steps and timing repeats")
-    r.add_argument("--workers", type=int, help="local processes (default: CPU count)")
-    r.add_argument("--dask", metavar="ADDRESS", help="run on a dask.distributed scheduler")
-    r.add_argument("--history", help="SQLite history file (default: OUT/history.sqlite)")
-    r.add_argument("--fresh", action="store_true", help="ignore finished pairs in OUT")
-    r.add_argument(
-        "--time-limit",
-        type=float,
-        metavar="S",
-        help=f"seconds per pair before it is failed (0: none; default {DEFAULT_TIME_LIMIT:g},"
-        f" --quick {QUICK_TIME_LIMIT:g})",
-    )
-    r.add_argument("--no-report", action="store_true", help="results only, no HTML/MD/PNG")
-    _memory_flag(r)
-    r.add_argument("--wait", action="store_true", help="wait for another run using --out")
-    r.add_argument("--tol", help="grade every model against this tolerance (default: per family)")
-    r.set_defaults(func=cmd_run)
-    c = sub.add_parser("compare", help="regression check of CURRENT against BASE")
-    c.add_argument("base", help="BASE results.json (or its directory)")
-    c.add_argument("current", help="CURRENT results.json (or its directory)")
-    c.add_argument("--abs-tol", type=float, default=DEFAULT_ABS_TOL, help="error always allowed")
-    c.add_argument(
-        "--rel-factor", type=float, default=DEFAULT_REL_FACTOR, help="allowed error growth factor"
-    )
-    c.set_defaults(func=cmd_compare)
-    rp = sub.add_parser("report", help="re-render the report of a finished run")
-    rp.add_argument("dir", help="run directory (or its results.json)")
-    rp.add_argument(
-        "--pyvista",
-        action="store_true",
-        help="require pyvista renders (default: pyvista when it works, else matplotlib)",
-    )
-    rp.set_defaults(func=cmd_report)
-    from reports.run.history import add_parser as add_history
-
-    add_history(sub)
-    sub.choices["history"].set_defaults(func=cmd_history)
-    sub.add_parser(
-        "fit-prb", help="fit a PRB matrix (see flexbench fit-prb --help)", add_help=False
-    )
-    return p
+COMMANDS = {
+    "cases": cmd_cases,
+    "models": cmd_models,
+    "solve": cmd_solve,
+    "recommend": cmd_recommend,
+    "claims": cmd_claims,
+    "teach": cmd_teach,
+    "run": cmd_run,
+    "compare": cmd_compare,
+    "report": cmd_report,
+    "history": cmd_history,
+}
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -558,7 +399,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         if argv and argv[0] == "fit-prb":
             return cmd_fit_prb(argv[1:])
-        args = build_parser().parse_args(argv)
+        args = build_parser(COMMANDS).parse_args(argv)
         return int(args.func(args))
     except BrokenPipeError:  # `flexbench cases | head`
         return 0
