@@ -12,6 +12,7 @@ import pytest
 import cases
 import reports
 from reports.verdicts import atlas_mech as AM
+from reports.verdicts import atlas_mech_axes as AX
 
 
 @pytest.fixture(scope="module")
@@ -70,7 +71,7 @@ def test_slenderness_changes_only_the_axial_stiffness():
     """Thickness x s with loads x s^3: an inextensible member law (linear-N) gives the same
     path, an extensible one (cbcm-N) does not."""
     scene = cases.load("das2d-ex2-parallelogram")
-    thin = AM.thin(scene, 0.5)
+    thin = AX.thin(scene, 0.5)
     assert thin.members[0].EI == pytest.approx(scene.members[0].EI / 8)
     assert thin.members[0].EA == pytest.approx(scene.members[0].EA / 2)
     for name, same in (("linear-4", True), ("cbcm-4", False)):
@@ -80,7 +81,7 @@ def test_slenderness_changes_only_the_axial_stiffness():
 
 def test_lengthen_moves_only_the_ground_end():
     scene = cases.load("das2d-ex4-bistable-fourbar")
-    longer = AM.lengthen(scene, 1.3)
+    longer = AX.lengthen(scene, 1.3)
     for m in scene.members:
         ratio = longer.member_length(m.id) / scene.member_length(m.id)
         assert ratio == pytest.approx(1.3 if m.id == "rocker" else 1.0)
@@ -107,5 +108,5 @@ def test_member_measures_on_a_circular_arc(theta: float):
     [("das2d-ex5-constant-force", "kinetostatic"), ("das2d-ex6-bistable-synthesis", "synthesis")],
 )
 def test_cases_without_an_atlas_say_why(case: str, why: str):
-    with pytest.raises(AM.NoAtlas, match=why):
+    with pytest.raises(AX.NoAtlas, match=why):
         AM.compute(case)

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from reports.verdicts import atlas_mech
+from reports.verdicts import atlas_mech, atlas_mech_axes
 
 # the teaching page's mechanism atlases: a guide (load direction) and a driven bistable
 # four-bar (member length), small enough for the default run
@@ -143,7 +143,7 @@ def teaching_data(
     for name in names:
         try:
             data = atlas_mech.as_json(atlas_mech.compute(name, n_axis=n_axis, progress=progress))
-        except atlas_mech.NoAtlas as exc:
+        except atlas_mech_axes.NoAtlas as exc:
             out[name] = {"case": name, "none": str(exc)}
             continue
         png = base64.b64encode(figure(data)).decode()

@@ -27,13 +27,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from reduced_models.thesis.chain import Chain, rebuild
 from reduced_models.thesis.force_method import (
     PART1_DELTA,
     PART2_DELTA,
     PART2_TOL,
-    Chain,
     ForceMethodState,
-    rebuild,
     solve_increment,
 )
 
