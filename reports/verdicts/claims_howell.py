@@ -50,7 +50,7 @@ def howell_error(tips: np.ndarray, gamma: float) -> tuple[np.ndarray, np.ndarray
 
 def _load_cap(n: float) -> float:
     """Largest transverse load P with sqrt(|P(-n, 1)| L^2/EI) <= 11, inside the elastica's
-    validated closed-form range (``elastica.LAM_L_MAX`` = 12)."""
+    validated closed-form range (``elastica_state.LAM_L_MAX`` = 12)."""
     return 121.0 / math.hypot(1.0, n)
 
 
