@@ -1,6 +1,6 @@
 """``elastica``: the exact large-deflection Euler-Bernoulli (inextensible) cantilever.
 
-Two exact solution routes share one closed-form pendulum flow (``elastica_shooting``):
+Two exact solution routes share one closed-form pendulum flow (``elastica_flow``):
 
 * **Dead tip force, no tip moment** -- elliptic-integral closed form in the style of
   Bisshopp & Drucker (1945) and Mattiasson (1981), valid for any load angle (tensile or
@@ -26,7 +26,7 @@ Two exact solution routes share one closed-form pendulum flow (``elastica_shooti
 
 Accuracy: the equations are satisfied to ~1e-13 relative for moderate loads (measured against
 40-digit mpmath Bisshopp-Drucker values: 1e-14 up to PL^2/EI = 100 for a vertical load).  All
-elliptic functions take the complementary parameter 1 - m exactly (see ``elastica_shooting``).
+elliptic functions take the complementary parameter 1 - m exactly (see ``elastica_flow``).
 Orbits that hug the pendulum separatrix over a long span (strong tension, sqrt(P L^2/EI) > 12
 with 1 - m < 1e-12) lose ~3e-15 exp(sqrt(P L^2/EI)) near the saddle; the model reports
 ``failed`` there instead of a degraded number (``conditioning_issue``).
@@ -42,12 +42,8 @@ from scipy.special import elliprd, elliprf
 
 from cases.schema import Scene
 from reduced_models.base import ModelCard, Solution, Step, load_factors, not_applicable
-from reduced_models.beam.elastica_shooting import (
-    ElasticaError,
-    follow_path,
-    pendulum,
-    tip_states,
-)
+from reduced_models.beam.elastica_flow import pendulum, tip_states
+from reduced_models.beam.elastica_shooting import ElasticaError, follow_path
 from reduced_models.beam.elastica_state import (
     N_SHAPE,
     Equilibrium,

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from reduced_models.beam.elastica_shooting import max_abs_p, orbit, pendulum
+from reduced_models.beam.elastica_flow import max_abs_p, orbit, pendulum
 from reduced_models.beam.single_beam import Cantilever
 
 N_SHAPE = 41
