@@ -25,6 +25,8 @@ from reduced_models.beam.prb_chain import (
     PRBChain,
     check_matrix,
     equilibrium_path,
+)
+from reduced_models.beam.prb_post import (
     recover_tip_loads,
     recover_tip_loads_batch,
     shape_and_stress,
