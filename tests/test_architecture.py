@@ -14,6 +14,13 @@ The rules, one room at a time (a room is a top-level package):
   (the model protocol and ``Solution``: the reference shares no numerics with what it judges);
 - ``reports`` imports all three;
 - nothing imports ``reports`` (``tests`` may import anything).
+
+Inside ``reports`` (its rooms: ``run``, ``verdicts``, ``render``, ``bench``; ``api`` and ``cli``
+on top), the command line is the top floor and the benchmarks stand aside:
+
+- only ``reports.cli`` imports ``reports.cli`` or ``reports.cli_args``;
+- nothing but ``reports.bench`` imports ``reports.bench``;
+- ``reports.verdicts`` (what a solution is worth) imports no page code (``reports.render``).
 """
 
 from __future__ import annotations
@@ -33,6 +40,14 @@ ALLOWED = {
     "reports": {"cases", "reduced_models", "fem_reference"},
 }
 DOORS = {("fem_reference", "reduced_models.base")}
+
+# Inside reports: (importing room prefix, imported prefix) arrows that must not exist; an
+# importer inside the imported prefix itself is allowed (a room imports its own modules).
+REPORTS_FORBIDDEN = (
+    ("reports", "reports.cli"),  # covers reports.cli_args too
+    ("reports", "reports.bench"),
+    ("reports.verdicts", "reports.render"),
+)
 
 
 def _module_name(path: Path) -> str:
@@ -171,6 +186,26 @@ def wrong_arrows() -> list[str]:
     return bad
 
 
+def _inside(name: str, prefix: str) -> bool:
+    """``name`` is the module or package ``prefix`` or lies under it (``reports.cli`` also
+    stands for ``reports.cli_args``: a prefix ending in a module name covers its siblings
+    that extend the name)."""
+    return name == prefix or name.startswith(prefix + ".") or name.startswith(prefix + "_")
+
+
+def wrong_floors(graph: dict[str, set[str]] | None = None) -> list[str]:
+    """Arrows inside ``reports`` against ``REPORTS_FORBIDDEN``."""
+    graph = import_graph() if graph is None else graph
+    bad = []
+    for src, targets in graph.items():
+        for dst in sorted(targets):
+            for importer, imported in REPORTS_FORBIDDEN:
+                if _inside(src, importer) and _inside(dst, imported):
+                    if not _inside(src, imported):
+                        bad.append(f"{src} -> {dst}")
+    return sorted(bad)
+
+
 def test_graph_is_read():
     """The reader sees the arrows it should (so an empty answer below means something)."""
     graph = import_graph()
@@ -189,6 +224,11 @@ def test_no_arrow_against_the_rules():
     assert not bad, "imports against DESIGN.md's rules:\n" + "\n".join(bad)
 
 
+def test_no_arrow_against_the_floors_of_reports():
+    bad = wrong_floors()
+    assert not bad, "imports against the floors of reports:\n" + "\n".join(bad)
+
+
 def test_planted_circle_and_wrong_arrow_are_seen():
     """The checks can fail: a planted circle and a planted upward arrow are reported."""
     graph = {"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}
@@ -196,6 +236,19 @@ def test_planted_circle_and_wrong_arrow_are_seen():
     assert _package_edge("reports.render", "reports.render.html")
     assert not _package_edge("reports.render.scenes", "reports.render")
     assert not _package_edge("reports.render", "reports.run.runner")
+    planted = {
+        "reports.run.runner": {"reports.cli_args"},
+        "reports.verdicts.atlas": {"reports.render.figures"},
+        "reports.render.html": {"reports.bench.speed"},
+        "reports.cli": {"reports.cli_args", "reports.bench.speed"},
+        "reports.bench.speed": {"reports.bench.measure"},
+    }
+    assert wrong_floors(planted) == [
+        "reports.cli -> reports.bench.speed",
+        "reports.render.html -> reports.bench.speed",
+        "reports.run.runner -> reports.cli_args",
+        "reports.verdicts.atlas -> reports.render.figures",
+    ]
 
 
 if __name__ == "__main__":
