@@ -14,7 +14,7 @@ import dataclasses
 import importlib
 import traceback
 
-from cases.limits import state_violation
+from cases.limits import RIGID_STRETCH_MAX, state_violation
 from cases.schema import Scene
 from reduced_models import registry as _registry
 from reduced_models.base import Model, ModelCard, Solution, not_applicable, post_process
@@ -151,7 +151,7 @@ def run_model(model: Model, scene: Scene, *, catch: bool = True, post: bool = Tr
         sol = model.solve(scene)
         if not isinstance(sol, Solution):
             raise TypeError(f"solve() returned {type(sol).__name__}, not Solution")
-        sol = checked(scene, sol)
+        sol = checked(scene, sol, getattr(model, "rigid_link_drift", RIGID_STRETCH_MAX))
         return _predicted(name, scene, _post_process(model, scene, sol)) if post else sol
     except Exception as exc:
         if not catch:
@@ -165,14 +165,14 @@ def run_model(model: Model, scene: Scene, *, catch: bool = True, post: bool = Tr
         )
 
 
-def checked(scene: Scene, sol: Solution) -> Solution:
+def checked(scene: Scene, sol: Solution, rigid_max: float = RIGID_STRETCH_MAX) -> Solution:
     """``sol``, or, when converged, failed at its first state that is no answer (a NaN output,
-    a rigid link off its length, a member stretched beyond the elastic models: the shared
-    ``cases.limits.state_violation``) with the states before it."""
+    a rigid link off its length by more than ``rigid_max``, a member stretched beyond the
+    elastic models: the shared ``cases.limits.state_violation``) with the states before it."""
     if sol.status != "converged":
         return sol
     for k, st in enumerate(sol.steps):
-        why = state_violation(scene, st.outputs)
+        why = state_violation(scene, st.outputs, rigid_max)
         if why:
             msg = f"at factor {st.factor:.6g}: {why}"
             return dataclasses.replace(sol, status="failed", message=msg, steps=sol.steps[:k])
