@@ -1,6 +1,8 @@
 """Analyses on an assembled mechanism: load, distance, energy, kinematics (and the steps).
 
-* ``load``: load factor 0 -> factor_end at the scene's steps (continuation with cuts).
+* ``load``: load factor 0 -> factor_end at the scene's steps (continuation with cuts); a step
+  that loses stability or stalls at a limit point jumps to the stable state at its factor
+  (``snap``), reported in ``extras["critical_points"]``.
 * ``distance``: the driver coordinate is a target; the load factor is the unknown
   (``Step.factor`` = load factor), DAS-2D "Distance analysis".
 * ``energy``: scene loads held at factor_end, the driver prescribed from start to stop;
@@ -20,6 +22,7 @@ import numpy as np
 
 from reduced_models.base import Step, load_factors
 from reduced_models.mechanism.newton import SolveError, Solver, State, follow
+from reduced_models.mechanism.snap import snap_step
 from reduced_models.mechanism.system import MechanismSystem
 
 
@@ -95,9 +98,20 @@ class Run:
             x.lam = t
             return x
 
+        points = self.extras.setdefault("critical_points", [])
         for prev, fk in zip(f[:-1], f[1:]):
-            st = follow(self.solver, st, float(prev), float(fk), set_lam, "lam")
-            st.lam = float(fk)
+            try:
+                new = follow(self.solver, st, float(prev), float(fk), set_lam, "lam")
+                new.lam = float(fk)
+                lost = self.steps[-1].stable and self.solver.stable(new, False)[0] is not True
+            except SolveError:
+                new, lost = None, self.steps[-1].stable
+            if lost:  # a limit or bifurcation point inside the step: jump (``snap``)
+                new, found = snap_step(self, st, float(prev), float(fk))
+                points.extend(found)
+            elif new is None:
+                raise SolveError(f"load step to factor {fk:.6g} failed from an unstable state")
+            st = new
             self.record(st, fk, False)
 
     def driver(self, kind: str) -> None:
