@@ -12,6 +12,8 @@ links carry little of the motion).
 
 from __future__ import annotations
 
+import dataclasses
+
 import pytest
 
 import cases
@@ -55,3 +57,20 @@ def test_snap_load_and_far_state_agree_with_fem_auto(fem, model: str) -> None:
     est = abs(_at(solve(CASE, pair[0]), FAR) - _at(solve(CASE, pair[1]), FAR))
     allowed = 1.5 * est + (5e-2 if model == "mixed" else 2e-3) * _at(fem, FAR)
     assert abs(_at(sol, FAR) - _at(fem, FAR)) <= allowed, (_at(sol, FAR), _at(fem, FAR), est)
+
+
+GUIDED = cases.load("das2d-ex3-bistable-switch")
+LIMIT_FE = 0.6677510  # fem-auto's limit load factor, quoted with provenance in that case file
+
+
+@pytest.mark.parametrize("model", ["cbcm-2", "cbcm-8", "mixed"])
+def test_guided_switch_snaps_at_its_limit_point(model: str) -> None:
+    """The guided switch (symmetric path kept) under load control: a limit point, no
+    bifurcation; the snap load is the largest factor of fem-auto's distance sweep."""
+    a = dataclasses.replace(GUIDED.analysis, kind="load", steps=20, driver=None)
+    sol = solve(dataclasses.replace(GUIDED, analysis=a, references=()), model)
+    snap = _snap(sol)
+    kinds = [p["kind"] for p in sol.extras["critical_points"]]
+    assert kinds == ["limit", "snap"]
+    assert abs(snap["factor"] - LIMIT_FE) <= 1e-2 * LIMIT_FE, snap["factor"]
+    assert snap["to"]["outputs"][KEY] > 15.25  # past the unloaded second stable position
