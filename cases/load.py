@@ -667,9 +667,7 @@ class _Builder:
             raise self.fail(p, f"only a 'synthesis' analysis takes it (kind is {kind!r})")
         s = self.keys(t["synthesis"], p, ("goal", "members", "target", "output"), ("goal",))
         goal = self.str_(s, "goal", p, choices=SYNTHESIS_GOALS)
-        if goal == "bistable":  # a search, nothing to size
-            if driver is None:
-                raise self.fail("analysis.driver", "missing: a bistable search needs a driver")
+        if goal == "bistable":  # a search, nothing to size; no driver: every candidate
             for k in ("members", "target", "output"):
                 if k in s:
                     raise self.fail(f"{p}.{k}", "a bistable search sizes nothing (no such key)")

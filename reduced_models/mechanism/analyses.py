@@ -8,7 +8,8 @@
 * ``energy``: scene loads held at factor_end, the driver prescribed from start to stop;
   ``Step.factor`` = driver coordinate (degrees for a rotation), outputs ``driver.force`` /
   ``driver.torque`` = the force the driver exerts along +coordinate; ``extras["equilibria"]``
-  lists where it crosses zero (stable: energy minimum along the driver) and ``barrier``.
+  lists where it crosses zero (stable: energy minimum along the driver) and ``barrier``; a
+  sweep stopped by a dead point or lock-up keeps those of the part swept (``stopped_at``).
 * ``path``: arc-length continuation (``pathfollow``), ``Step.factor`` = load factor.
 * ``kinematics``: constraints only (no flexible members): position analysis along the
   driver, Gauss-Newton with minimum-norm steps; mobility checked.
@@ -129,7 +130,15 @@ class Run:
         for k, v in enumerate(vals):
             if k:
                 t0 = float(vals[k - 1])
-                st = follow(self.solver, st, t0, float(v), apply, "driver", lam_free, rate=scale)
+                try:
+                    st = follow(
+                        self.solver, st, t0, float(v), apply, "driver", lam_free, rate=scale
+                    )
+                except SolveError:
+                    if kind == "energy" and k > 1:  # the equilibria of the part swept
+                        self.extras["stopped_at"] = t0
+                        self.equilibria(vals[:k], key, apply)
+                    raise
             if lam_free:
                 self.record(st, st.lam, False)
             else:

@@ -18,7 +18,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from cases.schema import Member, Scene
+from cases.schema import Driver, Member, Scene
 from reduced_models import prb_tables as T
 from reduced_models.base import ModelCard, Solution, not_applicable
 from reduced_models.bcm import BCM_LAW
@@ -291,6 +291,35 @@ def finish(scene: Scene, name: str, r: analyses.Run) -> Solution:
     return Solution(scene.name, name, "converged", msg, tuple(r.steps), extras)
 
 
+def _check_drivers(scene: Scene, sol: Solution, fe_check: Callable) -> Solution:
+    """A driver search re-solved by fem-auto: every bistable candidate's sweep, its FE
+    summary in its ``extras["drivers"]`` entry (and in ``extras["bistable"]`` for the one
+    shown)."""
+    drivers = []
+    for e in sol.extras["drivers"]:
+        if e["bistable"]:
+            # the FE sweeps the bistable stretch (a quarter of the stable-unstable distance
+            # past the second stable position, inside the range the model swept): a sweep
+            # on to a lock-up would fail the whole FE run
+            s2, su, reach = e["stable"][1], e["unstable"], e["swept"][1]
+            stop = s2 + 0.25 * (s2 - su)
+            stop = stop if (reach - stop) * (stop - e["start"]) > 0 else reach
+            keys = ("kind", "start", "node", "direction", "member")
+            drv = Driver(stop=stop, **{k: e[k] for k in keys if k in e})
+            sc = dataclasses.replace(
+                scene, analysis=dataclasses.replace(scene.analysis, driver=drv)
+            )
+            one = dataclasses.replace(sol, extras={"bistable": e})
+            e = fe_check(sc, one).extras["bistable"]
+        drivers.append(e)
+    extras = {**sol.extras, "drivers": drivers}
+    label = extras.get("bistable", {}).get("label")
+    shown = next((e for e in drivers if e["bistable"] and e["driver"] == label), None)
+    if shown is not None and "fem-auto" in shown:
+        extras["bistable"] = {**extras["bistable"], "fem-auto": shown["fem-auto"]}
+    return dataclasses.replace(sol, extras=extras)
+
+
 class _Post:
     """The assembled system and the state of every step, kept in ``extras["_post"]`` for
     ``postprocess`` (not JSON: ``reports.store.extras_json`` drops it)."""
@@ -305,7 +334,10 @@ def postprocess(scene: Scene, sol: Solution) -> Solution:
     if scene.analysis.kind == "synthesis":  # the synthesised scene re-solved by fem-auto
         from reduced_models.mechanism.fecheck import fe_check
 
-        sol = fe_check(scene, sol)
+        if scene.analysis.driver is None and "drivers" in sol.extras:
+            sol = _check_drivers(scene, sol, fe_check)
+        else:
+            sol = fe_check(scene, sol)
     post = sol.extras.get("_post")
     if not isinstance(post, _Post):
         return sol

@@ -58,10 +58,12 @@ def _measure(run: analyses.Run, goal: str, output: str | None) -> float:
 def synthesise(scene: Scene, name: str, spec_of: Callable[[Member], tuple]) -> Solution:
     """Solve the synthesis of ``scene`` with the member laws of ``spec_of``."""
     syn = scene.analysis.synthesis
+    if syn.goal == "bistable":
+        if scene.analysis.driver is None:
+            return bistable.search_drivers(scene, name, spec_of)
+        return bistable.search(scene, name, spec_of)
     if syn.goal != "stiffness" and scene.analysis.driver is None:
         return not_applicable(scene, name, f"{syn.goal} synthesis needs analysis.driver")
-    if syn.goal == "bistable":
-        return bistable.search(scene, name, spec_of)
     kind = "load" if syn.goal == "stiffness" else "energy"
 
     def evaluate(s: float) -> tuple[float, analyses.Run]:
