@@ -213,7 +213,8 @@ class Synthesis:
       ``target`` in magnitude (the switching load of a bistable mechanism);
     * ``goal = "bistable"``: no sizing (``members`` empty, ``target`` NaN): the driver's range
       is searched for two stable equilibria with an unstable one between (both stable
-      positions, the barrier and the switching loads both ways, or why it is not bistable).
+      positions, the barrier and the switching loads both ways, or why it is not bistable);
+      without ``analysis.driver`` every candidate driver is searched, both senses.
     """
 
     goal: str
