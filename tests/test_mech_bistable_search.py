@@ -16,6 +16,8 @@ import pytest
 
 import cases
 from reports.api import solve
+from reports.render import synthnote
+from reports.store import extras_json
 
 SPRUNG = cases.loads(
     """
@@ -104,3 +106,12 @@ def test_a_sprung_crank_has_no_bistable_driver() -> None:
     assert not any(e["bistable"] for e in drivers)
     assert all(e["reason"] for e in drivers)
     assert "bistable along 0 of" in sol.message
+
+
+def test_the_report_lists_every_bistable_driver_with_its_fe_check(ex6) -> None:
+    _, sol = ex6
+    lines = synthnote.notes(extras_json(sol.extras))
+    assert "driver search: bistable along 4 of 12 candidates" in lines
+    cw = next(ln for ln in lines if ln.startswith("driver crank cw: "))
+    assert "stable at 0 and -90" in cw and "fem-auto: stable at 0 and -89.99" in cw
+    assert "shown: driver crank cw" in lines

@@ -11,6 +11,8 @@ from __future__ import annotations
 import pytest
 
 from reports.api import solve
+from reports.render import synthnote
+from reports.store import extras_json
 
 FE_SCALE = 1.580064
 
@@ -26,3 +28,6 @@ def test_stiffness_synthesis_against_the_fe_check(model: str, tol: float) -> Non
     assert fe["status"] == "converged"
     # the FE rise of the synthesised scene misses the target by about the scale's error
     assert fe["relative_error"] <= 1.5 * abs(syn["scale"] / FE_SCALE - 1.0) + 1e-4
+    lines = synthnote.notes(extras_json(sol.extras))  # the report: target beside the FE
+    assert any("target 20" in ln for ln in lines)
+    assert any(ln.startswith("fem-auto on the synthesised scene: ") for ln in lines)
