@@ -27,13 +27,21 @@ def notes(extras: Mapping) -> list[str]:
     out = []
     syn = extras.get("synthesis")
     if isinstance(syn, Mapping):
-        ei = ", ".join(f"{k} {_g(v)}" for k, v in (syn.get("EI") or {}).items())
+        what, sized = ("lengths", "lengths") if "lengths" in syn else ("EI", "EI")
+        ei = ", ".join(f"{k} {_g(v)}" for k, v in (syn.get(sized) or {}).items())
         out.append(
-            f"synthesised EI: {ei} ({syn.get('goal')} {_g(syn.get('achieved'))}, "
+            f"synthesised {what}: {ei} ({syn.get('goal')} {_g(syn.get('achieved'))}, "
             f"target {_g(syn.get('target'))})"
         )
         fe = syn.get("fem-auto")
-        if isinstance(fe, Mapping):
+        fb = fe.get("bistable") if isinstance(fe, Mapping) else None
+        if syn.get("goal") == "stable-position" and isinstance(fb, Mapping):
+            second = (fb.get("stable") or [None, None])[-1] if fb.get("bistable") else None
+            out.append(
+                f"fem-auto on the synthesised scene: second stable position {_g(second)} "
+                f"(target {_g(syn.get('target'))})"
+            )
+        elif isinstance(fe, Mapping):
             out.append(
                 f"fem-auto on the synthesised scene: {_g(fe.get('achieved'))} "
                 f"(error {_g(fe.get('relative_error'))} of the target)"
