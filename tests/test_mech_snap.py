@@ -74,3 +74,85 @@ def test_guided_switch_snaps_at_its_limit_point(model: str) -> None:
     assert kinds == ["limit", "snap"]
     assert abs(snap["factor"] - LIMIT_FE) <= 1e-2 * LIMIT_FE, snap["factor"]
     assert snap["to"]["outputs"][KEY] > 15.25  # past the unloaded second stable position
+
+
+TRUSS = cases.loads(
+    """[case]
+name = "vm-flex"
+title = "von Mises truss of two flexible bars, load control past the limit point"
+units = "mm-N-MPa"
+
+[[nodes]]
+id = "L"
+x = -100.0
+y = 0.0
+
+[[nodes]]
+id = "C"
+x = 0.0
+y = 15.0
+
+[[nodes]]
+id = "R"
+x = 100.0
+y = 0.0
+
+[[members]]
+id = "left"
+from = "L"
+to = "C"
+kind = "flexible"
+E = 2000.0
+width = 10.0
+thickness = 4.0
+
+[[members]]
+id = "right"
+from = "C"
+to = "R"
+kind = "flexible"
+E = 2000.0
+width = 10.0
+thickness = 4.0
+
+[[supports]]
+node = "L"
+type = "clamp"
+
+[[supports]]
+node = "R"
+type = "clamp"
+
+[[loads]]
+node = "C"
+fy = -300.0
+
+[analysis]
+kind = "load"
+steps = 10
+
+[[outputs]]
+name = "apex"
+node = "C"
+""",
+    "vm-flex",
+)
+
+
+@pytest.mark.parametrize("model", ["cbcm-4", "cbcm-8"])
+def test_a_clamped_von_mises_truss_snaps_where_fem_auto_does(model: str) -> None:
+    """A bistable mechanism written outside the catalog: two clamped flexible bars meeting
+    at a loaded apex (rise 15 mm over 200 mm).  The snap load against fem-auto's critical
+    factor (1 %), the far state at factor 0.3 within cbcm-4-to-cbcm-8 distance + 0.2 %."""
+    fe = solve(TRUSS, "fem-auto")
+    assert fe.ok, fe.message
+    crit = [p for p in fe.extras["critical_points"] if p["kind"] in ("limit", "bifurcation")]
+    sol = solve(TRUSS, model)
+    snap = _snap(sol)
+    assert abs(snap["factor"] - crit[0]["factor"]) <= 1e-2 * crit[0]["factor"]
+
+    def far(x):
+        return next(st.outputs["apex.uy"] for st in x.steps if abs(st.factor - 0.3) < 1e-9)
+
+    est = abs(far(solve(TRUSS, "cbcm-4")) - far(solve(TRUSS, "cbcm-8")))
+    assert abs(far(sol) - far(fe)) <= 1.5 * est + 2e-3 * abs(far(fe))
