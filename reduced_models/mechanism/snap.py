@@ -20,7 +20,9 @@ fundamental path turned back: a limit point), ``snap_step``:
    the constraints' tangent, so each step descends the energy), descends to an equilibrium;
    an unstable landing is displaced along its own unstable mode and relaxed again.  Of the
    stable landings the one of lower total potential is kept (a tie keeps +phi).  The flow
-   descends the energy, so it lands where a damped structure would settle.
+   descends the energy, so it lands where a damped structure would settle.  A landing the
+   tangent at the critical state predicts (``_continues``: load control stalled for a
+   numerical reason, e.g. a residual floor at the tolerance) is no snap and is not reported.
 
 ``extras["critical_points"]`` (DESIGN.md, "Critical points"): the critical point (``kind``
 "limit" | "bifurcation", ``factor`` = lam_c, ``switched`` = True when a stable state was
@@ -40,6 +42,10 @@ LOCATE_RTOL = 1e-6  # bisection stops at this fraction of the load step
 KIND_TOL = 1e-3  # |phi . f| / (|phi| |f|) below this: the load does no work on the mode
 PERTURB = 1e-2  # displacement along the mode, largest scaled component (Lref or rad)
 RELAX_ITER = 400  # pseudo-time steps of one relaxation
+# an equilibrium whose residual stalls (10 steps without a new best) below STALL x tol is
+# converged to round-off (long chained members: the scaled residual floor nears 1e-10)
+STALL = 1e2
+CONTINUES = 0.25  # a landing this close (relative) to the tangent's prediction is no snap
 ALPHA0 = 1.0  # pseudo-time shift at the start, in units of the pseudo-mass (``_relax``)
 
 
@@ -69,6 +75,8 @@ def snap_step(run: object, st: State, lam0: float, lam1: float) -> tuple[State, 
         )
     new = min(landed, key=lambda x: (x[0], x[1]))[2]
     sv.memo = None  # the Hermite predictor must not bridge the jump
+    if _continues(run, st_c, new, lam1 - lam_c):
+        return new, []
     out = run.s.outputs
     point["switched"] = True
     snap = {
@@ -79,6 +87,20 @@ def snap_step(run: object, st: State, lam0: float, lam1: float) -> tuple[State, 
         "to": {"factor": float(lam1), "outputs": out(new.q)},
     }
     return new, [point, snap]
+
+
+def _continues(run: object, st: State, new: State, dlam: float) -> bool:
+    """Is ``new`` the regular continuation of the path through ``st`` (its tangent predicts
+    it to within a quarter of the move)?  Load control that stalls for numerical reasons
+    (a residual floor near the tolerance) then resumes without reporting a snap."""
+    w, f = _weights(run), run.s.free
+    try:
+        t = run.solver.tangent(st, "lam")[: len(f)]
+    except (SolveError, np.linalg.LinAlgError):
+        return False
+    move = float(np.abs((new.q[f] - st.q[f]) * w).max())
+    dev = float(np.abs((new.q[f] - st.q[f] - dlam * t) * w).max())
+    return bool(np.isfinite(dev)) and dev <= CONTINUES * move
 
 
 def _reach(run: object, st: State, lam0: float, lam: float) -> State | None:
@@ -177,14 +199,15 @@ def _relax(run: object, st: State) -> State:
     # metric for every unknown: a Jacobi mass would make the soft snap mode as heavy as the
     # members' axial stiffness
     mass = np.where(shift, s.rscale[f] * icap, 0.0)
-    res0 = None
+    res0, best = None, (np.inf, 0)
     for it in range(RELAX_ITER):
         R, K, res = sv.kkt(State(q, mu, lam))
         if not np.isfinite(R).all():
             break
-        if res <= sv.tol:
-            return State(q, mu, lam, it, res, K)
+        if res <= sv.tol or (res <= STALL * sv.tol and it - best[1] > 10):
+            return State(q, mu, lam, it, res, K)  # converged, or stalled at round-off
         res0 = res if res0 is None else res0
+        best = (res, it) if res < best[0] else best
         d = np.zeros(K.shape[0])
         d[:nf] = mass
         alpha = _shift(sv, State(q, mu, lam, K=K), d, ALPHA0 * min(res / res0, 1.0))
