@@ -40,6 +40,8 @@ def _snap(sol) -> dict:
     assert all(s.stable for s in sol.steps), "load control ended a step on an unstable state"
     snaps = [p for p in sol.extras["critical_points"] if p["kind"] == "snap"]
     assert len(snaps) == 1 and snaps[0]["switched"]
+    landed = [s for s in sol.steps if s.info.get("snap")]
+    assert [s.factor for s in landed] == [snaps[0]["to"]["factor"]]
     return snaps[0]
 
 

@@ -2,7 +2,7 @@
 
 * ``load``: load factor 0 -> factor_end at the scene's steps (continuation with cuts); a step
   that loses stability or stalls at a limit point jumps to the stable state at its factor
-  (``snap``), reported in ``extras["critical_points"]``.
+  (``snap``), reported in ``extras["critical_points"]`` and marked ``info["snap"] = 1``.
 * ``distance``: the driver coordinate is a target; the load factor is the unknown
   (``Step.factor`` = load factor), DAS-2D "Distance analysis".
 * ``energy``: scene loads held at factor_end, the driver prescribed from start to stop;
@@ -107,6 +107,7 @@ class Run:
                 lost = self.steps[-1].stable and self.solver.stable(new, False)[0] is not True
             except SolveError:
                 new, lost = None, self.steps[-1].stable
+            found = []
             if lost:  # a limit or bifurcation point inside the step: jump (``snap``)
                 new, found = snap_step(self, st, float(prev), float(fk))
                 points.extend(found)
@@ -114,6 +115,8 @@ class Run:
                 raise SolveError(f"load step to factor {fk:.6g} failed from an unstable state")
             st = new
             self.record(st, fk, False)
+            if found:  # as fem-auto marks a state beyond a limit point
+                self.steps[-1].info["snap"] = 1.0
 
     def driver(self, kind: str) -> None:
         a = self.scene.analysis
