@@ -187,8 +187,10 @@ def _post_process(model: Model, scene: Scene, sol: Solution) -> Solution:
     sol = post_process(model, scene, sol)
     if scene.analysis.kind != "synthesis":
         return sol
-    from reports.fecheck import fe_check
+    from reports.fecheck import check_drivers, fe_check
 
+    if scene.analysis.driver is None and "drivers" in sol.extras:  # a bistable driver search
+        return check_drivers(scene, sol)
     return fe_check(scene, sol)
 
 

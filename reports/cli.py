@@ -138,6 +138,7 @@ _JSON_EXTRAS = (
     "barrier",
     "synthesis",
     "bistable",
+    "drivers",
     "mobility",
     "mobility_rank",
     "range",
