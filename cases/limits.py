@@ -104,6 +104,11 @@ def check_steps(v: int, path: str, fail: Fail) -> None:
         raise fail(path, f"{v} exceeds the limit of {MAX_STEPS} steps")
 
 
+# ratios of two changes: undefined (NaN, null in JSON) where both vanish -- the mechanical
+# advantage at the unloaded first state -- which is no failure of the model
+RATIO_OUTPUTS = ("ma",)
+
+
 def state_violation(
     scene: Any, outputs: dict[str, float], rigid_max: float = RIGID_STRETCH_MAX
 ) -> str | None:
@@ -116,7 +121,7 @@ def state_violation(
     length bounds the member's mean strain from below, whatever its shape.
     """
     for key, v in outputs.items():
-        if not math.isfinite(v):
+        if not math.isfinite(v) and key not in RATIO_OUTPUTS:
             return f"output {key!r} is {v}: not an answer"
     nodes = {n.id: (n.x, n.y) for n in scene.nodes}
     pos = {s.node: nodes[s.node] for s in scene.supports if s.type in ("clamp", "pin")}
