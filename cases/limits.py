@@ -104,16 +104,24 @@ def check_steps(v: int, path: str, fail: Fail) -> None:
         raise fail(path, f"{v} exceeds the limit of {MAX_STEPS} steps")
 
 
-def state_violation(scene: Any, outputs: dict[str, float]) -> str | None:
+# ratios of two changes: undefined (NaN, null in JSON) where both vanish -- the mechanical
+# advantage at the unloaded first state -- which is no failure of the model
+RATIO_OUTPUTS = ("ma",)
+
+
+def state_violation(
+    scene: Any, outputs: dict[str, float], rigid_max: float = RIGID_STRETCH_MAX
+) -> str | None:
     """None, or why a model's state (its ``Step.outputs``) of ``scene`` is not an answer.
 
     A non-finite output; a rigid link or a flexible member between two nodes whose positions
     are known (output nodes, clamped or pinned nodes) with a rigid link off its length by more
-    than ``RIGID_STRETCH_MAX`` or a member stretched beyond ``STRAIN_MAX`` -- the chord over
-    the undeformed length bounds the member's mean strain from below, whatever its shape.
+    than ``rigid_max`` (default ``RIGID_STRETCH_MAX``; a model whose method drifts states
+    its own) or a member stretched beyond ``STRAIN_MAX`` -- the chord over the undeformed
+    length bounds the member's mean strain from below, whatever its shape.
     """
     for key, v in outputs.items():
-        if not math.isfinite(v):
+        if not math.isfinite(v) and key not in RATIO_OUTPUTS:
             return f"output {key!r} is {v}: not an answer"
     nodes = {n.id: (n.x, n.y) for n in scene.nodes}
     pos = {s.node: nodes[s.node] for s in scene.supports if s.type in ("clamp", "pin")}
@@ -128,10 +136,10 @@ def state_violation(scene: Any, outputs: dict[str, float]) -> str | None:
         if chord0 == 0.0:
             continue
         chord = math.dist(pos[m.a], pos[m.b])
-        if m.kind == "rigid" and abs(chord / chord0 - 1.0) > RIGID_STRETCH_MAX:
+        if m.kind == "rigid" and abs(chord / chord0 - 1.0) > rigid_max:
             return (
                 f"rigid link {m.id!r} is {chord:.6g} long instead of {chord0:.6g} (bound "
-                f"{RIGID_STRETCH_MAX:g} relative): not a state of the scene"
+                f"{rigid_max:g} relative): not a state of the scene"
             )
         e = chord / arc_length(chord0, m.sweep_deg) - 1.0
         if m.kind == "flexible" and e > STRAIN_MAX:

@@ -205,9 +205,7 @@ class AnalysisPart(Checks):
             raise self.fail(p, f"only a 'synthesis' analysis takes it (kind is {kind!r})")
         s = self.keys(t["synthesis"], p, ("goal", "members", "target", "output"), ("goal",))
         goal = self.str_(s, "goal", p, choices=SYNTHESIS_GOALS)
-        if goal == "bistable":  # a search, nothing to size
-            if driver is None:
-                raise self.fail("analysis.driver", "missing: a bistable search needs a driver")
+        if goal == "bistable":  # a search, nothing to size; no driver: every candidate
             for k in ("members", "target", "output"):
                 if k in s:
                     raise self.fail(f"{p}.{k}", "a bistable search sizes nothing (no such key)")
@@ -219,9 +217,13 @@ class AnalysisPart(Checks):
         if not isinstance(mem, list) or not mem or not all(isinstance(m, str) for m in mem):
             raise self.fail(f"{p}.members", "must be a non-empty array of member ids")
         kinds = {m.id: m.kind for m in self._members}
-        for m in mem:
-            if kinds.get(m) != "flexible":
-                raise self.fail(f"{p}.members", f"{m!r} is not a flexible member (EI to size)")
+        if goal == "stable-position":  # one rigid link's length
+            if len(mem) != 1 or kinds.get(mem[0]) != "rigid":
+                raise self.fail(f"{p}.members", "must name one rigid link (its length is sized)")
+        else:
+            for m in mem:
+                if kinds.get(m) != "flexible":
+                    raise self.fail(f"{p}.members", f"{m!r} is not a flexible member (EI to size)")
         target = self.num(s, "target", p)
         output = self.str_(s, "output", p)
         if goal == "stiffness":
@@ -231,10 +233,10 @@ class AnalysisPart(Checks):
                 raise self.fail(f"{p}.target", "must be non-zero (the unloaded state is 0)")
         else:
             if driver is None:
-                raise self.fail("analysis.driver", "missing: a critical-load synthesis needs one")
+                raise self.fail("analysis.driver", f"missing: a {goal} synthesis needs one")
             if output is not None:
                 raise self.fail(f"{p}.output", "only a stiffness synthesis takes output")
-            if target <= 0.0:
+            if goal == "critical-load" and target <= 0.0:
                 raise self.fail(f"{p}.target", f"critical load must be > 0, got {target:g}")
         return Synthesis(goal, tuple(mem), target, output)
 

@@ -41,7 +41,7 @@ ANALYSIS_KINDS = (
     "synthesis",
     "deploy",
 )
-SYNTHESIS_GOALS = ("stiffness", "critical-load", "bistable")
+SYNTHESIS_GOALS = ("stiffness", "critical-load", "bistable", "stable-position")
 #: per-member model names a case may assign (``[[members]] model = ...``; issue 9)
 MEMBER_MODEL = (
     r"^(elastica|bcm|prb-short|prb-1r|prb-2r|prb-3r|prb-2rpr|prb-custom"
@@ -213,7 +213,12 @@ class Synthesis:
       ``target`` in magnitude (the switching load of a bistable mechanism);
     * ``goal = "bistable"``: no sizing (``members`` empty, ``target`` NaN): the driver's range
       is searched for two stable equilibria with an unstable one between (both stable
-      positions, the barrier and the switching loads both ways, or why it is not bistable).
+      positions, the barrier and the switching loads both ways, or why it is not bistable);
+      without ``analysis.driver`` every candidate driver is searched, both senses;
+    * ``goal = "stable-position"``: no EI sizing: the length of the one rigid link in
+      ``members`` is changed (its end-b node moves along the link, every other node stays)
+      so that the second stable position of the ``energy`` sweep of ``analysis.driver`` is
+      at driver coordinate ``target`` (DAS-2D "Stable Position Synthesis").
     """
 
     goal: str

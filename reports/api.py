@@ -17,7 +17,7 @@ import math
 import traceback
 from typing import Any
 
-from cases.limits import state_violation
+from cases.limits import RIGID_STRETCH_MAX, state_violation
 from cases.schema import Scene
 from reduced_models import registry as _registry
 from reduced_models.base import Model, ModelCard, Solution, not_applicable, post_process
@@ -154,7 +154,7 @@ def run_model(model: Model, scene: Scene, *, catch: bool = True, post: bool = Tr
         sol = model.solve(scene)
         if not isinstance(sol, Solution):
             raise TypeError(f"solve() returned {type(sol).__name__}, not Solution")
-        sol = checked(scene, sol)
+        sol = checked(scene, sol, getattr(model, "rigid_link_drift", RIGID_STRETCH_MAX))
         return _predicted(name, scene, _post_process(model, scene, sol)) if post else sol
     except Exception as exc:
         if not catch:
@@ -168,14 +168,14 @@ def run_model(model: Model, scene: Scene, *, catch: bool = True, post: bool = Tr
         )
 
 
-def checked(scene: Scene, sol: Solution) -> Solution:
+def checked(scene: Scene, sol: Solution, rigid_max: float = RIGID_STRETCH_MAX) -> Solution:
     """``sol``, or, when converged, failed at its first state that is no answer (a NaN output,
-    a rigid link off its length, a member stretched beyond the elastic models: the shared
-    ``cases.limits.state_violation``) with the states before it."""
+    a rigid link off its length by more than ``rigid_max``, a member stretched beyond the
+    elastic models: the shared ``cases.limits.state_violation``) with the states before it."""
     if sol.status != "converged":
         return sol
     for k, st in enumerate(sol.steps):
-        why = state_violation(scene, st.outputs)
+        why = state_violation(scene, st.outputs, rigid_max)
         if why:
             msg = f"at factor {st.factor:.6g}: {why}"
             return dataclasses.replace(sol, status="failed", message=msg, steps=sol.steps[:k])
@@ -190,8 +190,10 @@ def _post_process(model: Model, scene: Scene, sol: Solution) -> Solution:
     sol = post_process(model, scene, sol)
     if scene.analysis.kind != "synthesis":
         return sol
-    from reports.verdicts.fecheck import fe_check
+    from reports.verdicts.fecheck import check_drivers, fe_check
 
+    if scene.analysis.driver is None and "drivers" in sol.extras:  # a bistable driver search
+        return check_drivers(scene, sol)
     return fe_check(scene, sol)
 
 
@@ -286,6 +288,7 @@ _JSON_EXTRAS = (
     "barrier",
     "synthesis",
     "bistable",
+    "drivers",
     "mobility",
     "mobility_rank",
     "range",

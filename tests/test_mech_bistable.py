@@ -99,7 +99,7 @@ def _toml(tmp_path, synthesis: str, driver: bool = True):
     [
         ('goal = "bistable"\ntarget = 5.0', True, "analysis.synthesis.target"),
         ('goal = "bistable"\nmembers = ["rocker"]', True, "analysis.synthesis.members"),
-        ('goal = "bistable"', False, "analysis.driver"),
+        ('goal = "critical-load"\nmembers = ["rocker"]\ntarget = 5.0', False, "analysis.driver"),
         ('goal = "critical-load"\nmembers = ["rocker"]', True, "analysis.synthesis.target"),
     ],
 )

@@ -174,6 +174,10 @@ def solve_energy(scene: Scene, n_elements: int, options: object) -> Solution:
     # it is not meaningful here
     extras["jumps"] = []
     extras["jumps_note"] = "not assessed under a prescribed driver motion"
+    fr = dict(extras.get("frames", {}))
+    if "q" in fr and len(fr["q"]):  # frames in FE coordinates (the animation rebuilds the FE)
+        fr["q"] = np.array([system._d(q, f) for q, f in zip(fr["q"], fr["factor"])])
+        extras["frames"] = fr
     msg = sol.message
     if sol.status == "converged":
         res = max(st.info["residual"] for st in sol.steps)

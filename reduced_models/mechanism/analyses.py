@@ -1,12 +1,15 @@
 """Analyses on an assembled mechanism: load, distance, energy, kinematics (and the steps).
 
-* ``load``: load factor 0 -> factor_end at the scene's steps (continuation with cuts).
+* ``load``: load factor 0 -> factor_end at the scene's steps (continuation with cuts); a step
+  that loses stability or stalls at a limit point jumps to the stable state at its factor
+  (``snap``), reported in ``extras["critical_points"]`` and marked ``info["snap"] = 1``.
 * ``distance``: the driver coordinate is a target; the load factor is the unknown
   (``Step.factor`` = load factor), DAS-2D "Distance analysis".
 * ``energy``: scene loads held at factor_end, the driver prescribed from start to stop;
   ``Step.factor`` = driver coordinate (degrees for a rotation), outputs ``driver.force`` /
   ``driver.torque`` = the force the driver exerts along +coordinate; ``extras["equilibria"]``
-  lists where it crosses zero (stable: energy minimum along the driver) and ``barrier``.
+  lists where it crosses zero (stable: energy minimum along the driver) and ``barrier``; a
+  sweep stopped by a dead point or lock-up keeps those of the part swept (``stopped_at``).
 * ``path``: arc-length continuation (``pathfollow``), ``Step.factor`` = load factor.
 * ``kinematics``: constraints only (no flexible members): position analysis along the
   driver, Gauss-Newton with minimum-norm steps; mobility checked.
@@ -20,6 +23,7 @@ import numpy as np
 
 from reduced_models.base import Step, load_factors
 from reduced_models.mechanism.newton import SolveError, Solver, State, follow
+from reduced_models.mechanism.snap import snap_step
 from reduced_models.mechanism.system import MechanismSystem
 
 
@@ -89,10 +93,24 @@ class Run:
             x.lam = t
             return x
 
+        points = self.extras.setdefault("critical_points", [])
         for prev, fk in zip(f[:-1], f[1:]):
-            st = follow(self.solver, st, float(prev), float(fk), set_lam, "lam")
-            st.lam = float(fk)
+            try:
+                new = follow(self.solver, st, float(prev), float(fk), set_lam, "lam")
+                new.lam = float(fk)
+                lost = self.steps[-1].stable and self.solver.stable(new, False)[0] is not True
+            except SolveError:
+                new, lost = None, self.steps[-1].stable
+            found = []
+            if lost:  # a limit or bifurcation point inside the step: jump (``snap``)
+                new, found = snap_step(self, st, float(prev), float(fk))
+                points.extend(found)
+            elif new is None:
+                raise SolveError(f"load step to factor {fk:.6g} failed from an unstable state")
+            st = new
             self.record(st, fk, False)
+            if found:  # as fem-auto marks a state beyond a limit point
+                self.steps[-1].info["snap"] = 1.0
 
     def driver(self, kind: str) -> None:
         a = self.scene.analysis
@@ -109,7 +127,15 @@ class Run:
         for k, v in enumerate(vals):
             if k:
                 t0 = float(vals[k - 1])
-                st = follow(self.solver, st, t0, float(v), apply, "driver", lam_free, rate=scale)
+                try:
+                    st = follow(
+                        self.solver, st, t0, float(v), apply, "driver", lam_free, rate=scale
+                    )
+                except SolveError:
+                    if kind == "energy" and k > 1:  # the equilibria of the part swept
+                        self.extras["stopped_at"] = t0
+                        self.equilibria(vals[:k], key, apply)
+                    raise
             if lam_free:
                 self.record(st, st.lam, False)
             else:

@@ -16,7 +16,10 @@ the first such triple the summary ``bistable(run)`` reports
 
 A scene that is not bistable along the driver gets ``{"bistable": False, "reason": ...}``.
 ``search(scene, name, spec_of)`` runs the sweep (the ``bistable`` synthesis goal); the
-critical-load synthesis adds the same summary to its answer.
+critical-load synthesis adds the same summary to its answer.  Without a driver,
+``search_drivers`` tries every candidate driver, both senses (DAS-2D: "the module will check
+if the mechanism has a driver that results in bistable behavior"): each rigid link's rotation
+and each free node's x and y motion, and reports which are bistable and their barriers.
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ from dataclasses import replace
 import numpy as np
 from scipy.optimize import brentq
 
-from cases.schema import Member, Scene
+from cases.schema import Driver, Member, Scene
 from reduced_models.base import Solution, not_applicable
 from reduced_models.mechanism import analyses
 from reduced_models.mechanism.builder import build
@@ -181,4 +184,88 @@ def search(scene: Scene, name: str, spec_of: Callable[[Member], tuple]) -> Solut
     return Solution(scene.name, name, "converged", describe(b), tuple(r.steps), extras)
 
 
-__all__ = ["At", "bistable", "describe", "energy_scene", "force_key", "peak", "search"]
+def candidates(scene: Scene) -> list[Driver]:
+    """Every driver DAS-2D's bistable search tries, both senses: the rotation of each rigid
+    link over a full turn, and the x and y motion of each node no support fixes in that
+    direction over the longest member's length."""
+    span = max(scene.member_length(m.id) for m in scene.members)
+    out = [
+        Driver("rotation", 0.0, sense * 360.0, member=m.id)
+        for m in scene.members
+        if m.kind == "rigid"
+        for sense in (1.0, -1.0)
+    ]
+    for n in scene.nodes:
+        sup = scene.support_at(n.id)
+        if sup is not None and sup.type in ("pin", "clamp"):
+            continue
+        for d in ("x", "y"):
+            out += [Driver("displacement", 0.0, s * span, node=n.id, direction=d) for s in (1, -1)]
+    return out
+
+
+def driver_label(d: Driver) -> str:
+    """``crank ccw``, ``N3 -y``."""
+    if d.kind == "rotation":
+        return f"{d.member} {'ccw' if d.stop > 0 else 'cw'}"
+    return f"{d.node} {'+' if d.stop > 0 else '-'}{d.direction}"
+
+
+def search_drivers(scene: Scene, name: str, spec_of: Callable[[Member], tuple]) -> Solution:
+    """The ``bistable`` goal without a driver: every candidate (``candidates``) swept, each
+    reported in ``extras["drivers"]`` (bistable or why not, barrier, switching loads, the
+    range swept); the path and ``extras["bistable"]`` are those of the bistable driver with
+    the lowest energy barrier (``extras["bistable"]["driver"]``; first of equal ones), or of
+    the first candidate swept when none is bistable.  The model's postprocess
+    re-solves every bistable candidate by fem-auto."""
+    found, runs, swept, first = [], [], [], None
+    for d in candidates(scene):
+        sc = replace(scene, analysis=replace(scene.analysis, kind="energy", driver=d))
+        sc = replace(sc, analysis=replace(sc.analysis, synthesis=None))
+        entry = {"driver": driver_label(d), **found_driver(d)}
+        try:
+            r = analyses.run(build(sc, spec_of), "energy")
+            if r.exc is not None and "equilibria" not in r.extras:
+                raise SolveError(r.exc)
+            b = bistable(r)
+        except (SceneError, SolveError, np.linalg.LinAlgError) as err:
+            b = {"bistable": False, "reason": str(err)}
+        else:
+            entry["swept"] = [d.start, r.extras.get("stopped_at", d.stop)]
+            swept.append((d, r, b))
+        found.append({**entry, **b})
+        if b["bistable"]:
+            runs.append((b["barrier"]["forward"], d, r, b))
+    ok = [e["driver"] for e in found if e["bistable"]]
+    if runs:  # shown: the lowest barrier (energy: comparable across drivers), first of ties
+        low = min(x[0] for x in runs)
+        first = next(x[1:] for x in runs if x[0] <= (1.0 + 1e-6) * low)
+    msg = f"bistable along {len(ok)} of {len(found)} candidate drivers"
+    if first is None:  # the path shown: the first candidate swept
+        if not swept:
+            return Solution(scene.name, name, "failed", msg, (), {"drivers": found})
+        first = swept[0]
+    d, r, b = first
+    msg += f" ({', '.join(ok)})" if ok else ""
+    msg += f"; {driver_label(d)}: {describe(b)}"
+    extras = {**r.extras, "drivers": found, "bistable": {**b, "driver": found_driver(d)}}
+    extras["bistable"]["label"] = driver_label(d)
+    return Solution(scene.name, name, "converged", msg, tuple(r.steps), extras)
+
+
+def found_driver(d: Driver) -> dict:
+    """The driver as the case file's ``[analysis.driver]`` table."""
+    return {k: v for k, v in vars(d).items() if v is not None}
+
+
+__all__ = [
+    "At",
+    "bistable",
+    "candidates",
+    "describe",
+    "energy_scene",
+    "force_key",
+    "peak",
+    "search",
+    "search_drivers",
+]

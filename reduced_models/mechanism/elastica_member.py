@@ -45,6 +45,7 @@ TOL = 1e-9  # last Newton step, relative (quadratic: the returned w is ~TOL^2 of
 MAX_IT = 40
 STEP = 0.1  # largest pose change (X / L, Y / L, Phi in rad) per continuation sub-step
 HISTORY = 32  # solved poses kept as warm starts
+MAX_WALK = 1000  # sub-steps beyond which a pose is refused (100 L or rad from any solved one)
 
 
 def _cheb(n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -178,7 +179,10 @@ class ElasticaTerm:
         # the caller may have been far off: the accepted states stay in the history), tangent
         # predictor, sub-steps of at most STEP: the member stays on the branch it is on
         near = min(self._hist, key=lambda h: float(np.abs(h[0] - pose).max()))
-        n = max(1, math.ceil(float(np.abs(pose - near[0]).max()) / STEP))
+        span = float(np.abs(pose - near[0]).max())
+        if not span <= MAX_WALK * STEP:  # a Newton trial far off (or NaN): refuse, not walk
+            raise SolveError(f"elastica member: pose {span:.3g} from any solved one")
+        n = max(1, math.ceil(span / STEP))
         try:
             w, J = _walk(near, pose, n, self.k)
         except SolveError:  # eight times finer

@@ -1,4 +1,4 @@
-"""Flexural-stiffness and critical-load synthesis (DAS-2D "Synthesis routines").
+"""Flexural-stiffness, critical-load and stable-position synthesis (DAS-2D "Synthesis routines").
 
 The EI of the chosen members is scaled by one factor s (E -> s E); s solves
 
@@ -7,8 +7,11 @@ The EI of the chosen members is scaled by one factor s (E -> s E); s solves
   unstable equilibrium (the switching load of a bistable mechanism) = target;
 
 by secant iterations in log s started from the proportional guess (exact when every load
-path scales with EI, e.g. a member-only bistable mechanism).  The answer is the path of the
-synthesised scene (``synthesised_scene``), with ``extras["synthesis"]``.
+path scales with EI, e.g. a member-only bistable mechanism).  ``stable-position`` scales a
+rigid link's length instead (its end-b node moves along it) until the second stable position
+of the energy sweep is at the target driver coordinate (DAS-2D "Stable Position Synthesis").
+The answer is the path of the synthesised scene (``synthesised_scene``), with
+``extras["synthesis"]``.
 """
 
 from __future__ import annotations
@@ -28,17 +31,78 @@ from reduced_models.mechanism.system import SceneError
 
 MAX_IT = 30
 RTOL = 1e-9
+S_STEP = 0.02  # second secant point of the stable-position synthesis (link length x 1.02)
 
 
 def synthesised_scene(scene: Scene, scale: float) -> Scene:
-    """The scene with E of the synthesis members scaled by ``scale`` and the analysis
+    """The scene with E of the synthesis members scaled by ``scale`` (a stable-position
+    synthesis: its link's length, the end-b node moved along the link) and the analysis
     replaced by the one the goal runs (``load`` or ``energy``)."""
     syn = scene.analysis.synthesis
-    members = tuple(replace(m, E=m.E * scale) if m.id in syn.members else m for m in scene.members)
     kind = "load" if syn.goal == "stiffness" else "energy"
-    return replace(
-        scene, members=members, analysis=replace(scene.analysis, kind=kind, synthesis=None)
-    )
+    analysis = replace(scene.analysis, kind=kind, synthesis=None)
+    if syn.goal == "stable-position":
+        link = scene.member(syn.members[0])
+        a, b = scene.node(link.a), scene.node(link.b)
+        moved = replace(b, x=a.x + scale * (b.x - a.x), y=a.y + scale * (b.y - a.y))
+        nodes = tuple(moved if n.id == b.id else n for n in scene.nodes)
+        return replace(scene, nodes=nodes, analysis=analysis)
+    members = tuple(replace(m, E=m.E * scale) if m.id in syn.members else m for m in scene.members)
+    return replace(scene, members=members, analysis=analysis)
+
+
+def _second_stable(run: analyses.Run) -> float:
+    """Driver coordinate of the second stable position of an energy sweep (the stable
+    equilibrium after the first unstable one); raises SolveError when there is none."""
+    b = bistable.bistable(run)
+    if not b["bistable"]:
+        raise SolveError(f"no second stable position: {b['reason']}")
+    return float(b["stable"][1])
+
+
+def _stable_position(scene: Scene, name: str, spec_of: Callable[[Member], tuple]) -> Solution:
+    """Stable-position synthesis: the link length scale s with second stable position =
+    target, by secant iterations on s from 1 and 1 + ``S_STEP`` (the position moves smoothly
+    with the link length)."""
+    syn = scene.analysis.synthesis
+
+    def evaluate(s: float) -> tuple[float, analyses.Run]:
+        r = analyses.run(build(synthesised_scene(scene, s), spec_of), "energy")
+        if r.exc is not None and "equilibria" not in r.extras:
+            raise SolveError(f"link scale {s:.6g}: {r.exc}")
+        return _second_stable(r) - syn.target, r
+
+    try:
+        x0, x1 = 1.0, 1.0 + S_STEP
+        f0, _ = evaluate(x0)
+        its = 1
+        while True:
+            f1, run = evaluate(x1)
+            its += 1
+            if abs(f1) <= RTOL * max(abs(syn.target), 1.0):
+                break
+            if f1 == f0 or its > MAX_IT:
+                raise SolveError("the second stable position does not reach the target")
+            x0, f0, x1 = x1, f1, x1 - f1 * (x1 - x0) / (f1 - f0)
+    except SceneError as err:
+        return not_applicable(scene, name, str(err))
+    except (SolveError, np.linalg.LinAlgError) as err:
+        return Solution(scene.name, name, "failed", f"synthesis: {err}")
+    link = syn.members[0]
+    length = x1 * scene.member_length(link)
+    extras = dict(run.extras)
+    extras["synthesis"] = {
+        "goal": syn.goal,
+        "target": syn.target,
+        "achieved": syn.target + f1,
+        "scale": x1,
+        "lengths": {link: length},
+        "evaluations": its,
+    }
+    extras["bistable"] = bistable.bistable(run)
+    msg = f"{link} length {length:.6g} (x {x1:.6g}, {its} analyses); second stable position "
+    msg += f"{syn.target + f1:.6g}; " + bistable.describe(extras["bistable"])
+    return Solution(scene.name, name, "converged", msg, tuple(run.steps), extras)
 
 
 def _measure(run: analyses.Run, goal: str, output: str | None) -> float:
@@ -58,10 +122,14 @@ def _measure(run: analyses.Run, goal: str, output: str | None) -> float:
 def synthesise(scene: Scene, name: str, spec_of: Callable[[Member], tuple]) -> Solution:
     """Solve the synthesis of ``scene`` with the member laws of ``spec_of``."""
     syn = scene.analysis.synthesis
+    if syn.goal == "bistable":
+        if scene.analysis.driver is None:
+            return bistable.search_drivers(scene, name, spec_of)
+        return bistable.search(scene, name, spec_of)
     if syn.goal != "stiffness" and scene.analysis.driver is None:
         return not_applicable(scene, name, f"{syn.goal} synthesis needs analysis.driver")
-    if syn.goal == "bistable":
-        return bistable.search(scene, name, spec_of)
+    if syn.goal == "stable-position":
+        return _stable_position(scene, name, spec_of)
     kind = "load" if syn.goal == "stiffness" else "energy"
 
     def evaluate(s: float) -> tuple[float, analyses.Run]:

@@ -268,6 +268,10 @@ class ThesisForceMethod:
     """
 
     name = "thesis-force-method"
+    # the thesis's linearised increments let its rigid bars drift in length (2.3e-4 relative
+    # on Configuration 6, whose second boom it pushes past its length): that is the method's
+    # own error, measured against kinetostatic like any model's, not a failed solve
+    rigid_link_drift = 1e-2
     OPTIONS: dict = {}  # declared options (reduced_models.options): none
     card = ModelCard(
         name="thesis-force-method",

@@ -218,10 +218,27 @@ def _driver_panels(meta: Mapping, recs: Sequence[Mapping]) -> list[tuple[str, st
     for k in sorted(keys):
         if k.startswith("driver.") and k != "driver.coordinate":
             what = k.split(".", 1)[1]
-            unit = u["force"] if what == "force" else ""
+            # a torque is a force times a length: the energy unit's product (N mm)
+            unit = {"force": u["force"], "torque": u["energy"]}.get(what, "")
             panels.append((k, f"{k} [{unit or '–'}]"))
     panels += [(k, f"{k} [–]") for k in sorted(keys) if k == "ma" or k.endswith(".ma")]
     return panels
+
+
+def driver_xlabel(meta: Mapping) -> str:
+    """x label of the driver figure: the driver coordinate of an energy analysis (Step.factor:
+    degrees for a rotation, case length otherwise), else the load factor."""
+    a = meta.get("analysis") or {}
+    driver = a.get("driver") or {}
+    if a.get("kind") != "energy" or not driver:
+        return "load factor [–]"
+    dunit = (
+        "deg"
+        if driver.get("kind") == "rotation"
+        else (unit_names(meta.get("units", ""))["length"] or "–")
+    )
+    what = driver.get("node") or driver.get("member") or ""
+    return f"driver: {driver.get('kind', '')} {what} {driver.get('direction') or ''} [{dunit}]"
 
 
 def driver_figure(
@@ -243,13 +260,7 @@ def driver_figure(
     ref_rec = next((r for r in recs if r["model"] == ref), None)
     fig, axes = plt.subplots(1, len(panels), figsize=(10.0, 3.2), squeeze=False)
     drawn: dict[str, dict] = {}
-    driver = (meta.get("analysis") or {}).get("driver") or {}
-    u = unit_names(meta.get("units", ""))
-    if kind == "energy" and driver:
-        dunit = "rad" if driver.get("kind") == "rotation" else (u["length"] or "–")
-        xlabel = f"driver: {driver.get('kind', '')} {driver.get('node') or driver.get('member') or ''} {driver.get('direction') or ''} [{dunit}]"  # noqa: E501
-    else:
-        xlabel = "load factor [–]"
+    xlabel = driver_xlabel(meta)
     for ax, (key, ylabel) in zip(axes[0], panels):
         basis = ref_rec or recs[0]
         yr = zoom_range(_values(basis, key), 1.0)

@@ -27,18 +27,43 @@ def notes(extras: Mapping) -> list[str]:
     out = []
     syn = extras.get("synthesis")
     if isinstance(syn, Mapping):
-        ei = ", ".join(f"{k} {_g(v)}" for k, v in (syn.get("EI") or {}).items())
-        out.append(f"synthesised EI: {ei} ({syn.get('goal')} {_g(syn.get('achieved'))})")
+        what, sized = ("lengths", "lengths") if "lengths" in syn else ("EI", "EI")
+        ei = ", ".join(f"{k} {_g(v)}" for k, v in (syn.get(sized) or {}).items())
+        out.append(
+            f"synthesised {what}: {ei} ({syn.get('goal')} {_g(syn.get('achieved'))}, "
+            f"target {_g(syn.get('target'))})"
+        )
         fe = syn.get("fem-auto")
-        if isinstance(fe, Mapping):
+        fb = fe.get("bistable") if isinstance(fe, Mapping) else None
+        if syn.get("goal") == "stable-position" and isinstance(fb, Mapping):
+            second = (fb.get("stable") or [None, None])[-1] if fb.get("bistable") else None
+            out.append(
+                f"fem-auto on the synthesised scene: second stable position {_g(second)} "
+                f"(target {_g(syn.get('target'))})"
+            )
+        elif isinstance(fe, Mapping):
             out.append(
                 f"fem-auto on the synthesised scene: {_g(fe.get('achieved'))} "
                 f"(error {_g(fe.get('relative_error'))} of the target)"
                 if fe.get("status") == "converged"
                 else f"fem-auto on the synthesised scene: {fe.get('status')}"
             )
+    drivers = extras.get("drivers")
+    if isinstance(drivers, list):  # a driver search: every candidate, and its FE re-solve
+        ok = [d for d in drivers if isinstance(d, Mapping) and d.get("bistable")]
+        out.append(f"driver search: bistable along {len(ok)} of {len(drivers)} candidates")
+        for d in ok:
+            fe = d.get("fem-auto") or {}
+            check = (
+                "fem-auto: " + _bistable(fe["bistable"])
+                if isinstance(fe.get("bistable"), Mapping)
+                else f"fem-auto {fe.get('status', 'not run')}"
+            )
+            out.append(f"driver {d.get('driver')}: {_bistable(d)}; {check}")
     b = extras.get("bistable")
     if isinstance(b, Mapping):
+        if b.get("label"):
+            out.append(f"shown: driver {b['label']}")
         out.append("bistable: " + _bistable(b))
         fe = b.get("fem-auto") or ((syn or {}).get("fem-auto") or {})
         if isinstance(fe.get("bistable"), Mapping):

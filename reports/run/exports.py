@@ -9,7 +9,10 @@ timed, never fatal), as the task's ``ExportPolicy`` says.  Only the case's refer
 * for ``replay`` also ``<case>_replay-frames.{pvd,xdmf}`` + ``.vtu``: its time-history frames
   (``fem_reference.replay.model.write_vtu_series``);
 * ``OUT/figures/<case>-replay.gif``: ``fem_reference.replay.model.write_animation`` on
-  ``gif_frames`` evenly spaced frames at ``gif_dpi`` without tick labels.
+  ``gif_frames`` evenly spaced frames at ``gif_dpi`` without tick labels;
+* a ``kinematics`` analysis (DAS-2D's kinematic driver analysis: rigid links, no FE
+  reference, no replay) exports its own solver's steps: the series and
+  ``OUT/figures/<case>-kinematics.gif``.
 
 The record's ``exports`` holds the paths relative to ``OUT``::
 
@@ -90,17 +93,20 @@ def _series_info(directory: Path, xdmf: str | Path, out: Path) -> dict[str, Any]
 def export_outputs(task: dict, sol: Solution) -> tuple[dict[str, Any], list[str]]:
     """Write the ParaView series (and the replay GIF) of one solved pair, as the task's
     ``export`` policy says; returns (record ``exports``, warnings).  Only the case's
-    reference model and ``replay`` export; problems become warnings, never exceptions."""
+    reference model, ``replay`` and the solver of a kinematics analysis export; problems
+    become warnings, never exceptions."""
     policy: ExportPolicy | None = task.get("export")
     out_dir = task.get("out_dir")
     is_replay = task["model"] == "replay"
-    if not policy or not out_dir or not (task["role"] == "reference" or is_replay):
+    scene: Scene = task["scene"]
+    # a kinematic (rigid-link) motion has no FE reference or replay: its solver exports it
+    kinematic = scene.analysis.kind == "kinematics"
+    if not policy or not out_dir or not (task["role"] == "reference" or is_replay or kinematic):
         return {}, []
     if not any(s.shapes for s in sol.steps):
         return {}, []
     t0 = time.perf_counter()
     out = Path(out_dir)
-    scene: Scene = task["scene"]
     target = out / "paraview" / _slug(task["case"]) / _slug(task["model"])
     exports: dict[str, Any] = {}
     warnings: list[str] = []
@@ -114,6 +120,10 @@ def export_outputs(task: dict, sol: Solution) -> tuple[dict[str, Any], list[str]
     if policy.animation and has_frames:
         gif = out / "figures" / f"{_slug(task['case'])}-replay.gif"
         jobs.append(("animation", lambda: _write_gif(gif, sol, scene, policy, out)))
+    if policy.animation and kinematic:
+        gif = out / "figures" / f"{_slug(task['case'])}-kinematics.gif"
+        unit = " deg" if scene.analysis.driver.kind == "rotation" else ""
+        jobs.append(("animation", lambda: _write_steps_gif(gif, sol, policy, out, unit)))
     if policy.paraview:
         shutil.rmtree(target, ignore_errors=True)  # no stale steps from an earlier run
     for kind, job in jobs:
@@ -150,6 +160,45 @@ def _write_gif(gif: Path, sol: Solution, scene: Scene, policy: ExportPolicy, out
     rc.update({"ytick.labelleft": False, "ytick.left": False})
     with matplotlib.rc_context(rc):
         write_animation(_decimated(sol, policy.gif_frames), scene, str(gif), fps=policy.gif_fps)
+    return gif.relative_to(out).as_posix()
+
+
+def _write_steps_gif(
+    gif: Path, sol: Solution, policy: ExportPolicy, out: Path, unit: str = ""
+) -> str:
+    """GIF of the steps' shapes (a kinematic driver analysis: the linkage moving), at most
+    ``gif_frames`` evenly spaced steps, as the replay GIF is drawn; ``unit`` follows the
+    driver value in the title."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.animation import FuncAnimation, PillowWriter
+
+    steps = [s for s in sol.steps if s.shapes]
+    idx = np.unique(np.linspace(0, len(steps) - 1, policy.gif_frames).round().astype(int))
+    steps = [steps[i] for i in idx]
+    pts = np.vstack([np.asarray(xy) for s in steps for xy in s.shapes.values()])
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    pad = 0.05 * max(hi - lo) + 1e-12
+    gif.parent.mkdir(parents=True, exist_ok=True)
+    with matplotlib.rc_context({"savefig.dpi": policy.gif_dpi}):
+        fig, ax = plt.subplots(figsize=(5, 4))
+        ax.set(xlim=(lo[0] - pad, hi[0] + pad), ylim=(lo[1] - pad, hi[1] + pad), aspect="equal")
+        ax.set_xticks([])
+        ax.set_yticks([])
+        lines = {m: ax.plot([], [], lw=2, marker="o", ms=3)[0] for m in steps[0].shapes}
+        title = ax.set_title("")
+
+        def draw(i: int) -> list:
+            for m, xy in steps[i].shapes.items():
+                lines[m].set_data(np.asarray(xy)[:, 0], np.asarray(xy)[:, 1])
+            title.set_text(f"{sol.case}  driver = {steps[i].factor:.4g}{unit}")
+            return [*lines.values(), title]
+
+        anim = FuncAnimation(fig, draw, frames=len(steps), blit=False)
+        anim.save(str(gif), writer=PillowWriter(fps=policy.gif_fps))
+        plt.close(fig)
     return gif.relative_to(out).as_posix()
 
 

@@ -20,7 +20,7 @@ import dataclasses
 
 import numpy as np
 
-from cases.schema import Scene
+from cases.schema import Driver, Scene
 from fem_reference.auto import FEMAuto
 from reduced_models.base import Solution, post_process
 from reduced_models.mechanism.bistable import energy_scene
@@ -151,3 +151,32 @@ def fe_check(scene: Scene, sol: Solution) -> Solution:
 
 
 __all__ = ["fe_check", "path_summary"]
+
+
+def check_drivers(scene: Scene, sol: Solution) -> Solution:
+    """A driver search re-solved by fem-auto: every bistable candidate's sweep, its FE
+    summary in its ``extras["drivers"]`` entry (and in ``extras["bistable"]`` for the one
+    shown)."""
+    drivers = []
+    for e in sol.extras["drivers"]:
+        if e["bistable"]:
+            # the FE sweeps the bistable stretch (a quarter of the stable-unstable distance
+            # past the second stable position, inside the range the model swept): a sweep
+            # on to a lock-up would fail the whole FE run
+            s2, su, reach = e["stable"][1], e["unstable"], e["swept"][1]
+            stop = s2 + 0.25 * (s2 - su)
+            stop = stop if (reach - stop) * (stop - e["start"]) > 0 else reach
+            keys = ("kind", "start", "node", "direction", "member")
+            drv = Driver(stop=stop, **{k: e[k] for k in keys if k in e})
+            sc = dataclasses.replace(
+                scene, analysis=dataclasses.replace(scene.analysis, driver=drv)
+            )
+            one = dataclasses.replace(sol, extras={"bistable": e})
+            e = fe_check(sc, one).extras["bistable"]
+        drivers.append(e)
+    extras = {**sol.extras, "drivers": drivers}
+    label = extras.get("bistable", {}).get("label")
+    shown = next((e for e in drivers if e["bistable"] and e["driver"] == label), None)
+    if shown is not None and "fem-auto" in shown:
+        extras["bistable"] = {**extras["bistable"], "fem-auto": shown["fem-auto"]}
+    return dataclasses.replace(sol, extras=extras)
