@@ -174,6 +174,8 @@ def checked(scene: Scene, sol: Solution, rigid_max: float = RIGID_STRETCH_MAX) -
     elastic models: the shared ``cases.limits.state_violation``) with the states before it."""
     if sol.status != "converged":
         return sol
+    if scene.analysis.kind == "synthesis":  # its states belong to the synthesised scene,
+        rigid_max = math.inf  # whose link lengths the synthesis may have changed
     for k, st in enumerate(sol.steps):
         why = state_violation(scene, st.outputs, rigid_max)
         if why:

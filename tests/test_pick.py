@@ -11,9 +11,9 @@ estimates only where the test asserts a pick is the same in every run, never a n
 
 from __future__ import annotations
 
+import importlib
 import itertools
 import json
-import sys
 
 import numpy as np
 import pytest
@@ -104,7 +104,7 @@ def _simulated_costs(monkeypatch, scatter: float) -> None:
 
 
 def _prb_only(monkeypatch):
-    mod = sys.modules["reports.verdicts.recommend"]  # the attribute reports.recommend: the function
+    mod = importlib.import_module("reports.verdicts.recommend")  # reports.recommend: the function
     monkeypatch.setattr(mod, "ladders", lambda s, r: [list(lad) for lad in PRB])
     return mod.recommend
 

@@ -11,7 +11,8 @@ How long: the answer's own solve (cold caches) is not a sample.  Each sample run
 (timer resolution and call overhead stay below 1e-3 of it).  Samples are taken until the 95 %
 confidence interval of their median (distribution-free, ``scipy.stats.quantile_test``; the
 range of the samples below 6 of them) has a half-width of at most ``REL`` of the median, or
-``MAX_SAMPLES`` samples, or ``BUDGET_S`` CPU seconds spent (at least ``MIN_SAMPLES``).  A
+``MAX_SAMPLES`` samples, or ``BUDGET_S`` CPU seconds spent (at least ``MIN_SAMPLES``), or
+``WALL_BUDGET_S`` of wall time (a solve that waits costs little CPU).  A
 solve slower than ``BUDGET_S`` is measured once (its first solve).  The estimate is the median
 per solve, its noise that half-width (s).
 
@@ -51,6 +52,7 @@ MAX_SAMPLES = 20
 # machine (at load 12 on 2 cores most estimates ran into a 30-sample cap at 3 %)
 REL = 0.05
 BUDGET_S = 0.3  # CPU s of samples after which the estimate stands as it is
+WALL_BUDGET_S = 2.0  # wall s after which it stands too (a solve that mostly waits)
 _PACKAGES = ("cases", "reduced_models", "fem_reference")
 _FILES = ("reports/api.py", "reports/verdicts/cost.py")
 
@@ -159,17 +161,23 @@ def half_width(samples: list[float]) -> float:
 
 def measure(call: Callable[[], object], first_cpu_s: float) -> Estimate:
     """Sample ``call`` until its median is stable (module docstring); ``first_cpu_s`` is the
-    CPU time of the answer's own (untimed) solve."""
+    CPU time of the answer's own (untimed) solve.  ``WALL_BUDGET_S`` of wall time ends the
+    sampling whatever the CPU count says: a solve that waits (I/O, a sleep) costs little CPU
+    and would otherwise be batched thousands of times."""
     if first_cpu_s >= BUDGET_S:
         return Estimate(first_cpu_s, 0.0, 1)
     k = max(1, int(np.ceil(SAMPLE_S / max(first_cpu_s, 1e-7))))
     samples: list[float] = []
+    wall_end = time.perf_counter() + WALL_BUDGET_S
     with quiet_process():
         while True:
-            t0 = time.process_time()
-            for _ in range(k):
+            t0, n = time.process_time(), 0
+            while n < k and (n == 0 or time.perf_counter() < wall_end):
                 call()
-            samples.append((time.process_time() - t0) / k)
+                n += 1
+            samples.append((time.process_time() - t0) / n)
+            if time.perf_counter() >= wall_end:
+                break
             if len(samples) < MIN_SAMPLES:
                 continue
             mid, half = statistics.median(samples), half_width(samples)
@@ -178,7 +186,7 @@ def measure(call: Callable[[], object], first_cpu_s: float) -> Estimate:
                 break
             if len(samples) >= MAX_SAMPLES or spent >= BUDGET_S:
                 break
-    return Estimate(mid, half, len(samples))
+    return Estimate(statistics.median(samples), half_width(samples), len(samples))
 
 
 def estimate(
