@@ -102,13 +102,9 @@ node = "B"
 """,
     "toggle-load-input",
 )
-COMPLIANT = cases.loads(
-    """[case]
-name = "compliant-toggle-load-input"
-title = "toggle with a load input"
-units = "mm-N-MPa"
-
-[[nodes]]
+# the compliant toggle (a 100 mm leaf welded to ground, pinned to a rigid link on a slider),
+# shared by the load-input and the driver-input scene
+TOGGLE = """[[nodes]]
 id = "A"
 x = 0.0
 y = 0.0
@@ -151,14 +147,28 @@ type = "slider"
 angle_deg = 0.0
 
 [[loads]]
-id = "hand"
-node = "B"
-fy = -1.0
-
-[[loads]]
 id = "workpiece"
 node = "C"
 fx = -0.4
+
+[[outputs]]
+name = "slider"
+node = "C"
+
+[[outputs]]
+name = "knee"
+node = "B"
+"""
+COMPLIANT = cases.loads(
+    """[case]
+name = "compliant-toggle-load-input"
+title = "toggle with a load input"
+units = "mm-N-MPa"
+
+[[loads]]
+id = "hand"
+node = "B"
+fy = -1.0
 
 [analysis]
 kind = "load"
@@ -168,15 +178,8 @@ steps = 10
 output = "slider"
 direction = "x"
 input = "hand"
-
-[[outputs]]
-name = "slider"
-node = "C"
-
-[[outputs]]
-name = "knee"
-node = "B"
-""",
+"""
+    + TOGGLE,
     "compliant-toggle-load-input",
 )
 DRIVEN = cases.loads(
@@ -184,53 +187,6 @@ DRIVEN = cases.loads(
 name = "compliant-toggle-driver"
 title = "toggle with a load input"
 units = "mm-N-MPa"
-
-[[nodes]]
-id = "A"
-x = 0.0
-y = 0.0
-
-[[nodes]]
-id = "B"
-x = 86.60254037844386
-y = 50.0
-
-[[nodes]]
-id = "C"
-x = 173.20508075688772
-y = 0.0
-
-[[members]]
-id = "lower"
-from = "A"
-to = "B"
-kind = "flexible"
-E = 2300.0
-width = 10.0
-thickness = 2.0
-end_b = "pin"
-
-[[members]]
-id = "upper"
-from = "B"
-to = "C"
-kind = "rigid"
-end_a = "pin"
-end_b = "pin"
-
-[[supports]]
-node = "A"
-type = "clamp"
-
-[[supports]]
-node = "C"
-type = "slider"
-angle_deg = 0.0
-
-[[loads]]
-id = "workpiece"
-node = "C"
-fx = -0.4
 
 [analysis]
 kind = "energy"
@@ -247,15 +203,8 @@ stop = -20.0
 output = "slider"
 direction = "x"
 input = "driver"
-
-[[outputs]]
-name = "slider"
-node = "C"
-
-[[outputs]]
-name = "knee"
-node = "B"
-""",
+"""
+    + TOGGLE,
     "compliant-toggle-driver",
 )
 L, K, F, P = 100.0, 5000.0, 10.0, 4.0  # link (mm), spring (N mm/rad), hand and workpiece (N)
