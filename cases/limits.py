@@ -110,15 +110,18 @@ RATIO_OUTPUTS = ("ma",)
 
 
 def state_violation(
-    scene: Any, outputs: dict[str, float], rigid_max: float = RIGID_STRETCH_MAX
+    scene: Any,
+    outputs: dict[str, float],
+    rigid_max: float = RIGID_STRETCH_MAX,
+    strain_max: float = STRAIN_MAX,
 ) -> str | None:
     """None, or why a model's state (its ``Step.outputs``) of ``scene`` is not an answer.
 
     A non-finite output; a rigid link or a flexible member between two nodes whose positions
     are known (output nodes, clamped or pinned nodes) with a rigid link off its length by more
     than ``rigid_max`` (default ``RIGID_STRETCH_MAX``; a model whose method drifts states
-    its own) or a member stretched beyond ``STRAIN_MAX`` -- the chord over the undeformed
-    length bounds the member's mean strain from below, whatever its shape.
+    its own) or a member stretched beyond ``strain_max`` (default ``STRAIN_MAX``) -- the chord
+    over the undeformed length bounds the member's mean strain from below, whatever its shape.
     """
     for key, v in outputs.items():
         if not math.isfinite(v) and key not in RATIO_OUTPUTS:
@@ -142,9 +145,9 @@ def state_violation(
                 f"{rigid_max:g} relative): not a state of the scene"
             )
         e = chord / arc_length(chord0, m.sweep_deg) - 1.0
-        if m.kind == "flexible" and e > STRAIN_MAX:
+        if m.kind == "flexible" and e > strain_max:
             return (
-                f"member {m.id!r} strained by at least {e:.2g} (bound {STRAIN_MAX:g}): beyond "
+                f"member {m.id!r} strained by at least {e:.2g} (bound {strain_max:g}): beyond "
                 "the moderate-strain elastic models"
             )
     return None

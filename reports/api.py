@@ -17,7 +17,7 @@ import math
 import traceback
 from typing import Any
 
-from cases.limits import RIGID_STRETCH_MAX, state_violation
+from cases.limits import RIGID_STRETCH_MAX, STRAIN_MAX, state_violation
 from cases.schema import Scene
 from reduced_models import registry as _registry
 from reduced_models.base import Model, ModelCard, Solution, not_applicable, post_process
@@ -154,7 +154,8 @@ def run_model(model: Model, scene: Scene, *, catch: bool = True, post: bool = Tr
         sol = model.solve(scene)
         if not isinstance(sol, Solution):
             raise TypeError(f"solve() returned {type(sol).__name__}, not Solution")
-        sol = checked(scene, sol, getattr(model, "rigid_link_drift", RIGID_STRETCH_MAX))
+        drift = getattr(model, "rigid_link_drift", RIGID_STRETCH_MAX)
+        sol = checked(scene, sol, drift, getattr(model, "approximate_kinematics", False))
         return _predicted(name, scene, _post_process(model, scene, sol)) if post else sol
     except Exception as exc:
         if not catch:
@@ -168,16 +169,24 @@ def run_model(model: Model, scene: Scene, *, catch: bool = True, post: bool = Tr
         )
 
 
-def checked(scene: Scene, sol: Solution, rigid_max: float = RIGID_STRETCH_MAX) -> Solution:
+def checked(
+    scene: Scene, sol: Solution, rigid_max: float = RIGID_STRETCH_MAX, approximate: bool = False
+) -> Solution:
     """``sol``, or, when converged, failed at its first state that is no answer (a NaN output,
     a rigid link off its length by more than ``rigid_max``, a member stretched beyond the
-    elastic models: the shared ``cases.limits.state_violation``) with the states before it."""
+    elastic models: the shared ``cases.limits.state_violation``) with the states before it.
+
+    ``approximate``: the model's kinematics are approximate (linear, BCM, PRB): under loads
+    alone a tip it places beyond the beam's reach is its *error*, measured against the
+    reference like any other, not a stretch, so the strain bound applies to it only where a
+    driver imposes the motion (a tip driven past the member's length is no state of it)."""
     if sol.status != "converged":
         return sol
     if scene.analysis.kind == "synthesis":  # its states belong to the synthesised scene,
         rigid_max = math.inf  # whose link lengths the synthesis may have changed
+    strain_max = math.inf if approximate and scene.analysis.driver is None else STRAIN_MAX
     for k, st in enumerate(sol.steps):
-        why = state_violation(scene, st.outputs, rigid_max)
+        why = state_violation(scene, st.outputs, rigid_max, strain_max)
         if why:
             msg = f"at factor {st.factor:.6g}: {why}"
             return dataclasses.replace(sol, status="failed", message=msg, steps=sol.steps[:k])

@@ -124,9 +124,7 @@ def test_large_tip_force_is_outside_the_atlas():
 def test_silent_errors_now_warn(case, model):
     """The issue's silent cases: a predicted error above 1 %, named in the warning."""
     sol = reports.solve(cases.load(case), model)
-    if not sol.ok:  # bcm's 15 L tip now fails the shared strain bound: a verdict, not silence
-        assert "strained" in sol.message, sol.message
-        return
+    assert sol.ok
     assert sol.extras["predicted_error"] > 0.01
     assert sol.extras["validity_warning"].startswith("predicted error")
 
@@ -252,8 +250,8 @@ def test_effectivity_summary_and_figure(tmp_path):
 
 def test_units_do_not_change_the_state():
     """A 100 mm steel cantilever (E = 200 GPa, I = 10 mm^4) under 1600 N: PL^2/EI = 8 in
-    any units; prb-3r's prediction reads that state and warns; bcm's far-off tip (once
-    answered "converged") fails the shared strain bound."""
+    any units; prb-3r's prediction reads that state and warns; bcm answers it "converged"
+    with a tip far off (its error, under loads alone), and the prediction says so."""
     base = cases.load("cantilever-tip-load")
     a, b = base.nodes
     scene = dataclasses.replace(
@@ -270,4 +268,5 @@ def test_units_do_not_change_the_state():
     assert sol.extras["predicted_error"] > 0.01
     assert sol.extras["validity_warning"].startswith("predicted error")
     bcm = reports.solve(scene, "bcm")
-    assert not bcm.ok and "strained" in bcm.message
+    assert bcm.ok and bcm.extras["predicted_error"] > 1.0  # more than the deflection itself
+    assert bcm.extras["validity_warning"].startswith("predicted error")

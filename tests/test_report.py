@@ -180,9 +180,8 @@ def test_report_when_every_judged_model_fails(dummies, tmp_path):
 def test_real_models_on_a_catalog_case(tmp_path):
     """The pipeline with real models: the elastica reference reproduces Mattiasson's table
     (published values, checked at load factors 0.1 and 1 that the quick grid must keep), and
-    linear theory at PL^2/EI = 10 (tip 10/3 L from the clamp line, against 0.81) is refused
-    where its tip leaves the circle of the beam's length (the shared strain bound), its
-    earlier states already off by more than 1 % of the tip's own motion."""
+    linear theory at PL^2/EI = 10 is off by more than twice the tip's own motion (10/3 L
+    against 0.81 L of the exact tip deflection)."""
     import cases
 
     scene = cases.load("cantilever-tip-load")
@@ -191,9 +190,8 @@ def test_real_models_on_a_catalog_case(tmp_path):
     assert res.payload["cases"]["cantilever-tip-load"]["reference"] == "elastica"
     checks = recs["elastica"]["refchecks"]
     assert len(checks) == len(scene.references) and all(c["passed"] for c in checks)
-    lin = recs["linear-1"]
-    assert lin["status"] == "failed" and "strained" in lin["message"]
-    assert lin["summary_basis"] == "path" and lin["errors"]["per_output"]["tip.uy"] > 0.01
+    assert recs["linear-1"]["summary_basis"] == "path"
+    assert recs["linear-1"]["errors"]["per_output"]["tip.uy"] > 2.0
     assert (tmp_path / "figures" / "cantilever-tip-load-path.png").exists()
 
 

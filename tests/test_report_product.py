@@ -186,7 +186,8 @@ def test_report_in_headless_chromium_and_a_broken_image_fails(small, tmp_path):
     assert res.ok, res.summary()
     html = (small.out_dir / "report.html").read_text()
     assert res.n_images == html.count("<img ") > 5
-    assert res.n_toc == len(SMALL_CASES) + 5 and not res.missing_anchors
+    # the cases plus six sections (pick, accuracy, speed, effectivity, cards, environment)
+    assert res.n_toc == len(SMALL_CASES) + 6 and not res.missing_anchors
     assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and res.page_height_px > 900
 
     # the same page with one image path broken, a planted script error and a web request

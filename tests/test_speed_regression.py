@@ -13,10 +13,6 @@ column-postbuckling fem-N runs from the unstable complementary branch (uy = -0.0
 stability verdict (None).  Issue 14: the FE's rigid links are exact constraints, no longer
 stiff elements; on scenes with rigid links fem-N answers moved by the old links' compliance
 (~1e-6 of the scene's stiffness, up to 8e-6 mm on DAS-2D Ex. 2) and are compared at 1e-5.
-Issue 23: a state beyond the shared strain bound (a member stretched over 20 %,
-``cases.limits.state_violation``) is no answer: bcm on cantilever-tip-load,
-pure-moment-rollup and steel-flexure-1000 (tips up to 15 L from the clamp) now fails there
-and keeps the states before; those three entries were rewritten.
 """
 
 from __future__ import annotations

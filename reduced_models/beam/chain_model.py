@@ -41,6 +41,10 @@ class ChainModel:
         beam, at least 5 per segment).
     """
 
+    # small- or intermediate-deflection kinematics: a tip beyond the member's reach under
+    # loads is this model's error, not a stretch (reports.api.checked)
+    approximate_kinematics = True
+
     law: SegmentLaw
     family = "chain"
     _card: ModelCard

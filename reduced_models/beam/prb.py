@@ -67,6 +67,10 @@ _COMMON = (
 class PRBModel:
     """A PRB model of a single cantilever defined by a PRB matrix (subclasses pick it)."""
 
+    # small- or intermediate-deflection kinematics: a tip beyond the member's reach under
+    # loads is this model's error, not a stretch (reports.api.checked)
+    approximate_kinematics = True
+
     name = "prb"
     card = ModelCard(name="prb", family="prb", summary="PRB chain", assumptions=_COMMON)
 
