@@ -31,6 +31,7 @@ from reduced_models.options import Option
 
 MAX_HALVINGS = 14
 TIME_LIMIT_S = 60.0  # default wall clock (s): the runner's DEFAULT_TIME_LIMIT
+N_SHAPE = 41
 
 
 class _TimeUp(Exception):
@@ -39,7 +40,6 @@ class _TimeUp(Exception):
 
 class _Stalled(Exception):
     """The load increment was halved ``MAX_HALVINGS`` times without a solution."""
-N_SHAPE = 41
 
 
 class ElasticaBVP:
