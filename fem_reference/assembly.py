@@ -277,10 +277,12 @@ class _Parts(BeamMeshing):
         pattern = sp.csr_matrix(
             (np.ones(scatter.nnz), scatter.indices, scatter.indptr), shape=(ndof, ndof)
         )
-        perm = reverse_cuthill_mckee(pattern, symmetric_mode=True)
+        # no free DOF (a member clamped at both ends): nothing to renumber, and csgraph's
+        # reordering fails on an empty graph
+        perm = reverse_cuthill_mckee(pattern, symmetric_mode=True) if ndof else np.arange(0)
         new_of_old = np.empty(ndof, dtype=np.int64)
         new_of_old[perm] = np.arange(ndof)
-        self.free = np.where(free >= 0, new_of_old[np.maximum(free, 0)], -1)
+        self.free = np.where(free >= 0, new_of_old[np.maximum(free, 0)] if ndof else 0, -1)
         self.scatter = Scatter(self.free, self.coef, self.fam, ndof)
         self.is_rotation = np.ones(ndof, dtype=bool)
         m_ = self.free >= 0

@@ -65,7 +65,8 @@ class Replay:
             "a state is settled when velocity, acceleration and the static distance K^-1 r "
             "are all below settle_tol * L (1e-7 L by default)",
             "stability: a kick along the lowest mode (or a nodal impulse) returns / departs "
-            "(distance/path: under load control at the settled factor, as the FE tests)",
+            "(distance/path: under load control at the settled factor, as the FE tests); "
+            "follower loads: no static verdict (stable = None, extras['stability'])",
             "a DOF without mass (a node joining only springs) gets a point mass (the mean "
             "translational one); settled states do not depend on it",
             "boom events: exact length lock with a plastic latch (no penalty stop)",

@@ -27,6 +27,7 @@ from cases.schema import Scene
 from fem_reference.replay import events
 from fem_reference.replay import honesty as honest
 from fem_reference.replay import integrator as ev
+from fem_reference.statics.bifurcation import is_conservative
 from fem_reference.statics.integrity import violation
 from reduced_models.base import Solution, Step
 
@@ -362,6 +363,9 @@ class _Run:
         return {**out, "verdict": verdict or "undecided"}
 
 
+NO_VERDICT = "stable = None: no static stability verdict under follower (non-conservative) loads"
+
+
 def _reach(run: _Run, lam: float) -> tuple[ev.State, dict]:
     """Ramp the load factor to ``lam`` (over ``ramp_periods`` T1) and hold until settled."""
     if run.s.lam != lam or run.s.t == 0.0 and lam != 0.0:
@@ -425,12 +429,15 @@ def replay_system(
         return Solution(case, "replay", "failed", f"replay set-up failed: {exc}")
     status, message = "converged", ""
     prev_q, prev_step = run.s.q, None
+    # follower loads: no potential energy, so neither the tangent test nor a settled probe
+    # decides static stability (flutter needs a dynamic analysis): no verdict, as fem-auto
+    verdict = is_conservative(system)
     for k, lam in enumerate(np.asarray(factors, dtype=float)):
         it0, h = run.integ.newton_iterations, run.hist
         mark = (len(h.t), run.W, h.strain[-1], run.D - run.D_impact, prev_q)
         try:
             s, chk = reach(run, float(lam))
-            want = o.probe == "all" or (o.probe == "last" and k == len(factors) - 1)
+            want = verdict and (o.probe == "all" or o.probe == "last" and k == len(factors) - 1)
             eig, pr = stability(run, s, chk, want, scene)
         except (ev.ReplayError, RuntimeError, ValueError, np.linalg.LinAlgError) as exc:
             status, message = "failed", f"factor {lam:.6g}: {exc}"
@@ -439,14 +446,14 @@ def replay_system(
         if why:
             status, message = "failed", f"factor {lam:.6g}: {why}"
             break
-        pr.update(factor=float(lam), eigenvalue=eig, tangent_stable=bool(eig > 0))
+        pr.update(factor=float(lam), eigenvalue=eig, tangent_stable=verdict and bool(eig > 0))
         probes.append(pr)
         info = {
             "residual": chk["residual"],
             "distance": chk["distance"],
             "t_settled": s.t,
             "lowest_eigenvalue": eig,
-            "tangent_stable": float(eig > 0),
+            "tangent_stable": float(eig > 0) if verdict else math.nan,
             "probe_stable": math.nan if pr["stable"] is None else float(pr["stable"]),
             "probe_peak": pr.get("peak", math.nan),
         }
@@ -488,6 +495,9 @@ def replay_system(
     if status == "converged":
         res = max(s.info["residual"] for s in steps)
         message = f"settled {len(steps)} states; max residual {res:.2e}; {len(jumps)} jump(s)"
+        if not verdict:
+            extras["stability"] = NO_VERDICT
+            message += f"; {NO_VERDICT}"
         if steps and steps[-1].stable is False:  # said, and not used as a reference
             message += "; the last state is an unstable equilibrium"
             extras["reference_usable"] = False

@@ -7,11 +7,14 @@ length, EI kappa' = fx sin(theta) - fy cos(theta) with the tip force (fx, fy) in
 conditions theta(0) = x(0) = y(0) = U(0) = 0 and kappa(L) = M/EI (free tip) or theta(L) = 0
 (guided tip).  Load continuation reuses the previous solution as the initial guess and halves
 the load increment (up to ``MAX_HALVINGS`` times) when ``solve_bvp`` fails.  ``tol`` = 1e-10.
+A wall-clock limit (``time_limit_s``, checked inside the collocation residual, so a single
+long ``solve_bvp`` call is cut too) fails the run with the reason and the states so far.
 """
 
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 from scipy.integrate import solve_bvp
@@ -27,7 +30,16 @@ from reduced_models.beam.single_beam import (
 from reduced_models.options import Option
 
 MAX_HALVINGS = 14
+TIME_LIMIT_S = 60.0  # default wall clock (s): the runner's DEFAULT_TIME_LIMIT
 N_SHAPE = 41
+
+
+class _TimeUp(Exception):
+    """Raised from the collocation residual once the wall-clock limit has passed."""
+
+
+class _Stalled(Exception):
+    """The load increment was halved ``MAX_HALVINGS`` times without a solution."""
 
 
 class ElasticaBVP:
@@ -37,6 +49,7 @@ class ElasticaBVP:
     OPTIONS = {
         "tol": Option("float", 1e-14, 1e-3, doc="solve_bvp tolerance"),
         "max_nodes": Option("int", 10, 10_000_000, doc="solve_bvp mesh limit"),
+        "time_limit_s": Option("float", 1e-3, 1e6, doc="wall clock (s) before the run fails"),
     }
     card = ModelCard(
         name="elastica-bvp",
@@ -57,9 +70,13 @@ class ElasticaBVP:
         ),
     )
 
-    def __init__(self, tol: float = 1e-10, max_nodes: int = 20000) -> None:
+    def __init__(
+        self, tol: float = 1e-10, max_nodes: int = 20000, time_limit_s: float = TIME_LIMIT_S
+    ) -> None:
         self.tol = tol
         self.max_nodes = max_nodes
+        self.time_limit_s = time_limit_s
+        self.end = math.inf  # perf_counter() deadline of the running solve
 
     def applies_to(self, scene: Scene) -> str | None:
         """None for a single clamped beam loaded at its tip, else the reason."""
@@ -78,6 +95,8 @@ class ElasticaBVP:
         fx, fy, kL = t * beam.fx, t * beam.fy, t * beam.m / EI
 
         def rhs(s: np.ndarray, y: np.ndarray, p: np.ndarray | None = None) -> np.ndarray:
+            if time.perf_counter() > self.end:  # solve_bvp calls it every few milliseconds
+                raise _TimeUp
             th, kap = y[0], y[1]
             if follower:  # force direction phi = p[0] (= theta(L) + gamma at the solution)
                 dk = P * np.sin(th - p[0]) / EI
@@ -112,7 +131,26 @@ class ElasticaBVP:
         why = self.applies_to(scene)
         if why is not None:
             return not_applicable(scene, self.name, why)
-        beam = cantilever_of(scene)
+        self.end = time.perf_counter() + self.time_limit_s
+        steps: list[Step] = []
+        try:
+            self._path(scene, cantilever_of(scene), steps)
+        except _TimeUp:
+            last = steps[-1].factor if steps else 0.0
+            msg = (
+                f"time limit {self.time_limit_s:g} s reached beyond factor {last:.6g}: "
+                "solve_bvp's continuation stalled (increments halved, collocation mesh grown)"
+            )
+            return Solution(scene.name, self.name, "failed", msg, tuple(steps))
+        except _Stalled as exc:
+            return Solution(scene.name, self.name, "failed", str(exc), tuple(steps))
+        return Solution(
+            scene.name, self.name, "converged", f"solve_bvp, {len(steps)} steps", tuple(steps)
+        )
+
+    def _path(self, scene: Scene, beam: Cantilever, steps: list[Step]) -> None:
+        """Append the Step of every reported factor to ``steps`` (continuation: ``solve``);
+        raises ``_Stalled`` when the increment cannot be halved further."""
         a = scene.analysis
         factors = (
             np.linspace(0.0, a.factor_end, a.max_steps + 1)
@@ -125,7 +163,7 @@ class ElasticaBVP:
         follower = beam.follower and not beam.guided and (beam.fx or beam.fy)
         p = np.array([math.atan2(beam.fy, beam.fx)]) if follower else None
         slope = np.zeros_like(Y)
-        t_prev, dt, steps = 0.0, float(np.max(factors)), []
+        t_prev, dt = 0.0, float(np.max(factors))
         for t in factors:
             iters, sol = 0, None
             while sol is None or t_prev < t:
@@ -147,7 +185,7 @@ class ElasticaBVP:
                     dt = 0.5 * h
                     if h == 0.0 or dt < 2.0**-MAX_HALVINGS * float(np.max(factors)):
                         msg = f"solve_bvp failed beyond factor {t_prev:.6g} (tol {self.tol:g})"
-                        return Solution(scene.name, self.name, "failed", msg, tuple(steps))
+                        raise _Stalled(msg)
                     continue
                 if h > 0.0:
                     slope = (Yn - Y) / h
@@ -167,6 +205,3 @@ class ElasticaBVP:
                     info={"nodes": float(sol.x.size)},
                 )
             )
-        return Solution(
-            scene.name, self.name, "converged", f"solve_bvp, {len(steps)} steps", tuple(steps)
-        )

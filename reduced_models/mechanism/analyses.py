@@ -105,6 +105,13 @@ class Run:
             if lost:  # a limit or bifurcation point inside the step: jump (``snap``)
                 new, found = snap_step(self, st, float(prev), float(fk))
                 points.extend(found)
+            elif new is None and len(self.steps) == 1:
+                # the unloaded state has no positive-definite stiffness: a mechanism (e.g. a
+                # beam pinned at its root swings under any load) has no static load path
+                raise SolveError(
+                    "the unloaded structure is a mechanism (no stable stiffness at factor 0,"
+                    " e.g. a pinned root lets the beam swing): no static load path from it"
+                )
             elif new is None:
                 raise SolveError(f"load step to factor {fk:.6g} failed from an unstable state")
             st = new

@@ -232,7 +232,10 @@ def _dense_inertia(
 
 def _solve(K: Matrix, rhs: np.ndarray) -> np.ndarray:
     """LAPACK dgesv (least squares if singular); the argument checks of numpy.linalg.solve
-    cost more than the factorisation at these sizes.  Sparse K: SuperLU."""
+    cost more than the factorisation at these sizes.  Sparse K: SuperLU.  No unknowns (a
+    member clamped at both ends): the empty solution, which LAPACK refuses to compute."""
+    if K.shape[0] == 0:
+        return np.zeros(0)
     if sp.issparse(K):
         return kkt_sparse.solve(K, rhs)
     _, _, x, info = lapack.dgesv(K, rhs)
