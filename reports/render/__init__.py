@@ -259,6 +259,10 @@ def render_report(
     from reports.render import effectivity  # predicted against measured error (issue 19)
 
     blocks += effectivity.blocks(payload, out)
+    toc = next(b[1] for b in blocks if b[0] == "toc")  # the section is listed in the contents
+    toc.insert(
+        toc.index(("Model cards", "cards")), ("Predicted against measured error", "effectivity")
+    )
     from reports.render import mech_atlas  # mechanism atlases saved by the teaching page
 
     blocks = mech_atlas.insert_blocks(blocks, out)

@@ -366,11 +366,7 @@ def build_document(payload: Mapping, figures: Mapping[str, Mapping[str, Any]]) -
     sweeps = SW.parents(cases)  # sweep points: one section per sweep (sweep_section.py)
     toc += [(name, FP.anchor(name)) for name in cases if not cases[name].get("sweep")]
     toc += [(f"{p} ({len(n)} sweep points)", FP.anchor(p)) for p, n in sweeps.items()]
-    toc += [
-        ("Predicted against measured error", "effectivity"),  # render.effectivity's section
-        ("Model cards", "cards"),
-        ("Run environment", "environment"),
-    ]
+    toc += [("Model cards", "cards"), ("Run environment", "environment")]
     bad = [r for r in results if r["status"] == "failed" or r.get("warnings")]
     if bad:
         toc.insert(-1, ("Failures and warnings", "failures"))
