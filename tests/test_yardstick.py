@@ -325,3 +325,13 @@ def test_case_tolerance_on_the_driving_force(tmp_path, output: str):
 def test_absolute_error_is_printed_in_case_units():
     rec = _recommend(PG, "stage.uy=abs:0.01")
     assert "%" not in rec.reason.split("worst error ")[1].split("(")[0], rec.reason
+
+
+def test_text_names_each_judged_output_and_why():
+    """The case's [[tolerances]] say which outputs a designer judges and why: the printed
+    evidence names them; a value the user typed replaces the number, not the reason's absence."""
+    from reports.verdicts.recommendation import format_text
+
+    text = format_text(_recommend(PG, None))
+    assert "judged: stage.uy (why: a designer sizes a parallel guide" in text
+    assert "judged:" not in format_text(_recommend(PG, "stage.uy=1%"))

@@ -192,6 +192,11 @@ def format_text(rec: Recommendation) -> str:
         f"{rec.case}: tolerance {rec.tolerance.text()} (error_rel: each output's error "
         f"over its own excursion along the reference path); reference {rec.reference} "
         f"({(rec.reference_cpu_s or math.nan) * 1e3:.3g} ms CPU)",
+        *(
+            f"  judged: {key} (why: {why})"
+            for key, why in rec.tolerance.why.items()
+            if why != "user"  # a case's [[tolerances]] entry says why the designer judges it
+        ),
         f"recommended: {rec.recommended or 'none'}"
         + (f" (decided by: {rec.decided_by})" if rec.decided_by else ""),
         f"  {rec.reason}",
