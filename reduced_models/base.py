@@ -15,13 +15,17 @@ Models never read files, print, or time themselves (the runner measures CPU and 
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import numpy as np
 
 from cases.schema import Scene
+
+if TYPE_CHECKING:  # pandas and matplotlib are imported only by the notebook methods
+    import pandas as pd
+    from matplotlib.axes import Axes
 
 STATUSES = ("converged", "failed", "not-applicable")
 
@@ -110,6 +114,74 @@ class Solution:
         if key == "energy":
             return np.array([s.energy for s in self.steps])
         return np.array([s.outputs.get(key, np.nan) for s in self.steps])
+
+    def to_frame(self, units: str | None = None) -> pd.DataFrame:
+        """The steps as a tidy pandas DataFrame, one row per step.
+
+        Parameters
+        ----------
+        units : the case's unit system (``"m-N-Pa"``, ``"mm-N-MPa"``, ``"nondim"``);
+            default ``extras["units"]``, which ``reports.solve`` stores.
+
+        Returns
+        -------
+        DataFrame with columns ``step``, ``factor``, every output key (``tip.uy``, ...),
+        ``energy``, ``iterations``, ``stable`` and ``max_stress`` (NaN where not
+        recovered).  ``df.attrs["units"]`` maps each column to its unit (``"m"``, ``"rad"``,
+        ``"N m"``, ``"-"``); ``df.attrs`` also holds ``case``, ``model``, ``status`` and
+        ``message``.
+        """
+        from reduced_models.notebook import to_frame
+
+        return to_frame(self, units)
+
+    def plot_path(self, y: str = "factor", x: str | None = None, ax: Axes | None = None,
+                  **kwargs: object) -> Axes:  # fmt: skip
+        """Draw output ``y`` against output ``x`` over the steps (matplotlib).
+
+        Parameters
+        ----------
+        y, x : output keys, ``"factor"`` or ``"energy"``; ``x`` defaults to the first
+            ``*.uy`` output (a load-deflection curve).
+        ax : axes to draw on (default: a new figure).
+        **kwargs : passed to ``ax.plot`` (``label`` defaults to the model name).
+
+        Returns
+        -------
+        The axes, labelled with units.
+        """
+        from reduced_models.notebook import plot_path
+
+        return plot_path(self, y, x, ax, **kwargs)
+
+    def plot_shapes(self, steps: Sequence[int] | None = None, ax: Axes | None = None,
+                    **kwargs: object) -> Axes:  # fmt: skip
+        """Draw the deformed members at some steps, 1:1 (matplotlib).
+
+        Parameters
+        ----------
+        steps : step indices (default: about five evenly spaced steps, the last included).
+        ax : axes to draw on (default: a new figure).
+        **kwargs : passed to ``ax.plot``.
+
+        Returns
+        -------
+        The axes (equal aspect, lengths in the case's units).
+
+        Raises
+        ------
+        ValueError
+            When no step holds shapes.
+        """
+        from reduced_models.notebook import plot_shapes
+
+        return plot_shapes(self, steps, ax, **kwargs)
+
+    def _repr_html_(self) -> str:
+        """Notebook summary: model, case, status, steps, final outputs, warnings."""
+        from reduced_models.notebook import repr_html
+
+        return repr_html(self)
 
 
 @runtime_checkable

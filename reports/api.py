@@ -239,13 +239,18 @@ def solve(
     model : registry name or a model instance.
     options : model options (default: the case's ``[[models]]`` options for this name).
     catch : turn exceptions raised by the model into ``failed`` Solutions.
+
+    The Solution's ``extras["units"]`` is the scene's unit system (``Solution.to_frame``
+    names each column's unit from it).
     """
     if isinstance(scene, str):
         import cases
 
         scene = cases.load(scene)
     m = make_model(model, scene, options) if isinstance(model, str) else model
-    return run_model(m, scene, catch=catch)
+    sol = run_model(m, scene, catch=catch)
+    # the unit system, for Solution.to_frame / plot labels in a notebook
+    return dataclasses.replace(sol, extras={**sol.extras, "units": scene.units})
 
 
 # -- the solve --json object ---------------------------------------------------------------
