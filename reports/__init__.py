@@ -1,7 +1,8 @@
 """FlexBench reports: the one place that knows every model registry.
 
 ``reports.solve(scene, "prb-3r") -> Solution``, ``reports.make_model(name, scene)``,
-``reports.model_names()``, ``reports.recommend(scene, tol)``.  The rooms inside:
+``reports.model_names()``, ``reports.recommend(scene, tol)``, ``reports.load_run(DIR)`` (a run
+folder as pandas DataFrames, ``reports.frames``).  The rooms inside:
 
 * ``api`` (this package's door to every model) and ``cli`` (the ``flexbench`` command) on top;
 * ``run/``: the benchmark matrix run, timed, guarded, journalled and stored
@@ -28,6 +29,7 @@ __all__ = [
     "UnknownModelError",
     "card_of",
     "default_names",
+    "load_run",
     "make_model",
     "model_names",
     "registry_table",
@@ -37,10 +39,14 @@ __all__ = [
 
 
 def __getattr__(name: str) -> object:
-    """``reports.recommend`` on first use: a one-off ``solve`` does not import the
-    recommender (and its statistics, fractions, decimal)."""
+    """``reports.recommend`` and ``reports.load_run`` on first use: a one-off ``solve`` does
+    not import the recommender (and its statistics, fractions, decimal) or pandas."""
     if name == "recommend":
         from reports.verdicts.recommend import recommend
 
         return recommend
+    if name == "load_run":
+        from reports.frames import load_run
+
+        return load_run
     raise AttributeError(f"module 'reports' has no attribute {name!r}")

@@ -367,7 +367,7 @@ def _write(payload: dict, out: Path, hist: Path, token: str) -> dict[str, Path]:
     """results.json, results.csv, the history rows and errors.csv of a run."""
     paths = {
         "results.json": store.write_results(out / "results.json", payload),
-        "results.csv": store.write_csv(out / "results.csv", payload["results"]),
+        "results.csv": store.write_csv(out / "results.csv", payload["results"], payload["cases"]),
     }
     journal.record_history(hist, payload, str(out), payload["elapsed_s"], token)
     paths["history"] = hist

@@ -277,13 +277,31 @@ def csv_row(rec: Mapping) -> dict[str, Any]:
     }
 
 
-def write_csv(path: Path, records: Iterable[Mapping]) -> Path:
-    """One row per pair (columns ``CSV_COLUMNS`` + ``GRADE_COLUMNS``)."""
+def sweep_columns(cases: Mapping[str, Mapping] | None) -> dict[str, dict[str, Any]]:
+    """Case name -> ``{"sweep_parent": parent, <parameter key>: value, ...}`` for the sweep
+    points among ``cases`` (the run's case metadata; ``reports.run.sweep.point_meta``)."""
+    out = {}
+    for name, meta in (cases or {}).items():
+        sw = meta.get("sweep") or {}
+        if sw.get("parent"):
+            out[name] = {"sweep_parent": sw["parent"], **dict(sw.get("point") or {})}
+    return out
+
+
+def write_csv(
+    path: Path, records: Iterable[Mapping], cases: Mapping[str, Mapping] | None = None
+) -> Path:
+    """One row per pair (columns ``CSV_COLUMNS`` + ``GRADE_COLUMNS``, then, for a run with
+    sweeps, ``sweep_parent`` and one column per swept parameter key, e.g.
+    ``torsion_springs.S1.rest_angle_deg``; empty on the rows of other cases)."""
+    points = sweep_columns(cases)
+    params = list(dict.fromkeys(k for row in points.values() for k in row))
     with path.open("w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=CSV_COLUMNS + GRADE_COLUMNS)
+        w = csv.DictWriter(fh, fieldnames=CSV_COLUMNS + GRADE_COLUMNS + tuple(params))
         w.writeheader()
         for rec in records:
-            w.writerow({k: ("" if v is None else v) for k, v in csv_row(rec).items()})
+            row = csv_row(rec) | points.get(rec["case"], {})
+            w.writerow({k: ("" if v is None else v) for k, v in row.items()})
     return path
 
 
