@@ -20,6 +20,14 @@ spaced points on a circle; end vertices copy their neighbour).  That is a geomet
 a solver that knows its curvature, axial force or bending stress passes them in
 ``point_data`` / ``fields`` and they are written as given (a given ``curvature`` replaces the
 geometric one).
+
+A series (``write_series``) adds per step, against its first step (the unloaded scene for
+analyses that start at load factor 0): ``displacement`` (3-vector, length), ``rotation``
+(rad, of the centre line's tangent), ``load_factor``; with ``sections`` (``member_sections``:
+E I and E t / 2 per flexible member) also ``bending_moment`` = E I (kappa - kappa_0) (force x
+length) and ``bending_stress`` = E t (kappa - kappa_0) / 2 (stress; NaN where the member has
+no thickness).  Each step's time value (``series_times``) is the PVD ``timestep`` and the
+XDMF time.
 """
 
 from __future__ import annotations
@@ -33,13 +41,17 @@ from pathlib import Path
 import meshio
 import numpy as np
 
-from reduced_models.base import Solution
+from cases.schema import Scene
+from reduced_models.base import Solution, Step
 
 __all__ = [
     "last_render_backend",
+    "member_sections",
+    "node_fields",
     "polyline_curvature",
     "pyvista_available",
     "render_png",
+    "series_times",
     "write_series",
     "write_vtu",
 ]
@@ -101,6 +113,7 @@ def _assemble(
     }
     for name, per_member in (point_data or {}).items():
         parts = []
+        tail = np.shape(next(iter(per_member.values()), ()))[1:]  # () scalar, (3,) vector
         for mid, n in sizes.items():
             if mid in per_member:
                 a = np.asarray(per_member[mid], dtype=float)
@@ -111,7 +124,7 @@ def _assemble(
                     )
                 parts.append(a)
             else:
-                parts.append(np.full(n, np.nan))
+                parts.append(np.full((n, *tail), np.nan))
         fields[name] = np.concatenate(parts)
     return np.vstack(pts), np.vstack(conn), fields, np.concatenate(member_idx)
 
@@ -152,10 +165,87 @@ def _resample(xy: np.ndarray, n: int) -> np.ndarray:
     return np.column_stack([np.interp(t_new, t_old, xy[:, 0]), np.interp(t_new, t_old, xy[:, 1])])
 
 
+def member_sections(scene: Scene) -> dict[str, tuple[float, float]]:
+    """Member id -> (E I, E t / 2) of each flexible member: bending moment and bending
+    stress per unit curvature (E t / 2 is NaN where the member has no thickness)."""
+    return {
+        m.id: (m.EI, m.E * m.thickness / 2.0 if m.E and m.thickness else np.nan)
+        for m in scene.members
+        if m.kind == "flexible"
+    }
+
+
+def _tangent_angle(xy: np.ndarray) -> np.ndarray:
+    """Angle (rad, unwrapped along the polyline) of its tangent at the vertices: the mean of
+    the two adjacent chords' angles inside; at an end extrapolated from the chord angles at
+    their mid-points (a parabola through three, a line through two).  Exact, like
+    ``polyline_curvature``, for equally spaced points on a circle, and with three chords for
+    curvature varying linearly (a cantilever's root under a tip load)."""
+    d = np.diff(xy, axis=0)
+    a = np.unwrap(np.arctan2(d[:, 1], d[:, 0]))
+    if len(a) == 1:
+        return np.repeat(a, 2)
+    inner = 0.5 * (a[:-1] + a[1:])
+    # value at s = 0 of the polynomial through (0.5, a0), (1.5, a1)[, (2.5, a2)]
+    w = np.array([15.0, -10.0, 3.0]) / 8.0 if len(a) >= 3 else np.array([1.5, -0.5])
+    k = len(w)
+    return np.concatenate([[w @ a[:k]], inner, [w @ a[::-1][:k]]])
+
+
+def node_fields(
+    shapes: Mapping[str, np.ndarray],
+    ref_shapes: Mapping[str, np.ndarray],
+    sections: Mapping[str, tuple[float, float]] | None = None,
+) -> dict[str, dict[str, np.ndarray]]:
+    """Point fields of one state against a reference state with the same point counts.
+
+    Parameters
+    ----------
+    shapes, ref_shapes : member id -> (n, 2) centre-line points (length units).
+    sections : member id -> (E I, E t / 2) (``member_sections``); members not in it get
+        no bending fields.
+
+    Returns
+    -------
+    field -> {member -> values}: ``displacement`` (n, 3) (z = 0), ``rotation`` (n,) rad
+    (turning counter-clockwise positive, the first vertex's wrapped to (-pi, pi]), and with
+    ``sections`` ``bending_moment`` (n,) and ``bending_stress`` (n,) from the curvature
+    change.
+    """
+    out: dict[str, dict[str, np.ndarray]] = {"displacement": {}, "rotation": {}}
+    if sections:
+        out |= {"bending_moment": {}, "bending_stress": {}}
+    for mid, xy in shapes.items():
+        xy, xy0 = np.asarray(xy, dtype=float), np.asarray(ref_shapes[mid], dtype=float)
+        u = xy - xy0
+        out["displacement"][mid] = np.column_stack([u, np.zeros(len(u))])
+        rot = _tangent_angle(xy) - _tangent_angle(xy0)
+        out["rotation"][mid] = rot - 2.0 * np.pi * np.round(rot[0] / (2.0 * np.pi))
+        if sections and mid in sections:
+            dk = polyline_curvature(xy) - polyline_curvature(xy0)
+            ei, et2 = sections[mid]
+            out["bending_moment"][mid] = ei * dk
+            out["bending_stress"][mid] = et2 * dk
+    return out
+
+
+def series_times(steps: Sequence[Step]) -> np.ndarray:
+    """Time value of each state of a series, shape (n,): ``info["t"]`` where every step has
+    one (the replay's frames, seconds), else the load factor where it rises strictly (a
+    ``load`` analysis), else the step index (a path through a limit point revisits
+    factors; ParaView orders a series by its time values)."""
+    t = [s.info.get("t") for s in steps]
+    if steps and all(v is not None for v in t):
+        return np.asarray(t, dtype=float)
+    f = np.array([s.factor for s in steps], dtype=float)
+    return f if len(f) > 1 and np.all(np.diff(f) > 0) else np.arange(len(f), dtype=float)
+
+
 def write_series(
     directory: str | Path,
     solution: Solution,
     fields: Sequence[PointData | None] | None = None,
+    sections: Mapping[str, tuple[float, float]] | None = None,
 ) -> Path:
     """Write every step of a solution: VTU per step, a ``.pvd`` collection, an XDMF series.
 
@@ -166,12 +256,15 @@ def write_series(
     fields : optional per-step point data (same layout as ``write_vtu``'s ``point_data``),
         one entry per step of ``solution.steps`` (``None`` entries allowed), e.g. axial force
         and bending stress recovered by the FE system.
+    sections : member id -> (E I, E t / 2) (``member_sections(scene)``): adds the bending
+        moment and stress fields.
 
     Returns
     -------
-    Path of the ``.xdmf`` file.  Time is the step index (a ``path`` analysis may revisit load
-    factors); the load factor is the point field ``load_factor``.  Members whose point count
-    changes between steps are resampled to the first step's count (XDMF holds one mesh).
+    Path of the ``.xdmf`` file.  Every VTU and XDMF step holds ``displacement``, ``rotation``
+    (and with ``sections`` the bending fields) against the first step (``node_fields``) and
+    ``load_factor``; time is ``series_times``.  Members whose point count changes between
+    steps are resampled to the first step's count (XDMF holds one mesh).
     """
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
@@ -185,25 +278,29 @@ def write_series(
     ref_points, ref_conn, _, member = _assemble(ref_shapes, None)
     xdmf_path = directory / f"{stem}.xdmf"
     pvd_entries = []
+    times = series_times([s for _, s in indexed])
     with meshio.xdmf.TimeSeriesWriter(xdmf_path, data_format="XML") as writer:
         writer.write_points_cells(ref_points, [("line", ref_conn)])
-        for t, (k, step) in enumerate(indexed):
+        for i, (k, step) in enumerate(indexed):
             shapes = {m: _resample(step.shapes.get(m, xy), len(xy)) for m, xy in ref_shapes.items()}
-            extra = dict(fields[k] or {}) if fields is not None else {}
-            vtu = write_vtu(directory / f"{stem}_{t:04d}.vtu", shapes, extra)
-            pvd_entries.append((t, vtu.name))
-            points, _, pdata, _ = _assemble(shapes, extra)
-            pdata["displacement"] = points - ref_points
-            pdata["load_factor"] = np.full(len(points), float(step.factor))
-            writer.write_data(t, point_data=pdata, cell_data={"member": [member]})
+            extra = node_fields(shapes, ref_shapes, sections)
+            extra["load_factor"] = {
+                m: np.full(len(xy), float(step.factor)) for m, xy in shapes.items()
+            }
+            extra |= dict(fields[k] or {}) if fields is not None else {}
+            vtu = write_vtu(directory / f"{stem}_{i:04d}.vtu", shapes, extra)
+            pvd_entries.append((times[i], vtu.name))
+            _, _, pdata, _ = _assemble(shapes, extra)
+            writer.write_data(times[i], point_data=pdata, cell_data={"member": [member]})
     _write_pvd(directory / f"{stem}.pvd", pvd_entries)
     return xdmf_path
 
 
-def _write_pvd(path: Path, entries: list[tuple[int, str]]) -> None:
-    """ParaView collection file listing the per-step VTUs as time steps."""
+def _write_pvd(path: Path, entries: list[tuple[float, str]]) -> None:
+    """ParaView collection file listing the per-step VTUs with their time values."""
     rows = "\n".join(
-        f'    <DataSet timestep="{t}" group="" part="0" file="{name}"/>' for t, name in entries
+        f'    <DataSet timestep="{float(t)!r}" group="" part="0" file="{name}"/>'
+        for t, name in entries
     )
     path.write_text(
         '<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n  <Collection>\n'

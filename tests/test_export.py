@@ -121,7 +121,7 @@ def test_series_round_trip(tmp_path):
         assert cells[0].type == "line" and len(cells[0].data) == 11
         for k in range(reader.num_steps):
             t, pdata, cdata = reader.read_data(k)
-            assert t == k
+            assert t == sol.steps[k].factor  # the load factor rises: it is the time value
             deformed = points + pdata["displacement"]
             np.testing.assert_allclose(
                 deformed[:, :2], np.vstack(list(sol.steps[k].shapes.values())), atol=1e-14
@@ -136,6 +136,45 @@ def test_series_round_trip(tmp_path):
     assert len(files) == 4
     last = meshio.read(xdmf.parent / files[-1])
     np.testing.assert_allclose(last.points[:, :2], np.vstack(list(sol.steps[-1].shapes.values())))
+
+
+def test_series_fields_of_a_rolled_up_cantilever(tmp_path):
+    """A cantilever rolled into an arc of end angle phi: rotation s/R along it, bending
+    moment E I phi / L and stress E t phi / (2 L) everywhere, tip displacement from the
+    circle; the PVD time values are the load factors."""
+    E, t, L, n = 2.0e5, 0.5, 1.0, 4
+    sections = {"beam": (E * 1.5, E * t / 2.0)}  # E I with I = 1.5; no section for "link"
+    sol = solution(n)
+    write_series(tmp_path, sol, sections=sections)
+    files = sorted(tmp_path.glob("*.vtu"))
+    assert len(files) == n
+    for k, f in enumerate(files):
+        phi, m = np.linspace(0.0, 1.0, n)[k] * math.pi, meshio.read(f)
+        beam = slice(0, 11)
+        u = m.point_data["displacement"]
+        assert u.shape == (13, 3) and np.all(u[:, 2] == 0.0)
+        np.testing.assert_allclose(u[beam, :2], arc(phi, 11) - arc(0.0, 11), atol=1e-12)
+        s = np.linspace(0.0, L, 11)
+        np.testing.assert_allclose(m.point_data["rotation"][beam], phi * s / L, atol=1e-12)
+        np.testing.assert_allclose(m.point_data["bending_moment"][beam], E * 1.5 * phi / L)
+        np.testing.assert_allclose(m.point_data["bending_stress"][beam], E * t * phi / (2 * L))
+        assert np.all(np.isnan(m.point_data["bending_stress"][11:]))  # the link: no section
+        np.testing.assert_allclose(m.point_data["load_factor"], sol.steps[k].factor)
+    pvd = (tmp_path / "rollup_fem-10.pvd").read_text()
+    steps = [float(v) for v in re.findall(r'timestep="([^"]+)"', pvd)]
+    np.testing.assert_allclose(steps, np.linspace(0.0, 1.0, n), atol=0)
+
+
+def test_series_times():
+    def steps(factors, t=None):
+        info = [{} if t is None else {"t": v} for v in t or factors]
+        return [Step(factor=f, outputs={}, info=i) for f, i in zip(factors, info)]
+
+    np.testing.assert_array_equal(export.series_times(steps([0.0, 0.5, 1.0])), [0.0, 0.5, 1.0])
+    # a path through a limit point: the factor falls, so the step index orders the frames
+    np.testing.assert_array_equal(export.series_times(steps([0.0, 1.0, 0.8])), [0, 1, 2])
+    replay = steps([0.0, 1.0, 1.0], t=[0.0, 0.2, 0.7])  # replay frames carry their time
+    np.testing.assert_array_equal(export.series_times(replay), [0.0, 0.2, 0.7])
 
 
 def test_series_resamples_changing_point_counts(tmp_path):
@@ -167,7 +206,7 @@ def test_pyvista_opens_the_files(tmp_path):
     assert vtu.n_points == 13 and vtu.n_cells == 11
     assert "curvature" in vtu.point_data
     pvd = pv.get_reader(str(xdmf.with_suffix(".pvd")))
-    assert list(pvd.time_values) == [0.0, 1.0, 2.0]
+    assert list(pvd.time_values) == [0.0, 0.5, 1.0]  # the load factors
     series = pv.get_reader(str(xdmf)).read()
     assert series.n_blocks >= 1
 

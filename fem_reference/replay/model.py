@@ -223,4 +223,4 @@ def write_vtu_series(solution: Solution, scene: Scene, directory: str) -> str | 
         Step(f, {}, shapes=sh, info={"t": t}) for t, f, sh in _frame_shapes(solution, scene)
     )
     series = Solution(solution.case, "replay-frames", "converged", "", steps)
-    return str(export.write_series(directory, series))
+    return str(export.write_series(directory, series, sections=export.member_sections(scene)))

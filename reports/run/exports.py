@@ -5,9 +5,12 @@ timed, never fatal), as the task's ``ExportPolicy`` says.  Only the case's refer
 (role ``reference``: elastica, fem-auto, fem-N, ...) and ``replay`` export:
 
 * ``OUT/paraview/<case>/<model>/<case>_<model>.{pvd,xdmf}`` + one ``.vtu`` per step: the
-  deformed shapes of every step (``fem_reference.export.write_series``);
-* for ``replay`` also ``<case>_replay-frames.{pvd,xdmf}`` + ``.vtu``: its time-history frames
-  (``fem_reference.replay.model.write_vtu_series``);
+  deformed shapes of every step with per-node ``displacement`` (vector), ``rotation`` (rad),
+  ``bending_moment`` and ``bending_stress`` (where the member has a thickness),
+  ``curvature`` and ``load_factor``; the PVD time value of a step is its load factor (the
+  step index on a path whose factor falls) (``fem_reference.export.write_series``);
+* for ``replay`` also ``<case>_replay-frames.{pvd,xdmf}`` + ``.vtu``: its time-history frames,
+  the same fields, time in seconds (``fem_reference.replay.model.write_vtu_series``);
 * ``OUT/figures/<case>-replay.gif``: ``fem_reference.replay.model.write_animation`` on
   ``gif_frames`` evenly spaced frames at ``gif_dpi`` without tick labels;
 * a ``kinematics`` analysis (DAS-2D's kinematic driver analysis: rigid links, no FE
@@ -113,7 +116,7 @@ def export_outputs(task: dict, sol: Solution) -> tuple[dict[str, Any], list[str]
     has_frames = is_replay and isinstance(sol.extras.get("frames"), Mapping)
     jobs = []
     if policy.paraview:
-        jobs.append(("paraview", lambda: _write_series(target, sol, out)))
+        jobs.append(("paraview", lambda: _write_series(target, sol, scene, out)))
     if policy.paraview and policy.replay_frames and has_frames:
         frames = _decimated(sol, policy.max_frames)
         jobs.append(("paraview_frames", lambda: _write_frames(target, frames, scene, out)))
@@ -135,10 +138,10 @@ def export_outputs(task: dict, sol: Solution) -> tuple[dict[str, Any], list[str]
     return exports, warnings
 
 
-def _write_series(target: Path, sol: Solution, out: Path) -> dict[str, Any]:
-    from fem_reference.export import write_series
+def _write_series(target: Path, sol: Solution, scene: Scene, out: Path) -> dict[str, Any]:
+    from fem_reference.export import member_sections, write_series
 
-    return _series_info(target, write_series(target, sol), out)
+    return _series_info(target, write_series(target, sol, sections=member_sections(scene)), out)
 
 
 def _write_frames(target: Path, sol: Solution, scene: Scene, out: Path) -> dict[str, Any] | None:
