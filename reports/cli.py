@@ -70,9 +70,33 @@ def _user_errors() -> tuple[type[BaseException], ...]:
     return tuple(errs)
 
 
+def did_you_mean(name: str, known: Sequence[str]) -> str:
+    """`` (did you mean 'x'?)`` for the closest of ``known`` (difflib), else ``""``."""
+    import difflib
+
+    close = difflib.get_close_matches(name, list(known), n=1, cutoff=0.6)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def _model(name: str) -> str:
+    """``name`` when a registry knows it; a ``UsageError`` with the closest name otherwise."""
+    try:
+        api.resolve(name)
+    except api.UnknownModelError as exc:
+        hint = did_you_mean(name, api.model_names())
+        text = str(exc)
+        raise UsageError(text.replace(f"model {name!r}", f"model {name!r}{hint}", 1)) from None
+    return name
+
+
 def _load(case: str) -> Any:
     import cases
 
+    if not case.endswith(".toml") and not os.path.exists(case):
+        names = cases.catalog_names()
+        if case not in names:  # a typo of a catalog name (a missing file: the loader says)
+            hint = did_you_mean(case, names)
+            raise UsageError(f"{case}: not a catalog case or a file{hint} (see `{PROG} cases`)")
     try:
         return cases.load(case)
     except (FileNotFoundError, IsADirectoryError, PermissionError) as exc:
@@ -95,21 +119,37 @@ def cmd_cases(args: argparse.Namespace) -> int:
     return 1 if bad else 0
 
 
+def _own_card(key: str) -> Any:
+    """The model's card as its instance states it: a registry entry that is a preset of a
+    class (``prb-3r-force`` of ``prb-3r``) has its own summary there, not the class's."""
+    card = api.card_of(key)
+    if card is not None and card.name != key and not key.endswith("-N"):
+        try:
+            card = api.make_model(key).card
+        except Exception:  # the class's card is still an answer; the row says nothing wrong
+            pass
+    return card
+
+
 def cmd_models(args: argparse.Namespace) -> int:
     table = api.registry_table()
     defaults = set(api.default_names())
-    print(f"{'name':<14} {'family':<10} summary   (* = in the default run)")
+    rows = []
     for key in sorted(table):
-        card = api.card_of(key)
+        card = _own_card(key)
         family = key[:-2] if key.endswith("-N") else None
         default = key in defaults or any(
             family and re.fullmatch(rf"{re.escape(family)}-\d+", d) for d in defaults
         )
-        star = "*" if default else " "
         if card is None:
-            print(f"{key:<13}{star} {'?':<10} (card unavailable: {table[key]} not importable)")
+            rows.append((key, default, "?", f"(card unavailable: {table[key]} not importable)"))
         else:
-            print(f"{key:<13}{star} {card.family:<10} {card.summary}")
+            rows.append((key, default, card.family, card.summary))
+    wide = max(len(r[0]) for r in rows) + 1  # the name and its default-run star
+    fam = max(len("family"), *(len(r[2]) for r in rows))
+    print(f"{'name':<{wide}} {'family':<{fam}} summary   (* = in the default run)")
+    for key, default, family, summary in rows:
+        print(f"{key + ('*' if default else ''):<{wide}} {family:<{fam}} {summary}")
     for warning in api.REGISTRY_WARNINGS:
         print(f"warning: {warning}")
     return 0
@@ -127,6 +167,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
     _CONTEXT.update(case=args.case, model=args.model)
     _check_limits(args)
     scene = _load(args.case)
+    _model(args.model)
     try:
         model = api.make_model(args.model, scene)
     except ValueError as exc:
@@ -224,7 +265,8 @@ def select_cases(patterns: str | None) -> list[Any]:
         else:
             found = fnmatch.filter(cases.catalog_names(), pat)
             if not found:
-                raise UsageError(f"--cases: no catalog case matches {pat!r}")
+                hint = did_you_mean(pat, cases.catalog_names())
+                raise UsageError(f"--cases: no catalog case matches {pat!r}{hint}")
         names += [n for n in found if n not in names]
     return [_load(n) for n in names]
 
@@ -246,7 +288,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.models is not None and not models:
         raise UsageError("--models: empty list")
     for name in models or ():
-        api.resolve(name)
+        _model(name)
     if args.dask:
         try:
             import distributed  # noqa: F401
@@ -255,6 +297,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                 "--dask needs dask[distributed] (pip install flexbench[dask])"
             ) from None
     scenes = select_cases(args.cases)
+    _say_start(args, scenes, models)
     tol = None
     if args.tol is not None:
         from reports.verdicts.tolerance import ToleranceError, parse_tolerance
@@ -287,6 +330,21 @@ def cmd_run(args: argparse.Namespace) -> int:
             raise
         return _fail(str(err))
     return _summary(res)
+
+
+def _say_start(args: argparse.Namespace, scenes: list, models: list[str] | None) -> None:
+    """The run's first line, before the pairs are planned (a few seconds for the catalog):
+    what runs, on what, where to."""
+    from reports.run.progress import plural
+
+    sweeps = sum(s.analysis.kind == "sweep" for s in scenes)
+    what = plural(len(scenes), "case")
+    if sweeps:
+        what += f" ({plural(sweeps, 'sweep')}, expanded to their points)"
+    with_models = ", ".join(models) if models else "the default models + each case's own"
+    where = f"dask {args.dask}" if args.dask else plural(args.workers or os.cpu_count(), "worker")
+    line = f"{PROG}: run: {what}; models: {with_models}; {where}; out {args.out}"
+    print(line, file=sys.stderr, flush=True)
 
 
 def _run(

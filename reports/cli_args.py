@@ -13,6 +13,7 @@ from reports.run.compare import DEFAULT_ABS_TOL, DEFAULT_REL_FACTOR
 from reports.run.timing import DEFAULT_TIME_LIMIT, QUICK_TIME_LIMIT  # not the runner: lazy
 
 PROG = "flexbench"
+DEFAULT_OUT = "flexbench-out"  # run/teach/history folder; README's commands use the same
 SOLVE_TIME_LIMIT = 600.0  # s: `flexbench solve` ends a model that runs away
 
 
@@ -45,6 +46,8 @@ def build_parser(
     """The ``flexbench`` argument parser; each subcommand's ``func`` is ``commands[name]``
     (the ``cmd_*`` functions of ``reports.cli``)."""
     p = _Parser(prog=PROG, description="FEA-validated benchmark of reduced compliant-beam models")
+    p.add_argument("--version", action="version", version=f"{PROG} {version()}")
+    _debug_flag(p)
     sub = p.add_subparsers(dest="command", metavar="COMMAND", required=True)
     sub.add_parser("cases", help="list the case catalog").set_defaults(func=commands["cases"])
     sub.add_parser("models", help="list the models").set_defaults(func=commands["models"])
@@ -76,7 +79,7 @@ def build_parser(
     cl.add_argument("--id", help="only this claim (e.g. howell-prb-1r)")
     cl.set_defaults(func=commands["claims"])
     te = sub.add_parser("teach", help="write the teaching page (atlases, which model to use)")
-    te.add_argument("--out", default="out", help="output directory (default: out)")
+    te.add_argument("--out", default=DEFAULT_OUT, help=f"output directory (default: {DEFAULT_OUT})")
     te.add_argument("--cases", help="catalog globs for the worked recommendations (default: all)")
     te.add_argument("--quick", action="store_true", help="20 x 21 atlases, 1 %% only")
     te.add_argument("--workers", type=int, default=2, help="processes for the atlases")
@@ -84,7 +87,7 @@ def build_parser(
     r = sub.add_parser("run", help="run the case x model matrix and render the report")
     r.add_argument("--cases", help="comma-separated catalog globs or .toml paths (default: all)")
     r.add_argument("--models", help="comma-separated model names (default: case list + defaults)")
-    r.add_argument("--out", default="out", help="output directory (default: out)")
+    r.add_argument("--out", default=DEFAULT_OUT, help=f"output directory (default: {DEFAULT_OUT})")
     r.add_argument("--quick", action="store_true", help="fewer load steps and timing repeats")
     r.add_argument("--workers", type=int, help="local processes (default: CPU count)")
     r.add_argument("--dask", metavar="ADDRESS", help="run on a dask.distributed scheduler")
@@ -122,7 +125,31 @@ def build_parser(
 
     add_history(sub)
     sub.choices["history"].set_defaults(func=commands["history"])
+    for parser in sub.choices.values():
+        _debug_flag(parser)
     sub.add_parser(
         "fit-prb", help="fit a PRB matrix (see flexbench fit-prb --help)", add_help=False
     )
     return p
+
+
+def _debug_flag(p: argparse.ArgumentParser) -> None:
+    """``--debug`` for the help text: ``reports.cli.main`` takes it off the command line
+    wherever it stands, before parsing."""
+    p.add_argument(
+        "--debug", action="store_true", help="show the traceback of an internal error (exit 3)"
+    )
+
+
+def version() -> str:
+    """The installed distribution's version (``pyproject.toml``'s when not installed)."""
+    from importlib import metadata
+
+    try:
+        return metadata.version("flexbench")
+    except metadata.PackageNotFoundError:
+        import tomllib
+        from pathlib import Path
+
+        pyproject = Path(__file__).resolve().parents[1] / "pyproject.toml"
+        return tomllib.loads(pyproject.read_text())["project"]["version"]

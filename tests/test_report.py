@@ -292,5 +292,5 @@ def test_replay_writes_series_and_a_small_gif_but_not_in_quick_mode(dummies, tmp
     np.testing.assert_allclose(last.points[-1, :2], [tip["tip.x"], tip["tip.y"]], atol=1e-9)
     html = (out / "report.html").read_text()
     assert f'<img src="{ex["animation"]}"' in html
-    assert html.index("dummy-replay-history.png") < html.index(ex["animation"])
+    assert html.index("dummy-replay-time-history.png") < html.index(ex["animation"])
     assert ex["paraview_frames"]["pvd"] in html

@@ -15,7 +15,7 @@ import cases
 from reports import cli
 from reports.bench import browser
 from reports.render import figures, mechfig, slug
-from reports.run import progress, runner
+from reports.run import runner
 from tests.test_report import MODELS, dummies  # noqa: F401  (fixture)
 from tests.test_runner import dummy_scene
 
@@ -224,22 +224,6 @@ def test_history_lists_runs_and_the_report_shows_the_trend(dummies, tmp_path, ca
     assert 'src="figures/dummy-a-trend.png"' in (tmp_path / "report.html").read_text()
     assert cli.main(["history", str(tmp_path / "nowhere.sqlite")]) == 2
     assert "no such history file" in capsys.readouterr().err
-
-
-def test_plain_log_and_eta_from_measured_pair_times():
-    tasks = [{"model": "fe", "heavy": True}] * 2 + [{"model": "prb", "heavy": False}] * 2
-    log = io.StringIO()  # not a terminal: plain lines
-    bar = progress.Progress(4, stream=log, tasks=tasks, workers=1)
-    bar.update("a / fe", {"model": "fe", "timing": {"total_s": 2.0}})
-    left, bound = bar.eta()
-    assert (left, bound) == (2.0 + 2 * 2.0, True)  # light pairs unmeasured: a lower bound
-    bar.update("a / prb", {"model": "prb", "timing": {"total_s": 0.01}})
-    assert bar.eta() == (pytest.approx(2.01), False)  # one fe + one prb left
-    bar.update()
-    bar.update()
-    bar.close()
-    text = log.getvalue()
-    assert "\r" not in text and text.count("\n") == 4 and "4/4 pairs" in text
 
 
 def test_front_page_pick_and_overall_plot_over_common_cases(small):

@@ -96,7 +96,7 @@ def _case_figures(job: tuple) -> dict[str, Any]:
         "driver": rel(M.driver_figure(case, recs, ref, cmap, figdir / f"{s}-driver.png")),
         "shapes": rel(M.shapes_figure(case, recs, ref, cmap, figdir / f"{s}-shapes.png")),
         "errfactor": rel(P.error_factor_figure(case, recs, ref, cmap, figdir / f"{s}-error.png")),
-        "history": rel(P.history_figure(case, recs, figdir / f"{s}-history.png")),
+        "history": rel(P.history_figure(case, recs, figdir / f"{s}-time-history.png")),
         "trend": rel(trend),
         "render": rel(render),
         "render_error": render_error,

@@ -206,7 +206,7 @@ def plan(
 def run_matrix(
     scenes: Sequence[Scene],
     models: Sequence[str] | None = None,
-    out_dir: str | Path = "out",
+    out_dir: str | Path = "flexbench-out",
     *,
     quick: bool = False,
     workers: int | None = None,
