@@ -161,9 +161,7 @@ def cmd_history(args: argparse.Namespace) -> int:
 def add_parser(sub: Any) -> None:
     """The ``history`` subcommand (``sub``: argparse subparsers)."""
     h = sub.add_parser("history", help="list the runs in a history.sqlite (or one pair's trend)")
-    h.add_argument(
-        "path", nargs="?", default="flexbench-out", help="history file or run directory"
-    )
+    h.add_argument("path", nargs="?", default="flexbench-out", help="history file or run directory")
     h.add_argument("--case", help="show this case's error and time per run")
     h.add_argument("--model", help="with --case: only this model")
     h.set_defaults(func=cmd_history)
