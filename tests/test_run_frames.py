@@ -1,6 +1,8 @@
 """A run folder as DataFrames (``reports.load_run``) and the sweep columns of results.csv."""
 
 import itertools
+import json
+import sqlite3
 
 import numpy as np
 import pandas as pd
@@ -62,3 +64,15 @@ def test_results_csv_has_the_sweep_parameters_as_columns(tmp_path):
     swept = df[df["sweep_parent"] == scene.name]
     assert set(map(tuple, swept[keys].to_numpy())) == grid and len(swept) == len(grid) == 27
     assert df.set_index("case").loc["cantilever-tip-load", keys].isna().all()
+
+
+def test_report_footer_names_loaders_that_work(run):
+    from reports.render.document import environment_blocks
+
+    payload = json.loads((run.folder / "results.json").read_text())
+    text = " ".join(b[1] for b in environment_blocks(payload) if b[0] == "p")
+    assert "pandas.read_csv('results.csv')" in text and "reports.load_run('.')" in text
+    with pytest.raises(ValueError):  # as the footer says: results.json is not a flat table
+        pd.read_json(run.folder / "results.json")
+    with sqlite3.connect(run.folder / "history.sqlite") as con:
+        assert len(pd.read_sql_query("SELECT * FROM results", con)) == len(run.results)

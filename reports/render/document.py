@@ -303,7 +303,19 @@ def environment_blocks(payload: Mapping) -> list[Block]:
         ["packages", pk],
         ["run", run],
     ]
-    return [("h2", "Run environment", "environment"), ("table", ["", ""], rows), ("p", DEFINITIONS)]
+    blocks = [("h2", "Run environment", "environment"), ("table", ["", ""], rows)]
+    return blocks + [("p", DEFINITIONS), ("p", DATA_FILES)]
+
+
+DATA_FILES = (
+    "Data files beside this report: results.csv is the documented table, one row per case "
+    "and model (sweep points with their parameters as columns): pandas.read_csv('results.csv')"
+    "; errors.csv likewise, one row per compared output. results.json is nested: json.load, "
+    "or reports.load_run('.') for DataFrames (pandas.read_json cannot flatten it). "
+    "history.sqlite: pandas.read_sql_query('SELECT * FROM results', sqlite3.connect("
+    "'history.sqlite')). ParaView: paraview/CASE/MODEL/*.pvd (displacement, rotation, bending "
+    "stress per node; time = load factor)."
+)
 
 
 def card_blocks(cards: Mapping[str, Mapping]) -> list[Block]:
