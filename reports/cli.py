@@ -297,7 +297,6 @@ def cmd_run(args: argparse.Namespace) -> int:
                 "--dask needs dask[distributed] (pip install flexbench[dask])"
             ) from None
     scenes = select_cases(args.cases)
-    _say_start(args, scenes, models)
     tol = None
     if args.tol is not None:
         from reports.verdicts.tolerance import ToleranceError, parse_tolerance
@@ -350,6 +349,10 @@ def _say_start(args: argparse.Namespace, scenes: list, models: list[str] | None)
 def _run(
     args: argparse.Namespace, runner: Any, scenes: list, models: Any, out: Path, tol: Any
 ) -> Any:
+    from reports.run import journal
+
+    journal.prepare(out)  # an unwritable --out is one line, before the start line
+    _say_start(args, scenes, models)
     return runner.run_matrix(
         scenes,
         models,
