@@ -6,7 +6,8 @@ never pays for them.
 
 Units come from the case's unit system (``"m-N-Pa"``, ``"mm-N-MPa"``, ``"nondim"``), which
 ``reports.solve`` stores in ``extras["units"]``; an output's unit follows from its key's last
-part (``tip.uy`` a length, ``tip.rot`` radians, ``boom.length`` a length).
+part (``tip.uy`` a length, ``tip.rot`` radians, ``boom.length`` a length, ``*.torque`` force
+x length, ``*.force`` a force, ``*.ma`` a mechanical advantage, dimensionless).
 """
 
 from __future__ import annotations
@@ -47,9 +48,10 @@ def unit_table(keys: Sequence[str], system: str | None) -> dict[str, str]:
     length, force, stress = _SYSTEMS.get(system or "", ("length", "force", "stress"))
     units = {"step": "-", "factor": "-", "energy": f"{force} {length}", "iterations": "-"}
     units |= {"stable": "-", "max_stress": stress}
+    by_part = {"rot": "rad", "torque": f"{force} {length}", "force": force, "ma": "-"}
     for key in keys:
         part = key.rsplit(".", 1)[-1]
-        units[key] = length if part in _LENGTH_PARTS else "rad" if part == "rot" else "?"
+        units[key] = length if part in _LENGTH_PARTS else by_part.get(part, "?")
     return units
 
 

@@ -43,6 +43,15 @@ def test_frame_one_row_per_step_with_closed_form_values(sol):
     assert df.attrs["model"] == "linear-1" and df.attrs["status"] == "converged"
 
 
+def test_unit_names_of_every_output_kind():
+    from reduced_models.notebook import unit_table
+
+    keys = ["tip.x", "tip.rot", "boom.length", "driver.torque", "input.force", "gain.ma"]
+    got = unit_table(keys, "mm-N-MPa")
+    assert [got[k] for k in keys] == ["mm", "rad", "mm", "N mm", "N", "-"]
+    assert unit_table(["tip.uy"], None)["tip.uy"] == "length"  # unit system unknown
+
+
 def test_frame_units_follow_the_case_and_an_override(sol):
     assert sol.to_frame(units="mm-N-MPa").attrs["units"]["tip.ux"] == "mm"
     assert sol.to_frame(units="mm-N-MPa").attrs["units"]["max_stress"] == "MPa"
