@@ -14,6 +14,9 @@
     flexbench report DIR                     re-render report.html/.md from DIR/results.json
     flexbench history [DIR|PATH] [--case C]  runs in history.sqlite (or one case's trend)
     flexbench fit-prb ...                    fit a PRB matrix (reduced_models.beam.prb_fit)
+    flexbench --version                      the installed version
+
+``run``, ``teach`` and ``history`` default to the folder ``flexbench-out`` (``DEFAULT_OUT``).
 
 Exit codes: 0 success, 1 regression (compare) or a report that could not be rendered (run),
 2 bad input (one line ``flexbench: error: ...`` on stderr, never a traceback; an unwritable
