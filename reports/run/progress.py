@@ -13,9 +13,10 @@ a pair is solved about ``POINT_RUNS`` times); the line says how many pairs are g
 The sum is divided by the measured throughput: pair seconds finished per wall second over
 the last ``RATE_WINDOW_S`` (other pool jobs such as the teaching page's atlases, and other
 processes on the machine, take the rest of the workers' time), at most the number of
-workers still busy; until that window has passed since the first finished pair the ETA is
-"?".  The estimated finish time is smoothed over ``ETA_SMOOTHING_S`` of wall time, so one
-slow pair does not swing the ETA by 2x.
+workers still busy.  The ETA is "?" while jobs queued before the pairs (the teaching page's
+atlases) hold workers, and for ``MIN_SPAN_S`` after the first finished pair.  The estimated
+finish time is smoothed over ``ETA_SMOOTHING_S`` of wall time, so one slow pair does not
+swing the ETA by 2x.
 """
 
 from __future__ import annotations
@@ -32,10 +33,11 @@ from typing import TextIO
 
 LOG_EVERY_FRACTION = 0.1  # plain log: one line per ~10 % of the pairs ...
 LOG_EVERY_S = 30.0  # ... or after this many seconds, whichever comes first
-ETA_SMOOTHING_S = 30.0  # time constant of the finish-time smoothing
+ETA_SMOOTHING_S = 45.0  # time constant of the finish-time smoothing
 SHRINK = 3.0  # pseudo-count of the family mean in a model's estimate
 POINT_RUNS = 4.0  # solves of a timed pair (first + TimingPolicy.min_runs) per sweep point's one
-RATE_WINDOW_S = 60.0  # throughput measured over the pairs finished this recently
+RATE_WINDOW_S = 60.0  # throughput measured over the pairs finished this recently ...
+MIN_SPAN_S = 10.0  # ... once this long has passed since the first (no ETA before)
 
 
 def clock(s: float) -> str:
@@ -105,6 +107,8 @@ class Progress:
         line and the ETA.
     workers : how many pairs run at once.
     now : the clock (seconds; tests pass a fake one).
+    others : pool jobs queued before the pairs (the teaching page's atlases); the runner
+        calls ``other_done`` as each finishes.
     """
 
     def __init__(
@@ -115,8 +119,9 @@ class Progress:
         tasks: Sequence[Mapping] = (),
         workers: int = 1,
         now: Callable[[], float] = time.monotonic,
+        others: int = 0,
     ):
-        self.now = now
+        self.now, self.others = now, others
         self.total, self.done, self.t0 = total, 0, now()
         self.stream = stream or sys.stderr
         tty = bool(getattr(self.stream, "isatty", lambda: False)())
@@ -160,17 +165,30 @@ class Progress:
                 est[model, cls] = self.models.shrunk((model, cls), fam)
         return est, statistics.median(means.values())
 
+    def other_done(self) -> None:
+        """One of the ``others`` jobs (the teaching page's atlases, queued before the pairs)
+        finished: the throughput is measured from the last of them on."""
+        self.others -= 1
+        if self.others <= 0:
+            # the window opens now, with nothing finished in it
+            self.recent = collections.deque([(self.now(), 0.0)])
+
     def rate(self) -> float | None:
         """Pair seconds finished per wall second over the last ``RATE_WINDOW_S``, at most
-        the number of workers; None while the first finished pair is more recent than
-        that (the teaching page's atlas jobs go first and would read as a slow start)."""
+        the number of workers; None for ``MIN_SPAN_S`` after the first finished pair, or
+        for ``RATE_WINDOW_S`` while an ``others`` job still holds a worker."""
         now = self.now()
-        if not self.recent or now - self.recent[0][0] < RATE_WINDOW_S:
+        if not self.recent:
+            return None
+        # an others job still running after a whole window (a lost one sends no record) no
+        # longer holds the ETA back: it reads as a slower machine
+        wait = RATE_WINDOW_S if self.others > 0 else MIN_SPAN_S
+        if now - self.recent[0][0] < wait:
             return None
         while len(self.recent) > 2 and self.recent[1][0] < now - RATE_WINDOW_S:
             self.recent.popleft()
         span = now - self.recent[0][0]
-        done = sum(s for _, s in list(self.recent)[1:])  # the first pair opens the window
+        done = sum(s for _, s in list(self.recent)[1:])  # the first entry opens the window
         return min(float(self.workers), max(done / span, 1e-9))
 
     def raw_eta(self) -> tuple[float, int] | None:

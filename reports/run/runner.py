@@ -346,12 +346,15 @@ def _solve(
         early = overlap.EarlyFigures(todo, records, metas, out.resolve(), probe)
     if teach is not None and pooled:
         queue.extendleft(reversed(teach.jobs))  # long jobs: first, beside the pairs
-    bar = Progress(len(todo), enabled=progress, tasks=todo, workers=workers or os.cpu_count() or 1)
+    others = len(teach.jobs) if teach is not None and pooled else 0  # queued before the pairs
+    n_workers = workers or os.cpu_count() or 1
+    bar = Progress(len(todo), enabled=progress, tasks=todo, workers=n_workers, others=others)
     try:
         for rec in execute(queue if pooled else todo, workers, dask, time_limit):
             if early is not None and early.take(rec):
                 continue
             if teach is not None and teach.take(rec):
+                bar.other_done()
                 continue
             journal.append(partial, rec)
             records.append(rec)
