@@ -95,10 +95,11 @@ def test_log_says_what_runs_first_then_by_fraction_and_time():
     lines = text.splitlines()
     assert lines[0] == (
         "flexbench: solving 1282 pairs (434 cases x 13 models) on 2 workers; "
-        "331 heavy (FE references, replays) first"
+        "2 teaching-page atlas jobs, then 331 heavy (FE references, replays) first"
     )
-    assert lines[1].startswith("flexbench: 1/1282 pairs, 1:")  # the first pair, at once
-    assert "ETA ? (measuring)" in lines[1]
+    assert lines[1] == "flexbench: teaching-page atlas job 1 done, 1:00 elapsed"
+    assert lines[2].startswith("flexbench: 1/1282 pairs, 1:")  # the first pair, at once
+    assert "ETA ? (measuring)" in lines[2]
     assert any("pairs of models not yet timed guessed" in ln for ln in lines)
     assert lines[-1].startswith("flexbench: 1282/1282 pairs") and lines[-1].endswith("ETA 0:00")
     assert "\r" not in text

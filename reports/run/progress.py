@@ -121,7 +121,7 @@ class Progress:
         now: Callable[[], float] = time.monotonic,
         others: int = 0,
     ):
-        self.now, self.others = now, others
+        self.now, self.others, self.others_done = now, others, 0
         self.total, self.done, self.t0 = total, 0, now()
         self.stream = stream or sys.stderr
         tty = bool(getattr(self.stream, "isatty", lambda: False)())
@@ -143,7 +143,9 @@ class Progress:
         models = len({t.get("model") for t in tasks})
         heavy = sum(bool(t.get("heavy")) for t in tasks)
         what = f" ({plural(cases, 'case')} x {plural(models, 'model')})" if tasks else ""
-        order = f"; {heavy} heavy (FE references, replays) first" if heavy else ""
+        first = [plural(self.others, "teaching-page atlas job")] if self.others else []
+        first += [f"{heavy} heavy (FE references, replays)"] if heavy else []
+        order = f"; {', then '.join(first)} first" if first else ""
         pairs, workers = plural(self.total, "pair"), plural(self.workers, "worker")
         return f"flexbench: solving {pairs}{what} on {workers}{order}"
 
@@ -169,6 +171,11 @@ class Progress:
         """One of the ``others`` jobs (the teaching page's atlases, queued before the pairs)
         finished: the throughput is measured from the last of them on."""
         self.others -= 1
+        self.others_done += 1
+        if self.mode:  # the pool's first minutes may be these jobs only: say so
+            el = clock(self.now() - self.t0)
+            line = f"flexbench: teaching-page atlas job {self.others_done} done, {el} elapsed"
+            self._say(("\r" if self.mode == "bar" else "") + line)
         if self.others <= 0:
             # the window opens now, with nothing finished in it
             self.recent = collections.deque([(self.now(), 0.0)])
@@ -256,7 +263,7 @@ class Progress:
         eta = self.eta()
         eta_txt = "ETA ? (measuring)" if eta is None else f"ETA {clock(eta[0])}"
         if eta is not None and eta[1]:
-            eta_txt += f" ({eta[1]} pairs of models not yet timed guessed)"
+            eta_txt += f" ({plural(eta[1], 'pair')} of models not yet timed guessed)"
         if self.mode == "bar":
             fill = int(30 * self.done / self.total)
             bar = "#" * fill + "." * (30 - fill)
