@@ -30,8 +30,9 @@ Modelling choices (what the scene format means here)
 * Mass (for the dynamic replay): consistent P1 mass ``rho A`` on translations and ``rho I`` on
   rotations (scikit-fem forms), constant and frame invariant.  ``rho`` = ``Member.density``
   or, if absent, steel in the scene's units (``beam_mesh.DEFAULT_DENSITY``), 1.0 in
-  ``nondim``.  Springs are massless; rigid links get ``rho A`` with A from the member or the mean flexible A (else 1),
-  and a small rotary inertia ``1e-3 rho A L^2`` per length when I is absent.
+  ``nondim``.  Springs are massless; rigid links get ``rho A`` with A from the member or the
+  mean flexible A (else 1), and a small rotary inertia ``1e-3 rho A L^2`` per length when I
+  is absent.
 """
 
 from __future__ import annotations
