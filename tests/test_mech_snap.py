@@ -162,20 +162,25 @@ def test_a_clamped_von_mises_truss_snaps_where_fem_auto_does(model: str) -> None
 
 
 @pytest.mark.parametrize(
-    ("model", "finer"), [("bcm", "cbcm-2"), ("elastica", None), ("cbcm-auto", None)]
+    ("model", "finer", "rel"),
+    [("bcm", "cbcm-2", None), ("elastica", None, 5e-3), ("cbcm-auto", None, 5e-3)]
+    + [("prb-2rpr", None, 5e-2)],
 )
-def test_every_member_model_that_moves_reports_the_snap(fem, model: str, finer) -> None:
+def test_every_member_model_that_moves_reports_the_snap(fem, model: str, finer, rel) -> None:
     """Ex. 3 as the seed runs it, the member models beside those above: the snap is
     reported, its load and the far state within the model's own error.  The elastica and
-    cbcm-auto are near-exact (0.5 %); a single BCM segment's error is its distance to
-    cbcm-2 (1.5 x, as above): one segment misses the tilt of the legs by far."""
+    cbcm-auto are near-exact (0.5 %); PRB-2(RP)R, whose stretching middle links let the legs
+    move, is held to the case's 5 % (1 % on the snap load, a small-rotation state); a single
+    BCM segment's error is its distance to cbcm-2 (1.5 x, as above): one segment misses the
+    tilt of the legs by far."""
     lam_fe = next(p for p in fem.extras["critical_points"] if p["kind"] != "snap")["factor"]
     sol = solve(CASE, model)
     snap = _snap(sol)
     assert "snap at factor" in sol.message
     if finer is None:
-        assert abs(snap["factor"] - lam_fe) <= 5e-3 * lam_fe
-        assert abs(_at(sol, FAR) - _at(fem, FAR)) <= 5e-3 * _at(fem, FAR)
+        assert abs(snap["factor"] - lam_fe) <= min(rel, 1e-2) * lam_fe
+        for f in (FAR, 1.0):
+            assert abs(_at(sol, f) - _at(fem, f)) <= rel * _at(fem, f)
         return
     ref = solve(CASE, finer)
     est_lam = abs(snap["factor"] - _snap(ref)["factor"])
@@ -184,7 +189,9 @@ def test_every_member_model_that_moves_reports_the_snap(fem, model: str, finer) 
     assert abs(_at(sol, FAR) - _at(fem, FAR)) <= 1.5 * est
 
 
-@pytest.mark.parametrize("model", ["linear-auto", "prb-fsm-auto", "linear-4", "prb-3r", "prb-1r"])
+@pytest.mark.parametrize(
+    "model", ["linear-auto", "prb-fsm-auto", "linear-4", "prb-3r", "prb-2r", "prb-1r", "prb-short"]
+)
 def test_member_models_that_cannot_move_decline_with_the_reason(model: str) -> None:
     """Inextensible linear / PRB members see no first-order motion under the shuttle push
     (the load is carried by axial inextensibility) and prb-1r has no guided-beam joint: each
