@@ -231,3 +231,27 @@ def test_a_spring_truss_that_newton_crosses_in_one_step_reports_its_snap() -> No
     w_far = brentq(lambda w: -F(w) - 6.4, 2 * h, 3 * h)
     assert snap["to"]["factor"] == pytest.approx(0.8)
     assert -snap["to"]["outputs"]["apex.uy"] == pytest.approx(w_far, rel=1e-8)
+
+
+@pytest.mark.parametrize("model", ["bcm", "cbcm-2"])
+def test_the_shallow_von_mises_arch_snaps_at_its_exact_limit_load(model: str) -> None:
+    """The catalog's shallow arch (two pinned bars, EA 1000, half-span 1, rise 0.1) under a
+    load ramp to 0.5 > P_max with the reduced mechanism models: the snap at the exact limit
+    load max P(w) (its bars stay straight, so a BCM segment carries the truss law up to its
+    axial model), from w1 to the inverted branch at factor 0.4 (closed form P(w))."""
+    from scipy.optimize import brentq
+
+    from tests.test_verify_fem_hard import arch_P
+
+    base = cases.load("shallow-arch-snap")
+    a = dataclasses.replace(base.analysis, kind="load", steps=5, factor_end=0.5)
+    sol = solve(dataclasses.replace(base, analysis=a, references=()), model)
+    (snap,) = [p for p in sol.extras["critical_points"] if p["kind"] == "snap"]
+    dP = lambda w: (arch_P(w + 1e-7) - arch_P(w - 1e-7)) / 2e-7  # noqa: E731
+    w1 = brentq(dP, 1e-3, 0.099)
+    assert snap["factor"] == pytest.approx(arch_P(w1), rel=1e-5)
+    assert -snap["from"]["outputs"]["apex.uy"] == pytest.approx(w1, rel=1e-2)
+    assert snap["to"]["factor"] == pytest.approx(0.4)
+    w_far = brentq(lambda w: arch_P(w) - 0.4, 0.2, 0.3)
+    assert -snap["to"]["outputs"]["apex.uy"] == pytest.approx(w_far, rel=1e-4)
+    assert "snap at factor" in sol.message
