@@ -161,6 +161,7 @@ def test_a_clamped_von_mises_truss_snaps_where_fem_auto_does(model: str) -> None
     assert abs(far(sol) - far(fe)) <= 1.5 * est + 2e-3 * abs(far(fe))
 
 
+@pytest.mark.slow  # cbcm-auto solves four chained models through the snap (about a minute)
 @pytest.mark.parametrize(
     ("model", "finer", "rel"),
     [("bcm", "cbcm-2", None), ("elastica", None, 5e-3), ("cbcm-auto", None, 5e-3)]
