@@ -26,6 +26,7 @@ from cases.arc import arc_length
 UNITS: dict[str, str] = {
     "m-N-Pa": "lengths in m, forces in N, moduli in Pa",
     "mm-N-MPa": "lengths in mm, forces in N, moduli in MPa (N/mm^2)",
+    "in-lbf-psi": "lengths in in, forces in lbf, moduli in psi (lbf/in^2)",
     "nondim": "dimensionless (L = 1, EI = 1 typically)",
 }
 MEMBER_KINDS = ("flexible", "rigid", "spring")

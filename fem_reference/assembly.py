@@ -29,9 +29,10 @@ Modelling choices (what the scene format means here)
   dead or follower in 2-D.
 * Mass (for the dynamic replay): consistent P1 mass ``rho A`` on translations and ``rho I`` on
   rotations (scikit-fem forms), constant and frame invariant.  ``rho`` = ``Member.density``
-  or, if absent, 7850 (``m-N-Pa``), 7.85e-9 (``mm-N-MPa``), 1.0 otherwise.  Springs are
-  massless; rigid links get ``rho A`` with A from the member or the mean flexible A (else 1),
-  and a small rotary inertia ``1e-3 rho A L^2`` per length when I is absent.
+  or, if absent, steel in the scene's units (``beam_mesh.DEFAULT_DENSITY``), 1.0 in
+  ``nondim``.  Springs are massless; rigid links get ``rho A`` with A from the member or the
+  mean flexible A (else 1), and a small rotary inertia ``1e-3 rho A L^2`` per length when I
+  is absent.
 """
 
 from __future__ import annotations

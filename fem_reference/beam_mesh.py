@@ -18,7 +18,12 @@ from fem_reference import corotational as cr
 from fem_reference.dofs import number_dofs
 from fem_reference.femsystem import MemberMesh, ModelError
 
-DEFAULT_DENSITY = {"m-N-Pa": 7850.0, "mm-N-MPa": 7.85e-9}
+# steel, 7850 kg/m^3, in force s^2 / length^4 of each system (in-lbf-psi: lbf s^2/in^4)
+DEFAULT_DENSITY = {
+    "m-N-Pa": 7850.0,
+    "mm-N-MPa": 7.85e-9,
+    "in-lbf-psi": 7850.0 * 0.0254**4 / 4.4482216152605,
+}
 
 
 def section(scene: Scene, m: Member, L: float) -> tuple[float, float]:

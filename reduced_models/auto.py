@@ -122,6 +122,10 @@ class AutoFidelity:
         p, est = self.formal_order, math.inf
         for _ in range(MAX_ROUNDS):
             bad = next((s for s in sols[-3:] if s.status != "converged"), None)
+            if bad is not None and bad.status == "not-applicable":
+                # a decline found only while solving (e.g. inextensible members that cannot
+                # move under the load) is the family's decline, not a failed refinement
+                return not_applicable(scene, self.name, f"{bad.model}: {bad.message}")
             if bad is not None:
                 return self._result(scene, sols[-1], ns, p, est, f"{bad.model}: {bad.message}")
             d21 = path_change(sols[-3], sols[-2], length)

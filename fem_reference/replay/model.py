@@ -59,7 +59,7 @@ class Replay:
         "generalised-alpha, load ramped and held until settled, impulse stability probes",
         assumptions=(
             "same corotational discretisation as fem-N; consistent mass from Member.density "
-            "(default 7850 kg/m^3, 7.85e-9 t/mm^3, 1 nondim)",
+            "(default 7850 kg/m^3, 7.85e-9 t/mm^3, 7.35e-4 lbf s^2/in^4, 1 nondim)",
             "mass-proportional damping, critical on the lowest mode of (K0, M) (optional "
             "Rayleigh with the current tangent); settled states do not depend on it",
             "a state is settled when velocity, acceleration and the static distance K^-1 r "

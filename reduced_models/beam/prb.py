@@ -5,8 +5,11 @@ Every PRB model here is a chain of rigid segments described by a PRB matrix
 axial stretch u_i when k_ex_i is finite), a torsion spring k_theta_i EI/L at its proximal end
 (absent when infinite) and an axial spring k_ex_i EA/L (rigid when infinite).  The chain
 numerics -- kinematics, energy with analytic gradient and Hessian, the equilibrium path
-through the shared continuation, end-load recovery by pinv(J^T), shape and stress from the
-elastica -- are in ``reduced_models.beam.prb_chain`` (re-exported here).
+through the shared continuation -- are in ``reduced_models.beam.prb_chain``; end-load recovery
+by pinv(J^T) and the PRB's own shape (its rigid links) and stress in ``prb_post`` (re-exported
+here).  With the option ``das2d = true`` the shape and stress are DAS-2D's instead: the Euler
+(elastica) beam solved under the recovered end loads, with the PRB-vs-Euler tip gap as
+DAS-2D's accuracy indicator in ``extras["das2d_indicator"]`` (``prb_das2d``).
 """
 
 from __future__ import annotations
@@ -26,6 +29,8 @@ from reduced_models.beam.prb_chain import (
     check_matrix,
     equilibrium_path,
 )
+from reduced_models.beam.prb_das2d import OPTION as DAS2D
+from reduced_models.beam.prb_das2d import das2d_shapes
 from reduced_models.beam.prb_post import (
     recover_tip_loads,
     recover_tip_loads_batch,
@@ -60,7 +65,8 @@ _COMMON = (
     "rigid segments joined by linear torsion springs (PRB matrix)",
     "dead tip loads only (energy formulation; follower loads are declined)",
     "shape: the PRB's own pivots and rigid links; stress from the bending moment of the end "
-    "loads recovered from the PRB's spring forces by pinv(J^T), at the root, pivots and tip",
+    "loads recovered from the PRB's spring forces by pinv(J^T), at the root, pivots and tip "
+    "(option das2d: the Euler beam under those loads and the PRB-vs-Euler tip gap, DAS-2D)",
 )
 
 
@@ -74,11 +80,12 @@ class PRBModel:
     name = "prb"
     card = ModelCard(name="prb", family="prb", summary="PRB chain", assumptions=_COMMON)
 
-    OPTIONS = dict(SHAPES)
+    OPTIONS = {**SHAPES, **DAS2D}
 
-    def __init__(self, matrix: object = None, shapes: bool = True) -> None:
+    def __init__(self, matrix: object = None, shapes: bool = True, das2d: bool = False) -> None:
         self._matrix = None if matrix is None else check_matrix(matrix)
         self.shapes = bool(shapes)
+        self.das2d = bool(das2d)  # DAS-2D's Euler shape and accuracy indicator (prb_das2d)
 
     # subclasses override: (matrix, tip-angle factor, note) for this cantilever, or a reason
     def setup(self, beam: Cantilever) -> tuple[np.ndarray, float, str] | str:
@@ -195,7 +202,7 @@ class PRBModel:
         ``load_m``, ``jt_rank``); stress from the bending moment these loads give at the
         root, every pivot and the tip, ``m + (tip - p) x f`` (linear along a rigid link).
         """
-        if not sol.steps or not self.shapes:
+        if not sol.steps or not (self.shapes or self.das2d):
             return sol
         beam = self._beam(scene)
         chain = self._chain_of(np.asarray(sol.extras["prb_matrix"]), beam)
@@ -203,7 +210,12 @@ class PRBModel:
         f1 = np.array([beam.fx, beam.fy, 0.0 if beam.guided else beam.m])
         lam = np.array([s.factor for s in sol.steps])
         loads, rank = recover_tip_loads_batch(chain, Q, None if beam.guided else lam[:, None] * f1)
-        shapes, stress = shape_and_stress(scene, beam, chain, Q, loads)
+        if self.das2d:  # the Euler beam under the recovered loads, and the tip gap
+            rot = 0.0 if beam.guided else sol.extras["tip_angle_factor"]
+            shapes, stress, indicator = das2d_shapes(scene, beam, chain, Q, loads, rot)
+            sol = replace(sol, extras={**sol.extras, "das2d_indicator": indicator})
+        else:
+            shapes, stress = shape_and_stress(scene, beam, chain, Q, loads)
         stress = [None] * len(Q) if stress is None else stress.tolist()
         steps = []
         for step, xy, (fx, fy, fm), r, sig in zip(
@@ -259,8 +271,8 @@ class PRBShort(PRBModel):
         ),
     )
 
-    def __init__(self, shapes: bool = True) -> None:
-        super().__init__(T.PRB_SHORT, shapes)
+    def __init__(self, shapes: bool = True, das2d: bool = False) -> None:
+        super().__init__(T.PRB_SHORT, shapes, das2d)
 
     def solve(self, scene: Scene) -> Solution:
         """As every PRB model, flagged outside its validity range: a single-beam scene is a
@@ -304,10 +316,14 @@ class PRB1R(PRBModel):
         ),
     )
 
-    OPTIONS = {**SHAPES, "params": Option("str", choices=("fit", "average"), doc="gamma(n)")}
+    OPTIONS = {
+        **SHAPES,
+        **DAS2D,
+        "params": Option("str", choices=("fit", "average"), doc="gamma(n)"),
+    }
 
-    def __init__(self, params: str = "fit", shapes: bool = True) -> None:
-        super().__init__(None, shapes)
+    def __init__(self, params: str = "fit", shapes: bool = True, das2d: bool = False) -> None:
+        super().__init__(None, shapes, das2d)
         if params not in ("fit", "average"):
             raise ValueError("prb-1r option params must be 'fit' or 'average'")
         self.params = params
@@ -373,8 +389,8 @@ class PRB2R(PRBModel):
         references=(_REF, _SEED, "FlexBench derivation: reduced_models/beam/prb_tables.py"),
     )
 
-    def __init__(self, shapes: bool = True) -> None:
-        super().__init__(T.PRB_2R, shapes)
+    def __init__(self, shapes: bool = True, das2d: bool = False) -> None:
+        super().__init__(T.PRB_2R, shapes, das2d)
 
 
 class PRB3R(PRBModel):
@@ -390,13 +406,15 @@ class PRB3R(PRBModel):
         references=("Su, J. Mechanisms Robotics 1(2):021008, 2009, doi 10.1115/1.3046148",),
     )
 
-    OPTIONS = {**SHAPES, "stiffness": Option("str", choices=tuple(sorted(T.SU_K)))}
+    OPTIONS = {**SHAPES, **DAS2D, "stiffness": Option("str", choices=tuple(sorted(T.SU_K)))}
 
-    def __init__(self, stiffness: str | None = None, shapes: bool = True) -> None:
+    def __init__(
+        self, stiffness: str | None = None, shapes: bool = True, das2d: bool = False
+    ) -> None:
         kset = stiffness or self.kset
         if kset not in T.SU_K:
             raise ValueError(f"prb-3r option stiffness must be one of {sorted(T.SU_K)}")
-        super().__init__(T.prb3r_matrix(kset), shapes)
+        super().__init__(T.prb3r_matrix(kset), shapes, das2d)
         self.kset = kset
         self.card = ModelCard(
             name="prb-3r" if kset == "average" else f"prb-3r-{kset}",
@@ -448,8 +466,8 @@ class PRB2RPR(PRBModel):
         references=(_REF, "Su 2009, doi 10.1115/1.3046148", _SEED),
     )
 
-    def __init__(self, shapes: bool = True) -> None:
-        super().__init__(T.prb2rpr_matrix(), shapes)
+    def __init__(self, shapes: bool = True, das2d: bool = False) -> None:
+        super().__init__(T.prb2rpr_matrix(), shapes, das2d)
 
 
 class PRBFSM(PRBModel):
@@ -463,10 +481,12 @@ class PRBFSM(PRBModel):
         references=("Howell & Midha, J. Mech. Des. 116:280-290, 1994, doi 10.1115/1.2919359",),
     )
 
-    OPTIONS = {**SHAPES, "placement": Option("str", choices=("mid", "end"), doc="springs")}
+    OPTIONS = {**SHAPES, **DAS2D, "placement": Option("str", choices=("mid", "end"), doc="springs")}
 
-    def __init__(self, n: int, placement: str = "mid", shapes: bool = True) -> None:
-        super().__init__(T.fsm_matrix(int(n), placement), shapes)
+    def __init__(
+        self, n: int, placement: str = "mid", shapes: bool = True, das2d: bool = False
+    ) -> None:
+        super().__init__(T.fsm_matrix(int(n), placement), shapes, das2d)
         where = "element centres" if placement == "mid" else "proximal element ends"
         self.card = ModelCard(
             name=f"prb-fsm-{n}",
@@ -500,18 +520,23 @@ class PRBCustom(PRBModel):
 
     OPTIONS = {
         **SHAPES,
+        **DAS2D,
         "matrix": Option("matrix", doc="PRB matrix [[k_theta, k_ex, gamma], ...]"),
         "tip_angle_factor": Option("float", 0.0, 10.0, doc="tip slope / last link angle"),
     }
 
     def __init__(
-        self, matrix: object = None, tip_angle_factor: float = 1.0, shapes: bool = True
+        self,
+        matrix: object = None,
+        tip_angle_factor: float = 1.0,
+        shapes: bool = True,
+        das2d: bool = False,
     ) -> None:
         self._error = None
         try:
-            super().__init__(matrix, shapes)
+            super().__init__(matrix, shapes, das2d)
         except ValueError as exc:
-            super().__init__(None, shapes)
+            super().__init__(None, shapes, das2d)
             self._error = f"options.matrix: {exc}"
         self.rot_factor = float(tip_angle_factor)
 

@@ -16,9 +16,10 @@ along the load ramp with step cutting, through the shared ``reduced_models.paths
 Shape and stress (``prb_post``; seed 000_265bc60728766176.txt, "Computing Beam Shape and Stress"):
 the end loads are recovered from the spring torques through the Moore-Penrose pseudo-inverse of the
 Jacobian transpose; the shape drawn is the PRB's own chain of rigid links and the stress is
-that of the bending moment these loads give at the root, the pivots and the tip.  (The seed
-also solves the elastica under the recovered loads; that is an exact solve, not the PRB's
-answer, and would make the PRB's cost the elastica's.)
+that of the bending moment these loads give at the root, the pivots and the tip.  The seed
+also solves the elastica under the recovered loads (its shape, and the PRB-vs-Euler tip gap as
+an accuracy indicator): the PRB models' option ``das2d`` (``prb_das2d``), off by default since
+it costs an elastica solve per state.
 """
 
 from __future__ import annotations

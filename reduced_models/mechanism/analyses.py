@@ -23,7 +23,7 @@ import numpy as np
 
 from reduced_models.base import Step, load_factors
 from reduced_models.mechanism.newton import SolveError, Solver, State, follow
-from reduced_models.mechanism.snap import snap_step
+from reduced_models.mechanism.snap import jumped, snap_step
 from reduced_models.mechanism.system import MechanismSystem
 
 
@@ -98,7 +98,10 @@ class Run:
             try:
                 new = follow(self.solver, st, float(prev), float(fk), set_lam, "lam")
                 new.lam = float(fk)
-                lost = self.steps[-1].stable and self.solver.stable(new, False)[0] is not True
+                lost = self.steps[-1].stable and (
+                    self.solver.stable(new, False)[0] is not True
+                    or jumped(self, st, new, float(fk - prev))
+                )
             except SolveError:
                 new, lost = None, self.steps[-1].stable
             found = []

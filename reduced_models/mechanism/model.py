@@ -280,6 +280,12 @@ def finish(scene: Scene, name: str, r: analyses.Run) -> Solution:
         return Solution(scene.name, name, "failed", r.exc, tuple(r.steps), extras)
     its = sum(s.iterations for s in r.steps)
     msg = f"{len(r.steps)} steps, {its} Newton iterations, {r.extras['ndof']} unknowns"
+    msg += "".join(
+        f"; snap at factor {p['factor']:.8g}: the path jumps to another branch "
+        "(critical_points: from, to)"
+        for p in r.extras.get("critical_points", ())
+        if p["kind"] == "snap"
+    )
     lost = [s for s in r.steps if s.stable is False]
     if scene.analysis.kind == "load" and lost:
         # load control stays on the branch it started on: say so rather than let a path of

@@ -24,6 +24,12 @@ fundamental path turned back: a limit point), ``snap_step``:
    tangent at the critical state predicts (``_continues``: load control stalled for a
    numerical reason, e.g. a residual floor at the tolerance) is no snap and is not reported.
 
+Newton can also converge across a limit point onto a stable far branch in one load step (a
+stiff spring truss): both ends stable, no inertia change.  ``jumped`` tells such a step from
+a smooth one (its move against the tangents at both ends, ``JUMP``); ``Run.load`` then treats
+it as a stability loss and the bisection of step 1 refuses jumped steps, so the snap is
+located and reported like any other, never silent.
+
 ``extras["critical_points"]`` (DESIGN.md, "Critical points"): the critical point (``kind``
 "limit" | "bifurcation", ``factor`` = lam_c, ``switched`` = True when a stable state was
 reached beyond it) followed by the ``"snap"`` (``factor`` = lam_c, the load at which it
@@ -46,6 +52,10 @@ RELAX_ITER = 400  # pseudo-time steps of one relaxation
 # converged to round-off (long chained members: the scaled residual floor nears 1e-10)
 STALL = 1e2
 CONTINUES = 0.25  # a landing this close (relative) to the tangent's prediction is no snap
+# a converged load step that moved more than JUMP x what the tangent at either end predicts
+# left its branch: on a smooth path the move is at most the larger end tangent's (the tangent
+# grows monotonically towards a limit point), a Newton jump to a far branch is many times it
+JUMP = 3.0
 ALPHA0 = 1.0  # pseudo-time shift at the start, in units of the pseudo-mass (``_relax``)
 
 
@@ -89,6 +99,24 @@ def snap_step(run: object, st: State, lam0: float, lam1: float) -> tuple[State, 
     return new, [point, snap]
 
 
+def jumped(run: object, st: State, new: State, dlam: float) -> bool:
+    """Did the converged load step ``st -> new`` (factor change ``dlam``) leave its branch?
+    Its largest scaled move exceeds ``JUMP`` x the move predicted by the tangent at either
+    end (module doc)."""
+    w, f = _weights(run), run.s.free
+    move = float(np.abs((new.q[f] - st.q[f]) * w).max()) if len(f) else 0.0
+    if not move > 1e-9:
+        return False
+    pred = 0.0
+    for x in (st, new):
+        try:
+            t = run.solver.tangent(x, "lam")[: len(f)]
+        except (SolveError, np.linalg.LinAlgError):
+            return False
+        pred = max(pred, float(np.abs(dlam * t * w).max()))
+    return bool(np.isfinite(pred)) and move > JUMP * pred
+
+
 def _continues(run: object, st: State, new: State, dlam: float) -> bool:
     """Is ``new`` the regular continuation of the path through ``st`` (its tangent predicts
     it to within a quarter of the move)?  Load control that stalls for numerical reasons
@@ -115,7 +143,9 @@ def _reach(run: object, st: State, lam0: float, lam: float) -> State | None:
     except SolveError:
         return None
     new.lam = lam
-    return new if run.solver.stable(new, False)[0] else None
+    if not run.solver.stable(new, False)[0] or jumped(run, st, new, lam - lam0):
+        return None
+    return new
 
 
 def _locate(run: object, st: State, lo: float, hi: float) -> tuple[float, State]:

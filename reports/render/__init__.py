@@ -263,6 +263,12 @@ def render_report(
     toc.insert(
         toc.index(("Model cards", "cards")), ("Predicted against measured error", "effectivity")
     )
+    from reports.render import das2d_note  # DAS-2D's PRB indicator against the measured error
+
+    note = das2d_note.blocks(payload)
+    if note:
+        blocks += note
+        toc.insert(toc.index(("Model cards", "cards")), (das2d_note.TITLE, das2d_note.ANCHOR))
     from reports.render import mech_atlas  # mechanism atlases saved by the teaching page
 
     blocks = mech_atlas.insert_blocks(blocks, out)

@@ -10,6 +10,13 @@ def _g(v: object) -> str:
     return f"{v:.6g}" if isinstance(v, int | float) else "?"
 
 
+def _why(fe: Mapping) -> str:
+    """The FE check's own reason when it did not converge (first clause, so a failed check
+    says why rather than only that it failed)."""
+    msg = str(fe.get("message") or "").split(";")[0].strip()
+    return f" ({msg[:160]})" if msg else ""
+
+
 def _bistable(b: Mapping) -> str:
     if not b.get("bistable"):
         return f"not bistable ({b.get('reason', 'no stable-unstable-stable triple')})"
@@ -46,7 +53,7 @@ def notes(extras: Mapping) -> list[str]:
                 f"fem-auto on the synthesised scene: {_g(fe.get('achieved'))} "
                 f"(error {_g(fe.get('relative_error'))} of the target)"
                 if fe.get("status") == "converged"
-                else f"fem-auto on the synthesised scene: {fe.get('status')}"
+                else f"fem-auto on the synthesised scene: {fe.get('status')}{_why(fe)}"
             )
     drivers = extras.get("drivers")
     if isinstance(drivers, list):  # a driver search: every candidate, and its FE re-solve
@@ -57,7 +64,7 @@ def notes(extras: Mapping) -> list[str]:
             check = (
                 "fem-auto: " + _bistable(fe["bistable"])
                 if isinstance(fe.get("bistable"), Mapping)
-                else f"fem-auto {fe.get('status', 'not run')}"
+                else f"fem-auto {fe.get('status', 'not run')}{_why(fe)}"
             )
             out.append(f"driver {d.get('driver')}: {_bistable(d)}; {check}")
     b = extras.get("bistable")
