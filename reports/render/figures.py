@@ -30,9 +30,11 @@ QUANTITIES = ("ux", "uy", "rot")
 
 
 def colours(models: Sequence[str]) -> dict[str, Any]:
-    """One stable colour per model name across every figure of a report."""
-    cmap = plt.get_cmap("tab10" if len(models) <= 10 else "tab20")
-    return {m: cmap(i % cmap.N) for i, m in enumerate(sorted(models))}
+    """One distinct colour per model name across every figure of a report
+    (``reports.render.palette``: catalog models keep theirs from run to run)."""
+    from reports.render.palette import palette
+
+    return palette(models)
 
 
 def _series(rec: Mapping, key: str) -> np.ndarray:

@@ -1,7 +1,8 @@
 """Figures along the path: load factor against outputs (zoomed to the reference), error
 against load factor per model, and the replay's time histories as labelled panels.
 
-Zoom rule: each panel's range is the reference's range plus a margin; a model's point
+Zoom rule: each panel's range is the reference's own range plus a margin (from the data, not
+symmetric about zero nor a fixed fraction of L); a model's point
 outside it is drawn on the edge with a hollow marker (so a linear blow-up to -6 L cannot
 rescale a plot whose reference spans 0..-0.8 L).
 """
@@ -19,13 +20,16 @@ from reports.render.frontpage import ROUNDOFF, TOLERANCE
 from reports.run.tables import unit_names
 
 MARGIN = 0.12  # of the reference's range, each side
+DATA_FLOOR = 1e-6  # path panels: smallest margin, of L (below it an output is round-off)
 
 
-def zoom_range(values: np.ndarray, scale: float) -> tuple[float, float]:
-    """Axis range around finite ``values`` with a margin (at least 5 % of ``scale``)."""
+def zoom_range(values: np.ndarray, scale: float, floor: float = 0.05) -> tuple[float, float]:
+    """Axis range around finite ``values`` with a margin (at least ``floor`` x ``scale``:
+    a scene's frame keeps room around a straight member; a path panel passes a tiny floor so
+    that a parasitic output 1e-3 of L fills its panel instead of looking flat)."""
     v = values[np.isfinite(values)]
     lo, hi = (float(v.min()), float(v.max())) if v.size else (-scale, scale)
-    pad = max(MARGIN * (hi - lo), 0.05 * scale)
+    pad = max(MARGIN * (hi - lo), floor * scale)
     return lo - pad, hi + pad
 
 
@@ -62,8 +66,8 @@ def path_figure(
             _roundoff_panel(ax, f"{key} [{_unit(meta, q)}]")
             continue
         basis = ref_rec or recs[0]
-        xr = zoom_range(_series(basis, key), length if q != "rot" else 1.0)
-        yr = zoom_range(_series(basis, "factor"), 1.0)
+        xr = zoom_range(_series(basis, key), length if q != "rot" else 1.0, DATA_FLOOR)
+        yr = zoom_range(_series(basis, "factor"), 1.0, DATA_FLOOR)
         for r in sorted(recs, key=lambda r: r["model"] == ref):
             x, y = _series(r, key), _series(r, "factor")
             if not np.any(np.isfinite(x)):
