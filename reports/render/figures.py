@@ -45,7 +45,14 @@ def _series(rec: Mapping, key: str) -> np.ndarray:
 
 
 def _save(fig: Any, path: Path) -> Path:
-    fig.savefig(path, dpi=DPI)
+    """Write ``fig``: fewer ticks where tick labels collide, the image cropped or grown to
+    hold every label (``bbox_inches="tight"``: a long legend entry or a y label is never
+    cut off), then closed."""
+    from reports.render.textcheck import thin_ticks
+
+    fig.set_dpi(DPI)
+    thin_ticks(fig)
+    fig.savefig(path, dpi=DPI, bbox_inches="tight", pad_inches=0.05)
     plt.close(fig)
     return path
 

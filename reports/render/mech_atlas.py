@@ -58,8 +58,7 @@ def figure(data: Mapping, dest: str | Path | None = None) -> bytes:
         layout="constrained",
     )
     X, Y = np.meshgrid(np.array(data["drive"], float), np.array(data["values"], float))
-    cmap = plt.get_cmap("viridis").copy()
-    cmap.set_bad("#bbbbbb")  # grey: the model failed there (or no reference)
+    cmap = plt.get_cmap("viridis").with_extremes(bad="#bbbbbb")  # grey: failed (or no ref.)
     pcm = None
     for ax, name in zip(axes.ravel(), models):
         err = _arr(data["models"][name]["error"])

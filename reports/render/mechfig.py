@@ -181,10 +181,10 @@ def shapes_figure(
     recs.sort(key=lambda r: (r["model"] != ref, r["model"]))
     ref_rec = next((r for r in recs if r["model"] == ref), None)
     kinds = meta.get("member_kinds") or {}
-    k = magnification(meta, _steps_of(ref_rec or recs[0]))
+    mag = magnification(meta, _steps_of(ref_rec or recs[0]))
 
     def steps_of(r: Mapping) -> dict[int, dict[str, np.ndarray]]:
-        return {i: magnify(sh, meta, k) for i, sh in _steps_of(r).items()}
+        return {i: magnify(sh, meta, mag) for i, sh in _steps_of(r).items()}
 
     ref_steps = steps_of(ref_rec) if ref_rec else {}
     xr, yr = _frame(meta, ref_steps or steps_of(recs[0]))
@@ -245,7 +245,7 @@ def shapes_figure(
     unit = unit_names(meta.get("units", ""))["length"] or "–"
     skipped = f"not drawn (within {SAME_AS_REF:g} of the reference): {', '.join(close)}"
     skipped = "\n" + textwrap.fill(skipped, int(16 * width * ncol))
-    scale = f"deflection x {k:g} (magnified about the undeformed drawing); " if k > 1 else ""
+    scale = f"deflection x {mag:g} (magnified about the undeformed drawing); " if mag > 1 else ""
     title = (
         f"{scale}deformed scene along the path [{unit}]: light = early steps, dark = last; "
         "grey = reference at its last step; dots = PRB pivots; hollow = off-scale"
@@ -260,7 +260,9 @@ def shapes_figure(
         wspace=0.25,
         hspace=0.35,
     )
-    path.with_suffix(".json").write_text(json.dumps({"ends": drawn, "magnification": k}, indent=1))
+    path.with_suffix(".json").write_text(
+        json.dumps({"ends": drawn, "magnification": mag}, indent=1)
+    )
     return _save(fig, path)
 
 

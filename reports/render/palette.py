@@ -13,8 +13,10 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import Any
 
-# 24 hues distinguishable on white (no black, no light greys or pastels): tab10 without its
-# grey, then darker/saturated hues from tab20b/tab20c and Trubetskoy's 20-colour list.
+# 24 colours on white (no black, no greys): tab10 without its grey, then colours that differ
+# from those in hue or clearly in lightness (navy vs blue, maroon vs red, dark olive vs olive);
+# past about 15, colours alone stop telling lines apart, so the figures add markers
+# (``figures.marker_of``) and the most often co-plotted models come first in ``FIXED_ORDER``.
 COLOURS = (
     "#1f77b4",  # blue
     "#ff7f0e",  # orange
@@ -25,21 +27,21 @@ COLOURS = (
     "#e377c2",  # pink
     "#bcbd22",  # olive
     "#17becf",  # cyan
-    "#393b79",  # navy
+    "#000080",  # navy
     "#f032e6",  # magenta
-    "#637939",  # moss
     "#800000",  # maroon
-    "#4363d8",  # royal blue
-    "#8c6d31",  # ochre
+    "#ffd700",  # gold
     "#469990",  # teal
-    "#7b4173",  # plum
-    "#e6194b",  # crimson
-    "#3cb44b",  # grass
-    "#000075",  # dark navy
-    "#9a6324",  # tan
-    "#f58231",  # tangerine
-    "#911eb4",  # violet
+    "#4b0082",  # indigo
     "#808000",  # dark olive
+    "#fa8072",  # salmon
+    "#00e676",  # spring green
+    "#a0522d",  # sienna
+    "#6495ed",  # cornflower
+    "#2f4f4f",  # dark slate
+    "#daa520",  # goldenrod
+    "#c71585",  # violet red
+    "#00ced1",  # turquoise
 )
 
 # The catalog's model names in the order they take colours (``api.default_names`` and the

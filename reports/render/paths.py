@@ -15,7 +15,14 @@ from typing import Any
 
 import numpy as np
 
-from reports.render.figures import QUANTITIES, _save, _series, plt, reference_error_bars
+from reports.render.figures import (
+    QUANTITIES,
+    _save,
+    _series,
+    marker_of,
+    plt,
+    reference_error_bars,
+)
 from reports.render.frontpage import ROUNDOFF, TOLERANCE
 from reports.run.tables import unit_names
 
@@ -80,7 +87,8 @@ def path_figure(
             ok = r["status"] == "converged"
             cx, cy = np.clip(x, *xr), np.clip(y, *yr)
             lab = r["model"] + ("" if ok else " (failed)")
-            ax.plot(cx, cy, "-" if ok else ":", marker=".", ms=3, lw=1, color=colour, label=lab)
+            mk = marker_of(r["model"], cmap)
+            ax.plot(cx, cy, "-" if ok else ":", marker=mk, ms=2.5, lw=1, color=colour, label=lab)
             n = clip_mark(ax, x, y, xr, yr, colour)
             outside[r["model"]] = outside.get(r["model"], 0) + n
         ax.set_xlim(*xr)
@@ -152,7 +160,7 @@ def error_factor_figure(
     """Error against load factor, one line per model on a log axis, the tolerance line, and
     where each model first leaves it (marker; the legend says at which factor).  Round-off
     errors sit on a ``0 (< 1e-12)`` row."""
-    from reports.render.figures import _decade_ticks, marker_of
+    from reports.render.figures import _decade_ticks
 
     out = meta.get("primary_output")
     ref_rec = next((r for r in records if r["model"] == ref and r["steps"]), None)

@@ -36,7 +36,7 @@ def _tick_labels(fig: Figure) -> tuple[set[int], set[int]]:
         for axis in ax._axis_map.values():  # x, y (and z)
             for t in axis.get_major_ticks() + axis.get_minor_ticks():
                 every.update((id(t.label1), id(t.label2)))
-            if not ax.axison:  # axis("off"): its ticks are never drawn
+            if not (ax.axison and ax.get_visible()):  # hidden or axis("off"): never drawn
                 continue
             for t in axis._update_ticks():
                 drawn.update(id(lab) for lab in (t.label1, t.label2) if lab.get_visible())
@@ -62,30 +62,69 @@ def texts(fig: Figure) -> list[tuple[str, np.ndarray]]:
     return out
 
 
-def problems(fig: Figure, min_area: float = MIN_AREA, edge: float = EDGE) -> list[str]:
-    """One line per overlapping pair of texts and per text outside the figure."""
-    found = texts(fig)
-    if not found:
-        return []
-    boxes = np.array([b for _, b in found])
+def _areas(boxes: np.ndarray) -> np.ndarray:
+    """Pairwise overlap areas (px²) of ``[x0, y0, x1, y1]`` boxes."""
     w = np.minimum(boxes[:, None, 2], boxes[None, :, 2]) - np.maximum(
         boxes[:, None, 0], boxes[None, :, 0]
     )
     h = np.minimum(boxes[:, None, 3], boxes[None, :, 3]) - np.maximum(
         boxes[:, None, 1], boxes[None, :, 1]
     )
-    area = np.clip(w, 0, None) * np.clip(h, 0, None)
+    return np.clip(w, 0, None) * np.clip(h, 0, None)
+
+
+def _frame(fig: Figure, tight: bool) -> tuple[float, float, float, float]:
+    """The saved image's extent in display px: the figure, or with ``bbox_inches="tight"``
+    the box around every artist (what the saved PNG then holds)."""
+    if not tight:
+        return 0.0, 0.0, fig.bbox.width, fig.bbox.height
+    box = fig.get_tightbbox(fig.canvas.get_renderer())
+    return box.x0 * fig.dpi, box.y0 * fig.dpi, box.x1 * fig.dpi, box.y1 * fig.dpi
+
+
+def problems(
+    fig: Figure, min_area: float = MIN_AREA, edge: float = EDGE, tight: bool = False
+) -> list[str]:
+    """One line per overlapping pair of texts and per text outside the saved image
+    (``tight``: saved with ``bbox_inches="tight"``)."""
+    found = texts(fig)
+    if not found:
+        return []
+    area = _areas(np.array([b for _, b in found]))
     out = []
     for i, j in zip(*np.nonzero(np.triu(area > min_area, k=1))):
         a, b = found[i][0], found[j][0]
         out.append(f"overlap {area[i, j]:.0f} px²: {a[:40]!r} / {b[:40]!r}")
-    W, H = fig.bbox.width, fig.bbox.height
+    X0, Y0, X1, Y1 = _frame(fig, tight)
     for text, (x0, y0, x1, y1) in found:
-        if x0 < -edge or y0 < -edge or x1 > W + edge or y1 > H + edge:
+        if x0 < X0 - edge or y0 < Y0 - edge or x1 > X1 + edge or y1 > Y1 + edge:
             out.append(
                 f"outside the figure ({x0:.0f}, {y0:.0f}, {x1:.0f}, {y1:.0f}): {text[:40]!r}"
             )
     return out
+
+
+def thin_ticks(fig: Figure, most: int = 6) -> None:
+    """Fewer ticks on every linear axis whose own tick labels overlap (narrow panels, long
+    labels such as ``0.0025``): ``MaxNLocator`` from ``most`` bins down to 2."""
+    from matplotlib.ticker import MaxNLocator
+
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    for ax in fig.axes:
+        if not ax.get_visible() or not ax.axison:
+            continue
+        for axis in (ax.xaxis, ax.yaxis):
+            if axis.get_scale() != "linear":
+                continue
+            for n in range(most, 1, -1):
+                labels = [t.label1 for t in axis._update_ticks() if t.label1.get_visible()]
+                boxes = [lab.get_window_extent(renderer) for lab in labels if lab.get_text()]
+                arr = np.array([[b.x0, b.y0, b.x1, b.y1] for b in boxes]).reshape(-1, 4)
+                if not (np.triu(_areas(arr), k=1) > 0).any():
+                    break
+                axis.set_major_locator(MaxNLocator(n))
+                fig.canvas.draw()
 
 
 @contextlib.contextmanager
@@ -98,9 +137,8 @@ def checking() -> Iterator[dict[str, list[str]]]:
     def savefig(self: Figure, fname: Any, *args: Any, **kwargs: Any) -> Any:
         if "dpi" in kwargs:  # measured at the resolution it is written at
             self.set_dpi(kwargs["dpi"])
-        found[str(fname) if not hasattr(fname, "write") else f"<buffer {len(found)}>"] = problems(
-            self
-        )
+        key = str(fname) if not hasattr(fname, "write") else f"<buffer {len(found)}>"
+        found[key] = problems(self, tight=kwargs.get("bbox_inches") == "tight")
         return original(self, fname, *args, **kwargs)
 
     Figure.savefig = savefig
