@@ -267,7 +267,8 @@ def _advice(pg: Page, data: Mapping) -> None:
             if a.get("profiles"):
                 pg.add(
                     f'<canvas class="profile" data-case="{escape(case)}" '
-                    f'data-tol="{escape(a["tol"])}" width="640" height="240"></canvas>'
+                    f'data-tol="{escape(a["tol"])}" width="640" '
+                    f'height="{max(240, 24 + 12 * len(a["profiles"]))}"></canvas>'
                 )
         pg.add("</details>")
 
