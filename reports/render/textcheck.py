@@ -106,14 +106,15 @@ def problems(
 
 def thin_ticks(fig: Figure, most: int = 6) -> None:
     """Fewer ticks on every linear axis whose own tick labels overlap (narrow panels, long
-    labels such as ``0.0025``): ``MaxNLocator`` from ``most`` bins down to 2."""
+    labels such as ``0.0025``): ``MaxNLocator`` from ``most`` bins down to 2.  Measured without
+    drawing, so for figures laid out by ``subplots_adjust`` (no layout engine)."""
     from matplotlib.ticker import MaxNLocator
 
-    fig.canvas.draw()
-    renderer = fig.canvas.get_renderer()
+    renderer = fig.canvas.get_renderer()  # no draw: subplots_adjust layouts are fixed
     for ax in fig.axes:
         if not ax.get_visible() or not ax.axison:
             continue
+        ax.apply_aspect()  # an equal-aspect panel shrinks at draw time: measure it shrunk
         for axis in (ax.xaxis, ax.yaxis):
             if axis.get_scale() != "linear":
                 continue
@@ -124,7 +125,6 @@ def thin_ticks(fig: Figure, most: int = 6) -> None:
                 if not (np.triu(_areas(arr), k=1) > 0).any():
                     break
                 axis.set_major_locator(MaxNLocator(n))
-                fig.canvas.draw()
 
 
 @contextlib.contextmanager
