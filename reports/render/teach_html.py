@@ -5,7 +5,7 @@ the atlases); the deformed shapes with the load slider beside them; one section 
 family with a "where <model> stops" part per model (its atlases on axes with ticks and a
 colour bar, the published claims, its card folded away); the mechanism atlases; which model
 for each catalog case (a summary table, then the recommender's verdict tables per case);
-what each model costs; how the errors are measured.  Every heading has a stable id
+how the errors are measured; what each model costs.  Every heading has a stable id
 (``teach_story.slug``) and the contents list links them all.  Declined atlases are named in
 one line instead of drawn.  Canvases are drawn by the inline script from the embedded data
 (``__DATA__``); the text is written here.
@@ -330,9 +330,9 @@ def page(data: Mapping[str, Any], cards: Mapping[str, Mapping]) -> str:
     _families(pg, data, stops, cards)
     _mechanisms(pg, data)
     _advice(pg, data)
-    _costs(pg, data)
     pg.h(2, "How the errors are measured and the atlases read")
     pg.p(HOW)
+    _costs(pg, data)
     if data.get("note"):
         pg.add(f'<p id="note" class="small">{escape(data["note"])}</p>')
     payload = json.dumps(data, allow_nan=False, separators=(",", ":")).replace("</", "<\\/")
@@ -353,11 +353,12 @@ _HEAD = """<!DOCTYPE html>
 <style>
 body{font-family:system-ui,sans-serif;max-width:1260px;margin:0 auto;padding:0 1em;color:#222}
 h2{border-bottom:1px solid #aaa;margin-top:1.6em} h3{margin:1.2em 0 .3em}
+h2,h3,details{scroll-margin-top:2.6em}
 .ctl{position:sticky;top:0;background:#fff;padding:.4em;border-bottom:1px solid #ddd;z-index:2}
 nav ol{columns:2;font-size:.9em} nav ol ol{columns:1}
 table{border-collapse:collapse;font-size:.85em;margin:.4em 0}
 td,th{border:1px solid #ccc;padding:2px 6px;text-align:left;vertical-align:top}
-th{background:#f0f0f0} .row{display:flex;flex-wrap:wrap;gap:6px;align-items:flex-start}
+td a{white-space:nowrap} th{background:#f0f0f0} .row{display:flex;flex-wrap:wrap;gap:6px;align-items:flex-start}
 .atl{margin:0;font-size:.8em} .atl figcaption{font-weight:bold}
 .small{font-size:.82em;color:#444} .ok{color:#070} .bad{color:#b00}
 .shapes{display:flex;gap:12px;align-items:flex-start} .shapes .side{width:330px}
