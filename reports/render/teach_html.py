@@ -358,7 +358,8 @@ h2,h3,details{scroll-margin-top:2.6em}
 nav ol{columns:2;font-size:.9em} nav ol ol{columns:1}
 table{border-collapse:collapse;font-size:.85em;margin:.4em 0}
 td,th{border:1px solid #ccc;padding:2px 6px;text-align:left;vertical-align:top}
-td a{white-space:nowrap} th{background:#f0f0f0} .row{display:flex;flex-wrap:wrap;gap:6px;align-items:flex-start}
+td a{white-space:nowrap} th{background:#f0f0f0}
+.row{display:flex;flex-wrap:wrap;gap:6px;align-items:flex-start}
 .atl{margin:0;font-size:.8em} .atl figcaption{font-weight:bold}
 .small{font-size:.82em;color:#444} .ok{color:#070} .bad{color:#b00}
 .shapes{display:flex;gap:12px;align-items:flex-start} .shapes .side{width:330px}
