@@ -303,7 +303,8 @@ def driver_xlabel(meta: Mapping) -> str:
         else (unit_names(meta.get("units", ""))["length"] or "–")
     )
     what = driver.get("node") or driver.get("member") or ""
-    return f"driver: {driver.get('kind', '')} {what} {driver.get('direction') or ''} [{dunit}]"
+    words = [driver.get("kind") or "", what, driver.get("direction") or ""]
+    return f"driver: {' '.join(w for w in words if w)} [{dunit}]"
 
 
 def driver_figure(
