@@ -244,14 +244,15 @@ def shapes_figure(
         ax.set_visible(False)
     unit = unit_names(meta.get("units", ""))["length"] or "–"
     skipped = f"not drawn (within {SAME_AS_REF:g} of the reference): {', '.join(close)}"
-    skipped = "\n" + textwrap.fill(skipped, int(16 * width * ncol))
+    skipped = "\n" + textwrap.fill(skipped, int(16 * width * ncol), break_on_hyphens=False)
     scale = f"deflection x {mag:g} (magnified about the undeformed drawing); " if mag > 1 else ""
     title = (
         f"{scale}deformed scene along the path [{unit}]: light = early steps, dark = last; "
         "grey = reference at its last step; dots = PRB pivots; hollow = off-scale"
     )
     chars = int(16 * width * ncol)  # ~16 characters per inch at 7 pt
-    fig.suptitle(textwrap.fill(title, chars) + (skipped if close else ""), fontsize=7)
+    title = textwrap.fill(title, chars, break_on_hyphens=False)  # never "prb-" / "3r"
+    fig.suptitle(title + (skipped if close else ""), fontsize=7)
     fig.subplots_adjust(
         left=0.05,
         right=0.98,
