@@ -92,6 +92,10 @@ def _short_answer(pg: Page, data: Mapping, stops: Mapping, cards: Mapping) -> No
             )
     head = ["model", "tip force PL²/EI", "follower force PL²/EI", "end moment ML/EI", "claimed"]
     pg.add(table(head, rows, raw=0))
+    models = [m for F in data["families"] for m in F["models"]]
+    declined = teach_story.declined_lines(data["atlas"], models)
+    if declined:
+        pg.p("Not drawn below (declined): " + "; ".join(declined) + ".", "small")
 
 
 def _shapes(pg: Page, data: Mapping) -> None:
