@@ -58,7 +58,7 @@ def test_driver_figure_labels_carry_the_driver_units() -> None:
     }
     assert driver_xlabel(meta).endswith("[deg]")  # Step.factor of a rotation: degrees
     recs = [{"model": "m", "steps": [{"outputs": {"driver.torque": 1.0}, "energy": 0.0}]}]
-    assert ("driver.torque", "driver.torque [N mm]") in _driver_panels(meta, recs)
+    assert ("driver.torque", "driver.torque [N·mm]") in _driver_panels(meta, recs)
     meta["analysis"]["driver"] = {"kind": "displacement", "node": "S", "direction": "x"}
     assert driver_xlabel(meta).endswith("[mm]")
     recs[0]["steps"][0]["outputs"] = {"driver.force": 1.0}

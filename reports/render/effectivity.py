@@ -161,6 +161,8 @@ def figure(ps: Sequence[Mapping], path: Path) -> Path | None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from reports.render.palette import palette
+
     meas = np.array([p["measured"] for p in ps])
     pred = np.array([p["predicted"] for p in ps])
     lo = min(meas.min(), pred.min()) / 2
@@ -173,8 +175,8 @@ def figure(ps: Sequence[Mapping], path: Path) -> Path | None:
     ax.axvline(LEVEL, color="tab:red", lw=0.8, ls="--", label="1 %")
     ax.axhline(LEVEL, color="tab:red", lw=0.8, ls="--")
     models = sorted({p["model"] for p in ps})
-    cmap = plt.get_cmap("tab20")
-    for i, m in enumerate(models):
+    cmap = palette(models)
+    for m in models:
         for kind, marker in zip(KINDS, ("o", "^")):
             sel = [p for p in ps if p["model"] == m and p["kind"] == kind]
             ax.scatter(
@@ -182,7 +184,7 @@ def figure(ps: Sequence[Mapping], path: Path) -> Path | None:
                 [p["predicted"] for p in sel],
                 s=18,
                 marker=marker,
-                color=cmap(i % 20),
+                color=cmap[m],
                 label=m if kind == KINDS[0] else None,
                 edgecolors="none",
             )

@@ -30,9 +30,11 @@ QUANTITIES = ("ux", "uy", "rot")
 
 
 def colours(models: Sequence[str]) -> dict[str, Any]:
-    """One stable colour per model name across every figure of a report."""
-    cmap = plt.get_cmap("tab10" if len(models) <= 10 else "tab20")
-    return {m: cmap(i % cmap.N) for i, m in enumerate(sorted(models))}
+    """One distinct colour per model name across every figure of a report
+    (``reports.render.palette``: catalog models keep theirs from run to run)."""
+    from reports.render.palette import palette
+
+    return palette(models)
 
 
 def _series(rec: Mapping, key: str) -> np.ndarray:
@@ -43,7 +45,14 @@ def _series(rec: Mapping, key: str) -> np.ndarray:
 
 
 def _save(fig: Any, path: Path) -> Path:
-    fig.savefig(path, dpi=DPI)
+    """Write ``fig``: fewer ticks where tick labels collide, the image cropped or grown to
+    hold every label (``bbox_inches="tight"``: a long legend entry or a y label is never
+    cut off), then closed."""
+    from reports.render.textcheck import thin_ticks
+
+    fig.set_dpi(DPI)
+    thin_ticks(fig)
+    fig.savefig(path, dpi=DPI, bbox_inches="tight", pad_inches=0.05)
     plt.close(fig)
     return path
 

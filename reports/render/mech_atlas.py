@@ -1,7 +1,8 @@
 """Mechanism validity atlases (``reports.verdicts.atlas_mech``) in the report and the teaching page.
 
-* ``figure(data, path)``: one PNG per case, a panel per model: log10 error over driver x second
-  axis, the 0.1 / 1 / 5 % contours, the region of our test of each published claim dashed and
+* ``figure(data, path)``: one PNG per case, a panel per model that solved any state (the
+  others named in the title): log10 error over driver x second axis with a colour bar, the
+  0.1 / 1 / 5 % contours, the region of our test of each published claim dashed and
   its failing states marked x.
 * ``teaching_data(cases)``: the atlases for the teaching page (``render.teaching``), each with
   its figure as a data URI; ``save(mech, out_dir)`` writes them to ``mech_atlas.json`` and
@@ -28,6 +29,7 @@ from reports.verdicts import atlas_mech, atlas_mech_axes
 # four-bar (member length), small enough for the default run
 TEACH_CASES = ("das2d-ex2-parallelogram", "das2d-ex4-bistable-fourbar")
 FILE = "mech_atlas.json"
+CONTOUR_STYLES = (":", "-", "--")  # the 0.1 / 1 / 5 % contours
 
 
 def _arr(x: Any) -> np.ndarray:
@@ -41,30 +43,37 @@ def figure(data: Mapping, dest: str | Path | None = None) -> bytes:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    models = list(data["models"])
-    cols = min(4, len(models))
-    rows = math.ceil(len(models) / cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(3.1 * cols, 2.5 * rows), dpi=80, squeeze=False)
+    models = [m for m, v in data["models"].items() if np.isfinite(_arr(v["error"])).any()]
+    declined = [m for m in data["models"] if m not in models]
+    cols = max(1, min(4, len(models)))
+    rows = max(1, math.ceil(len(models) / cols))
+    fig, axes = plt.subplots(
+        rows,
+        cols,
+        figsize=(3.1 * cols + 0.9, 2.5 * rows + 0.9),
+        dpi=80,
+        squeeze=False,
+        sharex=True,
+        sharey=True,
+        layout="constrained",
+    )
     X, Y = np.meshgrid(np.array(data["drive"], float), np.array(data["values"], float))
-    cmap = plt.get_cmap("viridis").copy()
-    cmap.set_bad("#bbbbbb")  # grey: the model declined or failed there (or no reference)
+    cmap = plt.get_cmap("viridis").with_extremes(bad="#bbbbbb")  # grey: failed (or no ref.)
+    pcm = None
     for ax, name in zip(axes.ravel(), models):
         err = _arr(data["models"][name]["error"])
-        ax.pcolormesh(X, Y, np.log10(np.clip(err, 1e-6, None)), vmin=-4, vmax=0, cmap=cmap)
-        if not np.isfinite(err).any():
-            msg = data["models"][name]["message"] or "no state"
-            ax.text(
-                0.5,
-                0.5,
-                "\n".join(msg[i : i + 40] for i in range(0, 120, 40)),
-                transform=ax.transAxes,
-                ha="center",
-                va="center",
-                fontsize=6,
-            )
+        pcm = ax.pcolormesh(X, Y, np.log10(np.clip(err, 1e-6, None)), vmin=-4, vmax=0, cmap=cmap)
         if np.isfinite(err).sum() > 3 and len(data["values"]) > 1:
-            cs = ax.contour(X, Y, err, levels=list(data["contours"]), colors="w", linewidths=0.7)
-            ax.clabel(cs, fmt={v: f"{v * 100:g}%" for v in data["contours"]}, fontsize=6)
+            # told apart by line style (title), not by labels that pile up on dense contours
+            ax.contour(
+                X,
+                Y,
+                err,
+                levels=list(data["contours"]),
+                colors="w",
+                linewidths=0.8,
+                linestyles=CONTOUR_STYLES[: len(data["contours"])],
+            )
         claims = [c for c in data["claims"] if c["model"] == name]
         for k, c in enumerate(claims):
             color = ["r", "orange"][k % 2]
@@ -77,11 +86,20 @@ def figure(data: Mapping, dest: str | Path | None = None) -> bytes:
         ax.tick_params(labelsize=6)
     for ax in axes.ravel()[len(models) :]:
         ax.axis("off")
+    for k, ax in enumerate(axes.ravel()[: len(models)]):
+        if k + cols >= len(models):  # nothing drawn below: this panel shows the x ticks
+            ax.xaxis.set_tick_params(labelbottom=True)
+    if pcm is not None:
+        fig.colorbar(pcm, ax=axes, shrink=0.8, pad=0.01).set_label("log10 error_rel", fontsize=7)
     fig.supxlabel(data["drive_label"], fontsize=8)
     fig.supylabel(data["axis_label"], fontsize=8)
-    title = f"{data['case']}: log10 error vs fem-auto (dark < 1e-4, yellow >= 1, grey: none)"
+    levels = ", ".join(
+        f"{v * 100:g} % {n}" for v, n in zip(data["contours"], ("dotted", "solid", "dashed"))
+    )
+    title = f"{data['case']}: log10 error vs fem-auto (white: {levels}; grey: the model fails)"
+    if declined:
+        title += "\nnot drawn (no state solved): " + ", ".join(declined)
     fig.suptitle(title, fontsize=9)
-    fig.tight_layout()
     buf = io.BytesIO()
     fig.savefig(buf, format="png")
     plt.close(fig)

@@ -4,14 +4,17 @@
 the path (light to dark) over the reference's (grey) and the undeformed drawing (dashed);
 rigid links drawn as straight links with joint circles, PRB models as their rigid segments
 with a dot at every pivot (whatever ``Step.shapes`` holds is drawn, nothing is re-derived);
-axes zoomed to the reference, points outside marked hollow on the edge.
+axes zoomed to the reference, points outside marked hollow on the edge.  Where the
+reference's deflections are small against the scene (``SMALL``) every shape is drawn with its
+displacements magnified by one 1-2-5 factor, printed in the title ("deflection x 20").
 
 ``driver_figure``: energy, force along the driver and mechanical advantage against the
 driver coordinate (or load factor), every model over the reference, equilibria marked
 stable (filled) / unstable (red cross) from ``Step.stable``.
 
-Both write the drawn end points / points beside the PNG as JSON (read from the artists) so
-tests can hold them against the records.
+Both write the drawn end points / points beside the PNG as JSON (read from the artists; the
+shapes' with the ``magnification`` they were drawn at) so tests can hold them against the
+records.
 """
 
 from __future__ import annotations
@@ -31,6 +34,8 @@ from reports.render.paths import clip_mark, zoom_range
 from reports.run.tables import unit_names
 
 SAME_AS_REF = 1e-3  # a model this close to the reference looks identical: named, not drawn
+SMALL = 0.05  # reference deflections below this fraction of the scene's size are magnified
+SHOWN = 0.2  # ... so that the largest is drawn at about this fraction of it
 PIVOT_MAX_POINTS = 16  # a member drawn with this few points is a chain of rigid segments
 
 
@@ -103,6 +108,53 @@ def _collection(
     return {m: [float(v) for v in seg[-1]] for m, seg in zip(members, lc.get_segments())}
 
 
+def _rest(p: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """Undeformed positions of a member's drawn points: along its straight chord ``ends``
+    at the deformed polyline's arc-length fractions (length is kept by the beams and links
+    drawn here, so arc length is the material coordinate)."""
+    seg = np.hypot(*np.diff(p, axis=0).T)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    s = s / s[-1] if s[-1] > 0 else np.linspace(0.0, 1.0, len(p))
+    return ends[0] + s[:, None] * (ends[1] - ends[0])
+
+
+def magnification(meta: Mapping, ref_steps: Mapping) -> float:
+    """Factor the deflections are drawn at: 1, or a 1-2-5 number bringing the reference's
+    largest displacement to about ``SHOWN`` of the scene's size when it is below ``SMALL``
+    (a parallel guide's 1.25 mm on 50 mm leaves is invisible at 1:1)."""
+    und = {m: np.asarray(v, dtype=float) for m, v in (meta.get("undeformed") or {}).items()}
+    if not und or not ref_steps:
+        return 1.0
+    allu = np.vstack(list(und.values()))
+    size = float(np.ptp(allu, axis=0).max()) or float(meta.get("length_scale") or 1.0)
+    disp = [
+        np.abs(p - _rest(p, und[m])).max()
+        for sh in ref_steps.values()
+        for m, p in sh.items()
+        if m in und and len(p) >= 2 and np.isfinite(p).all()
+    ]
+    d = max(disp, default=0.0)
+    if not d or d >= SMALL * size:
+        return 1.0
+    raw = SHOWN * size / d
+    decade = 10.0 ** math.floor(math.log10(raw))
+    return float(max(m * decade for m in (1, 2, 5) if m * decade <= raw))
+
+
+def magnify(shapes: Mapping, meta: Mapping, k: float) -> dict[str, np.ndarray]:
+    """``shapes`` (member -> points) with displacements from the undeformed drawing x ``k``."""
+    und = meta.get("undeformed") or {}
+    if k == 1.0:
+        return dict(shapes)
+    out = {}
+    for m, p in shapes.items():
+        if m in und and len(p) >= 2:
+            rest = _rest(p, np.asarray(und[m], dtype=float))
+            p = rest + k * (p - rest)
+        out[m] = p
+    return out
+
+
 def _frame(meta: Mapping, ref_steps: Mapping) -> tuple[tuple, tuple]:
     pts = [np.asarray(v, dtype=float) for v in (meta.get("undeformed") or {}).values()]
     pts += [p for sh in ref_steps.values() for p in sh.values() if len(p)]
@@ -128,9 +180,14 @@ def shapes_figure(
         return None
     recs.sort(key=lambda r: (r["model"] != ref, r["model"]))
     ref_rec = next((r for r in recs if r["model"] == ref), None)
-    ref_steps = _steps_of(ref_rec) if ref_rec else {}
     kinds = meta.get("member_kinds") or {}
-    xr, yr = _frame(meta, ref_steps or _steps_of(recs[0]))
+    mag = magnification(meta, _steps_of(ref_rec or recs[0]))
+
+    def steps_of(r: Mapping) -> dict[int, dict[str, np.ndarray]]:
+        return {i: magnify(sh, meta, mag) for i, sh in _steps_of(r).items()}
+
+    ref_steps = steps_of(ref_rec) if ref_rec else {}
+    xr, yr = _frame(meta, ref_steps or steps_of(recs[0]))
     ncol = min(5, len(recs))
     nrow = math.ceil(len(recs) / ncol)
     aspect = (yr[1] - yr[0]) / max(xr[1] - xr[0], 1e-300)
@@ -145,7 +202,7 @@ def shapes_figure(
             ax.plot(p[:, 0], p[:, 1], "--", color="0.65", lw=0.8)
         if ref_steps and r is not ref_rec:
             _draw_scene(ax, ref_steps[max(ref_steps)], kinds, "0.55", 0.5, False, lw=2.4)
-        steps = _steps_of(r)
+        steps = steps_of(r)
         colour = "k" if r is ref_rec else cmap.get(r["model"], "C0")
         pivots = r["model"].startswith("prb")
         drawn[r["model"]] = {"pivots": 0}
@@ -187,13 +244,15 @@ def shapes_figure(
         ax.set_visible(False)
     unit = unit_names(meta.get("units", ""))["length"] or "–"
     skipped = f"not drawn (within {SAME_AS_REF:g} of the reference): {', '.join(close)}"
-    skipped = "\n" + textwrap.fill(skipped, int(16 * width * ncol))
+    skipped = "\n" + textwrap.fill(skipped, int(16 * width * ncol), break_on_hyphens=False)
+    scale = f"deflection x {mag:g} (magnified about the undeformed drawing); " if mag > 1 else ""
     title = (
-        f"deformed scene along the path [{unit}]: light = early steps, dark = last; "
+        f"{scale}deformed scene along the path [{unit}]: light = early steps, dark = last; "
         "grey = reference at its last step; dots = PRB pivots; hollow = off-scale"
     )
     chars = int(16 * width * ncol)  # ~16 characters per inch at 7 pt
-    fig.suptitle(textwrap.fill(title, chars) + (skipped if close else ""), fontsize=7)
+    title = textwrap.fill(title, chars, break_on_hyphens=False)  # never "prb-" / "3r"
+    fig.suptitle(title + (skipped if close else ""), fontsize=7)
     fig.subplots_adjust(
         left=0.05,
         right=0.98,
@@ -202,8 +261,15 @@ def shapes_figure(
         wspace=0.25,
         hspace=0.35,
     )
-    path.with_suffix(".json").write_text(json.dumps({"ends": drawn}, indent=1))
+    path.with_suffix(".json").write_text(
+        json.dumps({"ends": drawn, "magnification": mag}, indent=1)
+    )
     return _save(fig, path)
+
+
+def _dot(unit: str) -> str:
+    """A product unit as printed on an axis (``N mm`` -> ``N·mm``; none -> ``–``)."""
+    return unit.replace(" ", "·") if unit else "–"
 
 
 def _driver_panels(meta: Mapping, recs: Sequence[Mapping]) -> list[tuple[str, str]]:
@@ -214,13 +280,13 @@ def _driver_panels(meta: Mapping, recs: Sequence[Mapping]) -> list[tuple[str, st
     if any(np.any(np.isfinite(_values(r, "energy"))) for r in recs if r.get("steps")):
         vals = [e for r in recs for e in _values(r, "energy") if np.isfinite(e)]
         if vals and max(abs(v) for v in vals) > 0:
-            panels.append(("energy", f"strain energy [{u['energy'] or '–'}]"))
+            panels.append(("energy", f"strain energy [{_dot(u['energy'])}]"))
     for k in sorted(keys):
         if k.startswith("driver.") and k != "driver.coordinate":
             what = k.split(".", 1)[1]
             # a torque is a force times a length: the energy unit's product (N mm)
             unit = {"force": u["force"], "torque": u["energy"]}.get(what, "")
-            panels.append((k, f"{k} [{unit or '–'}]"))
+            panels.append((k, f"{k} [{_dot(unit)}]"))
     panels += [(k, f"{k} [–]") for k in sorted(keys) if k == "ma" or k.endswith(".ma")]
     return panels
 
@@ -238,7 +304,8 @@ def driver_xlabel(meta: Mapping) -> str:
         else (unit_names(meta.get("units", ""))["length"] or "–")
     )
     what = driver.get("node") or driver.get("member") or ""
-    return f"driver: {driver.get('kind', '')} {what} {driver.get('direction') or ''} [{dunit}]"
+    words = [driver.get("kind") or "", what, driver.get("direction") or ""]
+    return f"driver: {' '.join(w for w in words if w)} [{dunit}]"
 
 
 def driver_figure(
@@ -262,8 +329,9 @@ def driver_figure(
     drawn: dict[str, dict] = {}
     xlabel = driver_xlabel(meta)
     for ax, (key, ylabel) in zip(axes[0], panels):
-        basis = ref_rec or recs[0]
-        yr = zoom_range(_values(basis, key), 1.0)
+        basis = _values(ref_rec or recs[0], key)
+        size = float(np.nanmax(np.abs(basis), initial=0.0)) if np.isfinite(basis).any() else 1.0
+        yr = zoom_range(basis, size or 1.0, 0.02)  # from the data: a 1e-3 swing is not flat
         for r in recs:
             x, y = _values(r, "factor"), _values(r, key)
             if not np.any(np.isfinite(y)):

@@ -1,7 +1,8 @@
 """Figures along the path: load factor against outputs (zoomed to the reference), error
 against load factor per model, and the replay's time histories as labelled panels.
 
-Zoom rule: each panel's range is the reference's range plus a margin; a model's point
+Zoom rule: each panel's range is the reference's own range plus a margin (from the data, not
+symmetric about zero nor a fixed fraction of L); a model's point
 outside it is drawn on the edge with a hollow marker (so a linear blow-up to -6 L cannot
 rescale a plot whose reference spans 0..-0.8 L).
 """
@@ -14,18 +15,28 @@ from typing import Any
 
 import numpy as np
 
-from reports.render.figures import QUANTITIES, _save, _series, plt, reference_error_bars
+from reports.render.figures import (
+    QUANTITIES,
+    _save,
+    _series,
+    marker_of,
+    plt,
+    reference_error_bars,
+)
 from reports.render.frontpage import ROUNDOFF, TOLERANCE
 from reports.run.tables import unit_names
 
 MARGIN = 0.12  # of the reference's range, each side
+DATA_FLOOR = 1e-6  # path panels: smallest margin, of L (below it an output is round-off)
 
 
-def zoom_range(values: np.ndarray, scale: float) -> tuple[float, float]:
-    """Axis range around finite ``values`` with a margin (at least 5 % of ``scale``)."""
+def zoom_range(values: np.ndarray, scale: float, floor: float = 0.05) -> tuple[float, float]:
+    """Axis range around finite ``values`` with a margin (at least ``floor`` x ``scale``:
+    a scene's frame keeps room around a straight member; a path panel passes a tiny floor so
+    that a parasitic output 1e-3 of L fills its panel instead of looking flat)."""
     v = values[np.isfinite(values)]
     lo, hi = (float(v.min()), float(v.max())) if v.size else (-scale, scale)
-    pad = max(MARGIN * (hi - lo), 0.05 * scale)
+    pad = max(MARGIN * (hi - lo), floor * scale)
     return lo - pad, hi + pad
 
 
@@ -37,6 +48,14 @@ def clip_mark(ax: Any, x: np.ndarray, y: np.ndarray, xr: tuple, yr: tuple, colou
     if out.any():
         ax.plot(cx[out], cy[out], "o", mfc="none", mec=colour, ms=5, mew=1.0)
     return int(out.sum())
+
+
+def _factor_label(meta: Mapping) -> str:
+    """What ``Step.factor`` is in this case, with its unit: the load factor [–], or an energy
+    analysis's driver coordinate (deg for a rotation, case length otherwise)."""
+    from reports.render.mechfig import driver_xlabel  # mechfig draws on this module
+
+    return driver_xlabel(meta)
 
 
 def _unit(meta: Mapping, q: str) -> str:
@@ -62,8 +81,8 @@ def path_figure(
             _roundoff_panel(ax, f"{key} [{_unit(meta, q)}]")
             continue
         basis = ref_rec or recs[0]
-        xr = zoom_range(_series(basis, key), length if q != "rot" else 1.0)
-        yr = zoom_range(_series(basis, "factor"), 1.0)
+        xr = zoom_range(_series(basis, key), length if q != "rot" else 1.0, DATA_FLOOR)
+        yr = zoom_range(_series(basis, "factor"), 1.0, DATA_FLOOR)
         for r in sorted(recs, key=lambda r: r["model"] == ref):
             x, y = _series(r, key), _series(r, "factor")
             if not np.any(np.isfinite(x)):
@@ -76,7 +95,8 @@ def path_figure(
             ok = r["status"] == "converged"
             cx, cy = np.clip(x, *xr), np.clip(y, *yr)
             lab = r["model"] + ("" if ok else " (failed)")
-            ax.plot(cx, cy, "-" if ok else ":", marker=".", ms=3, lw=1, color=colour, label=lab)
+            mk = marker_of(r["model"], cmap)
+            ax.plot(cx, cy, "-" if ok else ":", marker=mk, ms=2.5, lw=1, color=colour, label=lab)
             n = clip_mark(ax, x, y, xr, yr, colour)
             outside[r["model"]] = outside.get(r["model"], 0) + n
         ax.set_xlim(*xr)
@@ -84,7 +104,7 @@ def path_figure(
         ax.set_xlabel(f"{key} [{_unit(meta, q)}]", fontsize=8)
         ax.tick_params(labelsize=7)
         ax.grid(alpha=0.3)
-    axes[0].set_ylabel("load factor (driver coordinate for energy analyses)", fontsize=7)
+    axes[0].set_ylabel(_factor_label(meta), fontsize=7)
     handles, labels = max((ax.get_legend_handles_labels() for ax in axes), key=lambda h: len(h[0]))
     labels = [f"{lab} ({outside[lab]} off-scale)" if outside.get(lab) else lab for lab in labels]
     fig.legend(
@@ -148,7 +168,7 @@ def error_factor_figure(
     """Error against load factor, one line per model on a log axis, the tolerance line, and
     where each model first leaves it (marker; the legend says at which factor).  Round-off
     errors sit on a ``0 (< 1e-12)`` row."""
-    from reports.render.figures import _decade_ticks, marker_of
+    from reports.render.figures import _decade_ticks
 
     out = meta.get("primary_output")
     ref_rec = next((r for r in records if r["model"] == ref and r["steps"]), None)
@@ -188,7 +208,7 @@ def error_factor_figure(
     ax.set_yscale("log")
     ax.set_ylim(zero / 2, hi)
     _decade_ticks(ax, "y", zero / 2, hi, zero)
-    ax.set_xlabel("load factor (driver coordinate for energy analyses)", fontsize=7)
+    ax.set_xlabel(_factor_label(meta), fontsize=7)
     ax.set_ylabel(f"error_rel of {out} (own scale)", fontsize=7)
     ax.set_title(
         f"error along the path against {ref} (red dashed: tolerance {TOLERANCE:g}; "

@@ -194,6 +194,7 @@ class TeachingJobs:
 def advice(payload: Mapping, tolerances: Sequence[str] = TOLERANCES) -> list[dict]:
     """The recommender's verdict per (case, tolerance) over the models this run solved."""
     from reports.render import teaching
+    from reports.render.teach_story import verdict_table
     from reports.verdicts.advice import from_records
     from reports.verdicts.recommendation import format_text
 
@@ -213,6 +214,7 @@ def advice(payload: Mapping, tolerances: Sequence[str] = TOLERANCES) -> list[dic
                     "tol": tol,
                     "recommended": rec.recommended,
                     "text": format_text(rec).rsplit("\n", 1)[0],  # no elapsed time line
+                    "table": verdict_table(rec),
                     "profiles": {k: teaching._r(v, 3) for k, v in curves.items()},
                 }
             )
