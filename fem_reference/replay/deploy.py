@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import replace
 
 import numpy as np
@@ -11,9 +12,16 @@ import numpy as np
 from cases.schema import Scene
 from fem_reference.assembly import build
 from fem_reference.replay import events
+from fem_reference.replay import integrator as ev
+from fem_reference.replay.deploy_history import time_history
 from fem_reference.replay.run import replay_system
 from fem_reference.statics.deploy import booms_as_locks
 from reduced_models.base import Solution, Step
+
+# the thesis's perturbation (seed 001, Chapter 5): "1N impulse forces using the STEP function
+# on Joint 4"; the STEP's duration is not given: 1 N for 10 ms, across the deployed structure
+IMPULSE_NODE = "J4"
+IMPULSE = (0.01, 0.0)  # N s (force units x s)
 
 
 def replay_deploy(scene: Scene, model: object) -> Solution:
@@ -24,12 +32,17 @@ def replay_deploy(scene: Scene, model: object) -> Solution:
     locks = tuple(model.options.locks) + booms_as_locks(scene)
     opts = replace(model.options, locks=locks, probe="last")
     system = build(scene, model.n_elements)
-    sol = replay_system(system, np.array([0.0]), scene=scene, case=scene.name, options=opts)
+    probes = _ProbeBoth(scene, opts)
+    sol = replay_system(
+        system, np.array([0.0]), scene=scene, case=scene.name, options=opts, stability=probes
+    )
     if sol.status == "failed" and "locating the boom lock" in sol.message:
         # the lock search re-integrates one step at fractions of it; a step that large can
         # fail Newton there: once more with ten times tighter local error (smaller steps)
         opts = replace(opts, lte_tol=opts.lte_tol / 10)
-        sol = replay_system(system, np.array([0.0]), scene=scene, case=scene.name, options=opts)
+        sol = replay_system(
+            system, np.array([0.0]), scene=scene, case=scene.name, options=opts, stability=probes
+        )
         sol = replace(sol, message=sol.message + " (retried with lte_tol / 10)")
     if not sol.steps:
         return Solution(scene.name, model.name, sol.status, sol.message, (), sol.extras)
@@ -51,6 +64,12 @@ def replay_deploy(scene: Scene, model: object) -> Solution:
     )
     msg = "; ".join([sol.message, *stalled])
     extras = {**sol.extras, "boom_reached": locked}
+    extras["time_history"] = time_history(
+        scene, system, sol.extras["frames"], pairs, sol.extras.get("events", []),
+        last.info.get("t_settled", math.nan),
+    )  # fmt: skip
+    if probes.impulse is not None:
+        extras["impulse_probe"] = probes.impulse
     return Solution(scene.name, model.name, sol.status, msg, (step,), extras)
 
 
@@ -63,3 +82,40 @@ def _settled_q(sol: Solution, system: object, pair: object, last: Step) -> np.nd
     keys = [k for k in last.outputs if k.endswith((".x", ".y"))]
     best = min(qs, key=lambda q: max(abs(system.outputs(q)[k] - last.outputs[k]) for k in keys))
     return np.asarray(best)
+
+
+class _ProbeBoth:
+    """``replay_system``'s stability hook on a deploy: the tangent test and the modal kick
+    (``run._stability``), then, when the probe is wanted and the scene has the node, the
+    thesis's perturbation -- an impulse on ``IMPULSE_NODE`` (or the case's ``probe_node``)
+    -- from the same settled state, timed on its own (``impulse``: verdict, peak, cpu_s)."""
+
+    def __init__(self, scene: Scene, opts: object) -> None:
+        self.node = opts.probe_node or (IMPULSE_NODE if _has_node(scene, IMPULSE_NODE) else None)
+        self.vec = tuple(opts.probe_impulse) if opts.probe_node else IMPULSE
+        self.impulse: dict | None = None
+
+    def __call__(self, run: object, s: object, chk: dict, want: bool, scene: Scene) -> tuple:
+        eig, mode = ev.tangent_test(chk["K"], chk["G"], run.M)
+        if not want:
+            return eig, {"stable": None, "verdict": "skipped"}
+        t0 = time.process_time()
+        pr = run.probe(s, eig, mode, scene)
+        if run.o.probe_node is not None:  # the case's own impulse was the probe
+            imp = dict(pr)
+        elif self.node is None:
+            return eig, pr
+        else:
+            saved, t0 = run.o, time.process_time()
+            run.o = replace(saved, probe_node=self.node, probe_impulse=self.vec)
+            try:
+                imp = run.probe(s, eig, mode, scene)
+            finally:
+                run.o = saved
+        imp.update(node=self.node, impulse=list(self.vec), cpu_s=time.process_time() - t0)
+        self.impulse = imp
+        return eig, pr
+
+
+def _has_node(scene: Scene, node: str) -> bool:
+    return any(n.id == node for n in scene.nodes) and any(node in (m.a, m.b) for m in scene.members)
