@@ -78,7 +78,8 @@ def time_history(
     Returns
     -------
     dict of lists: ``t`` (s); ``boom_length`` {boom id: lengths}; ``joint_x``, ``joint_y``
-    {node: coordinates}; ``joint_angle_deg`` {node: angles}; ``locks`` [{boom, t, energy
+    {node: coordinates} (every node of a member or a boom); ``joint_angle_deg`` {node of a
+    member: angles}; ``locks`` [{boom, t, energy
     lost at the latch}]; ``settled_t``; ``members`` [[a, b], ...] and ``booms`` [[a, b], ...]
     to draw the mechanism.
     """
@@ -86,6 +87,7 @@ def time_history(
     qs = np.asarray(frames["q"])
     pos = [node_positions(system, q) for q in qs]
     nodes = sorted(_members_at(scene))
+    drawn = sorted(set(nodes) | {n for b in scene.booms for n in (b.a, b.b)})
     ang = np.array([[joint_angles(scene, p)[n] for n in nodes] for p in pos])
     ang = np.degrees(np.unwrap(np.radians(ang), axis=0)) if len(ang) else ang
     by_ends = {f"{b.a} - {b.b}": b.id for b in scene.booms}
@@ -99,8 +101,8 @@ def time_history(
         "boom_length": {
             b.id: [pair.geometry(q)[0] for q in qs] for b, pair in zip(scene.booms, pairs)
         },
-        "joint_x": {n: [p[n][0] for p in pos] for n in nodes},
-        "joint_y": {n: [p[n][1] for p in pos] for n in nodes},
+        "joint_x": {n: [p[n][0] for p in pos] for n in drawn},
+        "joint_y": {n: [p[n][1] for p in pos] for n in drawn},
         "joint_angle_deg": {n: ang[:, k].tolist() for k, n in enumerate(nodes)},
         "locks": locks,
         "settled_t": float(t_settled),
