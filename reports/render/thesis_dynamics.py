@@ -5,7 +5,7 @@ the quasi-static ones, the 1 N impulse on J4, the thesis's load tables (Tables 4
 printed beside ``thesis-force-method``'s, and the deployed structure's counts and stiffness.
 
 ``blocks(payload, out)`` returns report blocks (see ``reports.render``) and writes
-``figures/<case>-deploy-*.png`` and ``<case>-deploy.gif`` (sweep points are summarised in ``stability_maps``).
+``figures/<case>-deploy-*.png`` and ``<case>-deploy.gif`` (sweep points: ``stability_maps``).
 """
 
 from __future__ import annotations
@@ -137,8 +137,8 @@ def settled_rows(th: Mapping, quasi: Mapping | None) -> list[list[str]]:
     got = {n: v[-1] for n, v in th["joint_angle_deg"].items()}  # nodes of members
     ref = {}
     if quasi:
-        xy = {n: (quasi.get(f"{n}.x", th["joint_x"][n][0]), quasi.get(f"{n}.y", th["joint_y"][n][0]))
-              for n in th["joint_x"]}  # fmt: skip
+        first = {n: (th["joint_x"][n][0], th["joint_y"][n][0]) for n in th["joint_x"]}
+        xy = {n: (quasi.get(f"{n}.x", p[0]), quasi.get(f"{n}.y", p[1])) for n, p in first.items()}
         ref = angles_of(th["members"], xy)
     rows = []
     for n in sorted(got):
