@@ -78,3 +78,22 @@ def test_two_booms_lock_each_at_its_length():
     assert [e["boom"] for e in th["locks"]] == ["boom2", "boom1"]  # 0.28 m first
     assert th["boom_length"]["boom1"][-1] == pytest.approx(0.30, abs=1e-9)
     assert th["boom_length"]["boom2"][-1] == pytest.approx(0.28, abs=1e-9)
+
+
+def test_static_start_probes_the_closed_form_deployed_state():
+    # deploy_start = "static" (the sweeps' fifth verdict): no replayed deployment, the same
+    # deployed state (closed form: J4 = (0.05, 0.3), J2 = (0.1 + 0.3 cos 30, 0.15)) probed
+    scene = cases.load("thesis-sixbar-config4")
+    sol = api.solve(scene, "replay", options={"deploy_start": "static"})
+    assert sol.status == "converged", sol.message
+    out = sol.steps[-1].outputs
+    tol = ReplayOptions().settle_tol * build(scene, 1).length_scale() * 10
+    assert abs(out["J4.x"] - 0.05) < tol and abs(out["J4.y"] - 0.3) < tol
+    assert abs(out["J2.x"] - (0.1 + 0.3 * math.cos(math.radians(30)))) < tol
+    assert sol.steps[-1].stable is True and sol.extras["impulse_probe"]["node"] == "J4"
+    assert "time_history" not in sol.extras
+
+
+def test_sweeps_carry_the_fifth_verdict():
+    for name in ("thesis-sixbar-config4-sweep-stiffness", "thesis-sixbar-config2-sweep-rest"):
+        assert cases.load(name).model_options("replay") == {"deploy_start": "static"}

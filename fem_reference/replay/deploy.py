@@ -31,8 +31,12 @@ def replay_deploy(scene: Scene, model: object) -> Solution:
     factor 2 (Part 2) when every boom locked, else the stall's extension progress."""
     locks = tuple(model.options.locks) + booms_as_locks(scene)
     opts = replace(model.options, locks=locks, probe="last")
-    system = build(scene, model.n_elements)
     probes = _ProbeBoth(scene, opts)
+    if opts.deploy_start == "static":
+        from fem_reference.replay.deploy_static import replay_static
+
+        return replay_static(scene, model, probes)
+    system = build(scene, model.n_elements)
     sol = replay_system(
         system, np.array([0.0]), scene=scene, case=scene.name, options=opts, stability=probes
     )
