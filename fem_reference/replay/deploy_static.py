@@ -39,7 +39,8 @@ def replay_static(scene: Scene, model: object, probes: object) -> Solution:
     """Probe the deployed state; ``probes`` is the deploy's ``_ProbeBoth`` hook."""
     name = "replay"
     if len(scene.booms) != 1:
-        return Solution(scene.name, name, "not-applicable", "deploy_start = 'static' drives one boom")
+        why = "deploy_start = 'static' drives one boom"
+        return Solution(scene.name, name, "not-applicable", why)
     opts = replace(model.options, locks=booms_as_locks(scene), probe="last")
     system = build(scene, model.n_elements)
     try:
