@@ -54,7 +54,8 @@ def test_history_is_json_and_complete(config4):
     (lock,) = th["locks"]
     assert lock["boom"] == "boom" and 0 < lock["t"] < th["settled_t"]
     after = np.array(th["t"]) >= lock["t"]
-    assert np.all(lengths[after] == pytest.approx(0.3, abs=1e-9))  # stays locked
+    assert np.all(lengths[after] == pytest.approx(0.3, abs=1e-9))  # stays locked, perturbed too
+    assert th["perturbation"]["node"] == "J4" and th["t"][-1] > th["perturbation"]["t"]
 
 
 def test_settled_angles_match_the_closed_form_and_kinetostatic(config4):
@@ -62,7 +63,9 @@ def test_settled_angles_match_the_closed_form_and_kinetostatic(config4):
     tol = _tolerance_deg(scene)
     assert tol < 1e-3  # far inside the thesis's 2-3 deg
     th = sol.extras["time_history"]
-    got = {k: v[-1] for k, v in th["joint_angle_deg"].items()}
+    got = th["settled_angle_deg"]
+    k = th["t"].index(th["settled_t"])  # the history holds the settled frame itself
+    assert all(th["joint_angle_deg"][n][k] == pytest.approx(v, abs=1e-12) for n, v in got.items())
     for k, v in EXACT.items():
         assert abs((got[k] - v + 180) % 360 - 180) <= tol, k
     ks = api.solve(scene, "kinetostatic").steps[-1].outputs

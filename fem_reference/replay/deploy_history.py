@@ -64,6 +64,7 @@ def time_history(
     pairs: Sequence[object],
     lock_events: Sequence[Mapping],
     t_settled: float,
+    q_settled: np.ndarray | None = None,
 ) -> dict:
     """``extras["time_history"]`` of a replayed deploy scene.
 
@@ -74,13 +75,14 @@ def time_history(
     pairs : the booms as ``events.LockPair`` (scene order).
     lock_events : the replay's lock events (``kind``, ``ends``, ``t``, ``gap``, ``lost``).
     t_settled : time (s) at which the deployed state settled.
+    q_settled : the settled state's DOFs (its joint angles: ``settled_angle_deg``).
 
     Returns
     -------
     dict of lists: ``t`` (s); ``boom_length`` {boom id: lengths}; ``joint_x``, ``joint_y``
     {node: coordinates} (every node of a member or a boom); ``joint_angle_deg`` {node of a
     member: angles}; ``locks`` [{boom, t, energy
-    lost at the latch}]; ``settled_t``; ``members`` [[a, b], ...] and ``booms`` [[a, b], ...]
+    lost at the latch}]; ``settled_t``, ``settled_angle_deg`` {node: angle}; ``members`` [[a, b], ...] and ``booms`` [[a, b], ...]
     to draw the mechanism.
     """
     ts = [float(t) for t in frames["t"]]
@@ -106,6 +108,9 @@ def time_history(
         "joint_angle_deg": {n: ang[:, k].tolist() for k, n in enumerate(nodes)},
         "locks": locks,
         "settled_t": float(t_settled),
+        "settled_angle_deg": {}
+        if q_settled is None
+        else {n: v for n, v in joint_angles(scene, node_positions(system, q_settled)).items()},
         "members": [[m.a, m.b] for m in scene.members],
         "booms": [[b.a, b.b] for b in scene.booms],
     }

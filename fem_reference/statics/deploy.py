@@ -33,7 +33,9 @@ class DeployError(RuntimeError):
 
 def booms_as_locks(scene: Scene) -> tuple[events.LengthLock, ...]:
     """The scene's booms as the replay's length-lock events (one contract for both)."""
-    return tuple(events.LengthLock(b.a, b.b, b.length, b.force) for b in scene.booms)
+    return tuple(
+        events.LengthLock(b.a, b.b, b.length, b.force, b.stop_stiffness) for b in scene.booms
+    )
 
 
 class FEDeploy:
@@ -146,6 +148,9 @@ def solve_deploy(scene: Scene, name: str, n_elements: int) -> Solution:
     """Phase 1 at ``steps`` + 1 boom lengths (stall located), then Phase 2 locked."""
     if len(scene.booms) != 1:
         return Solution(scene.name, name, "not-applicable", "FE deploy drives one boom")
+    if scene.booms[0].stop != "lock":
+        why = "a collision-damper boom stop is dynamic: only replay models it"
+        return Solution(scene.name, name, "not-applicable", why)
     d = FEDeploy(build(scene, n_elements), scene)
     q, mu = np.zeros(d.sys.ndof), 0.0
     ell0, Lend = d.ell(q), scene.booms[0].length

@@ -260,6 +260,9 @@ class Deploy(Run):
 def deploy(sysm: MechanismSystem, name: str) -> Solution:
     """The ``deploy`` analysis as a Solution (numerical trouble -> ``failed``)."""
     scene = sysm.scene
+    if any(b.stop != "lock" for b in scene.booms):
+        why = "a collision-damper boom stop is dynamic: only replay models it"
+        return not_applicable(scene, name, why)
     r = Deploy(sysm)
     try:
         msg = r.run_deploy()
