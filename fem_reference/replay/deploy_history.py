@@ -81,8 +81,8 @@ def time_history(
     -------
     dict of lists: ``t`` (s); ``boom_length`` {boom id: lengths}; ``joint_x``, ``joint_y``
     {node: coordinates} (every node of a member or a boom); ``joint_angle_deg`` {node of a
-    member: angles}; ``locks`` [{boom, t, energy
-    lost at the latch}]; ``settled_t``, ``settled_angle_deg`` {node: angle}; ``members`` [[a, b], ...] and ``booms`` [[a, b], ...]
+    member: angles}; ``locks`` [{boom, t, energy lost at the latch}]; ``settled_t``,
+    ``settled_angle_deg`` {node: angle}; ``members`` [[a, b], ...] and ``booms`` [[a, b], ...]
     to draw the mechanism.
     """
     ts = [float(t) for t in frames["t"]]
