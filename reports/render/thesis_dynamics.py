@@ -222,6 +222,17 @@ def case_blocks(name: str, recs: Mapping[str, Mapping], fig_dir: Path) -> list[t
     line = structure_line(tfm)
     if line:
         out.append(("p", line))
+    fe = ((recs.get("fem-auto") or {}).get("extras") or {}).get("structure")
+    th_s = ((tfm or {}).get("extras") or {}).get("structure")
+    if fe:
+        vs = ""
+        if th_s and th_s["joint"] == fe["joint"]:
+            rel = th_s["joint_soft_stiffness"] / fe["joint_soft_stiffness"] - 1
+            vs = (f" (the thesis's K_t differs by {rel:+.2%}: it holds no geometric stiffness "
+                  "of the members' forces, and its deployed state is its own)")  # fmt: skip
+        out.append(("p", f"FE tangent at the deployed state (fem-auto: springs, rigid links, "
+                         "member forces' geometric stiffness, boom locked): softest "
+                         f"{fe['joint_soft_stiffness']:.6g} N/m at {fe['joint']}{vs}."))  # fmt: skip
     return out
 
 
