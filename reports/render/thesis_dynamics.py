@@ -230,9 +230,9 @@ def case_blocks(name: str, recs: Mapping[str, Mapping], fig_dir: Path) -> list[t
             rel = th_s["joint_soft_stiffness"] / fe["joint_soft_stiffness"] - 1
             vs = (f" (the thesis's K_t differs by {rel:+.2%}: it holds no geometric stiffness "
                   "of the members' forces, and its deployed state is its own)")  # fmt: skip
-        out.append(("p", f"FE tangent at the deployed state (fem-auto: springs, rigid links, "
-                         "member forces' geometric stiffness, boom locked): softest "
-                         f"{fe['joint_soft_stiffness']:.6g} N/m at {fe['joint']}{vs}."))  # fmt: skip
+        soft = f"{fe['joint_soft_stiffness']:.6g} N/m at {fe['joint']}{vs}."
+        what = "springs, rigid links, member forces' geometric stiffness, boom locked"
+        out.append(("p", f"FE tangent at the deployed state (fem-auto: {what}): softest {soft}"))
     return out
 
 
