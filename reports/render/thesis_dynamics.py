@@ -168,7 +168,7 @@ def table_rows(rec: Mapping, table: str) -> list[list[str]]:
         ours = ex.get(key) or []
         for label, t, o in zip(ex.get("load_total_rows", []), printed, ours):
             rel = abs(o - t) / max(abs(t), 1e-300)
-            rows.append([f"Part {part}", label, f"{t:.12g}", f"{o:.12g}", f"{o - t:.3g}",
+            rows.append([f"Part {part}", label, f"{t:.15g}", f"{o:.15g}", f"{o - t:.3g}",
                          f"{-math.log10(rel) if rel > 0 else 16:.1f}"])  # fmt: skip
     return rows
 
@@ -189,6 +189,34 @@ def structure_line(rec: Mapping | None) -> str | None:
     )
 
 
+def staging_rows(recs: Mapping[str, Mapping]) -> list[list[str]]:
+    """Several booms: each model's final boom lengths and joints against the replay's
+    physical staging (each boom pushes until it reaches its length, then locks)."""
+    ref = _final(recs.get("replay"))
+    rows = []
+    for model in ("replay", "kinetostatic", "fem-auto", "thesis-force-method"):
+        r = recs.get(model)
+        if r is None:
+            continue
+        out = _final(r)
+        booms = ", ".join(
+            f"{k[:-7]} {v * 1e3:.4f}" for k, v in out.items() if k.endswith(".length")
+        )
+        keys = [k for k in out if k.endswith((".x", ".y")) and k in ref]
+        diff = max((abs(out[k] - ref[k]) * 1e3 for k in keys), default=math.nan)
+        how = {"replay": "staged (dynamics)", "thesis-force-method": "thesis: all push until "
+               "the first reaches its length", "kinetostatic": "lengths held proportionally "
+               "(not staged; the same locked end state)", "fem-auto": "drives one boom"
+               }.get(model, "")  # fmt: skip
+        rows.append([model, r["status"], how, booms or "-", f"{diff:.3g}"])
+    return rows
+
+
+def _final(rec: Mapping | None) -> dict[str, float]:
+    steps = (rec or {}).get("steps") or []
+    return dict(steps[-1]["outputs"]) if steps else {}
+
+
 def case_blocks(name: str, recs: Mapping[str, Mapping], fig_dir: Path) -> list[tuple]:
     """Blocks of one deploy case: time history figures, animation, tables."""
     out: list[tuple] = [("h3", name)]
@@ -207,6 +235,18 @@ def case_blocks(name: str, recs: Mapping[str, Mapping], fig_dir: Path) -> list[t
         quasi = ((recs.get("kinetostatic") or {}).get("steps") or [{}])[-1].get("outputs")
         head = ["joint", "replay settled (deg)", "kinetostatic (deg)", "difference (deg)"]
         out.append(("table", head, settled_rows(th, quasi)))
+    if th and len(th["boom_length"]) > 1:
+        out.append(("p", "Two booms: physical staging (each boom locks at its own length) "
+                         "against the thesis's Part 1 (both push until the first boom reaches "
+                         "its length, the other pushed past its own):"))  # fmt: skip
+        head = [
+            "model",
+            "status",
+            "deployment",
+            "final boom lengths (mm)",
+            "max joint diff vs replay (mm)",
+        ]
+        out.append(("table", head, staging_rows(recs)))
     imp = (rep.get("extras") or {}).get("impulse_probe")
     if imp:
         out.append(("p", f"Perturbation (thesis: 1 N impulse on Joint 4 at equilibrium): impulse "
@@ -228,8 +268,9 @@ def case_blocks(name: str, recs: Mapping[str, Mapping], fig_dir: Path) -> list[t
         vs = ""
         if th_s and th_s["joint"] == fe["joint"]:
             rel = th_s["joint_soft_stiffness"] / fe["joint_soft_stiffness"] - 1
-            vs = (f" (the thesis's K_t differs by {rel:+.2%}: it holds no geometric stiffness "
-                  "of the members' forces, and its deployed state is its own)")  # fmt: skip
+            vs = (f" (the thesis's K_t differs by {rel:+.2%}: it is linear -- no geometric "
+                  "stiffness of the members' forces --, its bars stretch, and its deployed "
+                  "state is its own, past the length by up to one increment)")  # fmt: skip
         soft = f"{fe['joint_soft_stiffness']:.6g} N/m at {fe['joint']}{vs}."
         what = "springs, rigid links, member forces' geometric stiffness, boom locked"
         out.append(("p", f"FE tangent at the deployed state (fem-auto: {what}): softest {soft}"))
