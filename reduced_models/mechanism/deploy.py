@@ -265,7 +265,12 @@ def deploy(sysm: MechanismSystem, name: str) -> Solution:
         return not_applicable(scene, name, why)
     r = Deploy(sysm)
     try:
-        msg = r.run_deploy()
+        if len(scene.booms) > 1:  # physically staged: each boom locks at its own length
+            from reduced_models.mechanism.deploy_staged import Staged
+
+            msg = Staged(r).run()
+        else:
+            msg = r.run_deploy()
     except NotStaged as why:
         return not_applicable(scene, name, str(why))
     except (SolveError, ValueError, np.linalg.LinAlgError) as err:
