@@ -27,9 +27,14 @@ def replay(scene):
     return api.solve(scene, "replay")
 
 
-@pytest.mark.parametrize("model", ["kinetostatic", "replay"])
-def test_every_boom_locks_at_its_own_length(model, kinetostatic, replay):
-    sol = {"kinetostatic": kinetostatic, "replay": replay}[model]
+@pytest.fixture(scope="module")
+def fem(scene):
+    return api.solve(scene, "fem-auto")
+
+
+@pytest.mark.parametrize("model", ["kinetostatic", "replay", "fem-auto"])
+def test_every_boom_locks_at_its_own_length(model, kinetostatic, replay, fem):
+    sol = {"kinetostatic": kinetostatic, "replay": replay, "fem-auto": fem}[model]
     assert sol.status == "converged", sol.message
     last = sol.steps[-1]
     assert last.factor == 2.0 and "stalled" not in sol.message
@@ -49,10 +54,13 @@ def test_replay_settles_where_kinetostatic_does(kinetostatic, replay):
         assert got[key] == pytest.approx(ref[key], abs=1e-5)  # 0.01 mm
 
 
-@pytest.mark.parametrize("model", ["fem-auto"])
-def test_models_that_drive_one_boom_decline(model, scene):
-    sol = api.solve(scene, model)
-    assert sol.status == "not-applicable" and "one boom" in sol.message
+def test_fem_stages_as_kinetostatic(fem, kinetostatic):
+    # two independent staged solvers (FE with rigid-link constraints, the mechanism
+    # assembler): the same lock order and end state
+    assert fem.extras["boom_lock_order"] == kinetostatic.extras["boom_lock_order"]
+    ref, got = kinetostatic.steps[-1].outputs, fem.steps[-1].outputs
+    for key in ("J2.x", "J2.y", "J3.x", "J3.y", "J4.x", "J4.y", "J5.x", "J5.y"):
+        assert got[key] == pytest.approx(ref[key], abs=1e-7)
 
 
 def test_thesis_force_method_pushes_on_as_the_thesis(scene, kinetostatic):
@@ -84,7 +92,10 @@ def test_kinetostatic_stages_the_booms_as_the_replay(scene):
     moved = replace(scene, torsion_springs=springs)
     sol = api.solve(moved, "kinetostatic")
     rep = api.solve(moved, "replay")
-    assert sol.status == rep.status == "converged", (sol.message, rep.message)
+    fem = api.solve(moved, "fem-auto")
+    assert sol.status == rep.status == fem.status == "converged", (sol.message, rep.message)
+    assert "boom 'boom1' stalled" in fem.message
+    assert fem.steps[-1].outputs["J4.y"] == pytest.approx(sol.steps[-1].outputs["J4.y"], abs=1e-7)
     assert sol.extras["boom_lock_order"] == ["boom2"] and sol.extras["boom_reached"] is False
     assert "boom 'boom1' stalled" in sol.message and "boom 'boom1' stalled" in rep.message
     last, ref = sol.steps[-1].outputs, rep.steps[-1].outputs

@@ -147,11 +147,13 @@ class FEDeploy:
 
 def solve_deploy(scene: Scene, name: str, n_elements: int) -> Solution:
     """Phase 1 at ``steps`` + 1 boom lengths (stall located), then Phase 2 locked."""
-    if len(scene.booms) != 1:
-        return Solution(scene.name, name, "not-applicable", "FE deploy drives one boom")
-    if scene.booms[0].stop != "lock":
+    if any(b.stop != "lock" for b in scene.booms):
         why = "a collision-damper boom stop is dynamic: only replay models it"
         return Solution(scene.name, name, "not-applicable", why)
+    if len(scene.booms) > 1:  # staged: each boom locks at its own length
+        from fem_reference.statics.deploy_staged import solve_staged
+
+        return solve_staged(scene, name, n_elements)
     b0 = scene.booms[0]
     d = FEDeploy(build(scene, n_elements), scene)
     q, mu = np.zeros(d.sys.ndof), 0.0

@@ -205,8 +205,8 @@ def staging_rows(recs: Mapping[str, Mapping]) -> list[list[str]]:
         keys = [k for k in out if k.endswith((".x", ".y")) and k in ref]
         diff = max((abs(out[k] - ref[k]) * 1e3 for k in keys), default=math.nan)
         how = {"replay": "staged (dynamics)", "thesis-force-method": "thesis: all push until "
-               "the first reaches its length", "kinetostatic": "lengths held proportionally "
-               "(not staged; the same locked end state)", "fem-auto": "drives one boom"
+               "the first reaches its length", "kinetostatic": "staged (quasi-static: one "
+               "boom driven, the others free)", "fem-auto": "staged (FE, as kinetostatic)"
                }.get(model, "")  # fmt: skip
         rows.append([model, r["status"], how, booms or "-", f"{diff:.3g}"])
     return rows
