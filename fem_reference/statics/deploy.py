@@ -150,10 +150,9 @@ def solve_deploy(scene: Scene, name: str, n_elements: int) -> Solution:
     if any(b.stop != "lock" for b in scene.booms):
         why = "a collision-damper boom stop is dynamic: only replay models it"
         return Solution(scene.name, name, "not-applicable", why)
-    if len(scene.booms) > 1:  # staged: each boom locks at its own length
-        from fem_reference.statics.deploy_staged import solve_staged
-
-        return solve_staged(scene, name, n_elements)
+    if len(scene.booms) > 1:
+        why = "FE deploy drives one boom (several: deploy_staged.solve_any)"
+        return Solution(scene.name, name, "not-applicable", why)
     b0 = scene.booms[0]
     d = FEDeploy(build(scene, n_elements), scene)
     q, mu = np.zeros(d.sys.ndof), 0.0

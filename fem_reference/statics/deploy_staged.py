@@ -17,7 +17,7 @@ import scipy.optimize as so
 from cases.schema import Scene
 from fem_reference.assembly import build
 from fem_reference.replay import events
-from fem_reference.statics.deploy import MAX_ITER, DeployError, booms_as_locks
+from fem_reference.statics.deploy import MAX_ITER, DeployError, booms_as_locks, solve_deploy
 from reduced_models.base import Solution, Step
 
 
@@ -200,3 +200,10 @@ def solve_staged(scene: Scene, name: str, n_elements: int) -> Solution:
         return Solution(scene.name, name, "failed", str(err), tuple(run.steps), {})
     extras = {"boom_reached": done, "boom_lock_order": run.order}
     return Solution(scene.name, name, "converged", msg, tuple(run.steps), extras)
+
+
+def solve_any(scene: Scene, name: str, n_elements: int) -> Solution:
+    """The FE deploy: one boom (``deploy.solve_deploy``) or several, staged."""
+    if len(scene.booms) > 1 and all(b.stop == "lock" for b in scene.booms):
+        return solve_staged(scene, name, n_elements)
+    return solve_deploy(scene, name, n_elements)

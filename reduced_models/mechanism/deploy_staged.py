@@ -16,7 +16,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.optimize as so
 
-from reduced_models.mechanism.deploy import BoomLength, NotStaged, _geometry, hold
+from reduced_models.base import Solution
+from reduced_models.mechanism.deploy import BoomLength, NotStaged, _geometry, deploy, hold
 from reduced_models.mechanism.newton import SolveError, Solver, State
 
 
@@ -162,3 +163,8 @@ class Staged:
 
 def r_steps(run: object) -> int:
     return int(run.scene.analysis.steps)
+
+
+def deploy_any(sysm: object, name: str) -> Solution:
+    """``kinetostatic``'s deploy: one boom (``deploy.deploy``) or several, staged."""
+    return deploy(sysm, name, Staged if len(sysm.scene.booms) > 1 else None)
