@@ -100,7 +100,8 @@ class StagedFE:
         return q, mu
 
     def surplus(self, mu: np.ndarray) -> float:
-        """Driven boom's multiplier minus nothing: > 0 while its push wins."""
+        """The driven boom's surplus (its multiplier, push minus resistance): > 0 while its
+        push wins."""
         return float(mu[0])
 
     def record(self, q: np.ndarray, mu: np.ndarray, factor: float | None = None) -> None:

@@ -78,7 +78,7 @@ class Staged:
 
     def run(self) -> str:
         """Part 1 staged, Part 2 locked; returns the message."""
-        r, n = self.r, r_steps(self.r)
+        r, n = self.r, int(self.r.scene.analysis.steps)
         st = r.at(r.zero(), r.ell0)
         self.record(st)
         while not self.locked.all():
@@ -159,10 +159,6 @@ class Staged:
         self.record(st)
         self.lock(int(np.argmax(self.over(st, free))))
         return st
-
-
-def r_steps(run: object) -> int:
-    return int(run.scene.analysis.steps)
 
 
 def deploy_any(sysm: object, name: str) -> Solution:
