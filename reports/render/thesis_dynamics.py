@@ -249,9 +249,10 @@ def case_blocks(name: str, recs: Mapping[str, Mapping], fig_dir: Path) -> list[t
         out.append(("table", head, staging_rows(recs)))
     imp = (rep.get("extras") or {}).get("impulse_probe")
     if imp:
-        out.append(("p", f"Perturbation (thesis: 1 N impulse on Joint 4 at equilibrium): impulse "
-                         f"{imp['impulse']} N s on {imp['node']}, locked boom: {imp['verdict']} "
-                         f"(peak {imp['peak']:.3g} L, {imp['cpu_s']:.3g} s CPU)."))  # fmt: skip
+        vec = f"({imp['impulse'][0]:.4g}, {imp['impulse'][1]:.4g}) N s on {imp['node']}"
+        out.append(("p", "Perturbation (thesis: 1 N impulse on Joint 4 at equilibrium): impulse "
+                         f"{vec}, locked boom: {imp['verdict']} (peak {imp['peak']:.3g} L, "
+                         f"{imp['cpu_s']:.3g} s CPU)."))  # fmt: skip
     tfm = recs.get("thesis-force-method")
     if tfm and name in TABLE_OF and (tfm.get("extras") or {}).get("part1_load_total"):
         table = TABLE_OF[name]
