@@ -39,6 +39,20 @@ class Staged:
     def lengths(self, q: np.ndarray) -> np.ndarray:
         return _geometry(q, self.dofs)[1]
 
+    def release(self, st: State, ell: np.ndarray, left: np.ndarray) -> tuple[int, State]:
+        """Drive the unlocked boom with the least stroke left and free the others; where
+        Newton cannot follow that release (the free booms jump far), drive the next one."""
+        tried = []
+        for d in np.argsort(left)[: int(np.sum(~self.locked))]:
+            idx = [int(d), *np.nonzero(self.locked)[0]]
+            try:
+                return int(d), self.held(idx, np.r_[ell[d], self.target[self.locked]], st)
+            except SolveError as err:
+                tried.append(f"{self.r.ids[d]}: {err}")
+        raise SolveError(
+            "staging: no boom can be driven with the others free (" + "; ".join(tried) + ")"
+        )
+
     def held(self, idx: list[int], ell: np.ndarray, st: State) -> State:
         """Hold booms ``idx`` at lengths ``ell`` (the others free); re-solve from ``st``."""
         r = self.r
@@ -47,7 +61,8 @@ class Staged:
         hold(r.s, old, False, top)
         hold(r.s, new, True, top)
         r.length, r.solver = new, Solver(r.s)
-        mu = np.concatenate([st.mu[: r.row], np.zeros(new.m), st.mu[r.row + old.m :]])
+        m_st = len(st.mu) - (r.s.m - new.m)  # boom rows of st (the other families are fixed)
+        mu = np.concatenate([st.mu[: r.row], np.zeros(new.m), st.mu[r.row + m_st :]])
         self.r.force.force = np.where(self.locked, 0.0, self.push)
         return r.solver.newton(State(st.q, mu, st.lam))
 
@@ -84,9 +99,7 @@ class Staged:
         while not self.locked.all():
             ell = self.lengths(st.q)
             left = np.where(self.locked, np.inf, (self.target - ell) / (self.target - r.ell0))
-            d = int(np.argmin(left))
-            idx = [d, *np.nonzero(self.locked)[0]]
-            st = self.held(idx, np.r_[ell[d], self.target[self.locked]], st)
+            d, st = self.release(st, ell, left)
             free = ~self.locked
             free[d] = False
             if np.any(self.over(st, free) >= 0.0):  # released, a free boom ran to its stop
