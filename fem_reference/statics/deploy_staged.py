@@ -59,9 +59,16 @@ class StagedFE:
         return R, W, np.array(Gh).reshape(len(Gh), -1), np.array(c)
 
     def newton(self, q: np.ndarray, mu: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Equilibrium with the held lengths at ``goal`` (corrections capped, as FEDeploy)."""
+        """Equilibrium with the held lengths at ``goal`` (corrections capped, as FEDeploy;
+        failing that, once more with caps 20 times smaller: a released boom's long run)."""
+        try:
+            return self._newton(q, mu, self.cap, MAX_ITER)
+        except (DeployError, np.linalg.LinAlgError):
+            return self._newton(q, mu, self.cap / 20, 20 * MAX_ITER)
+
+    def _newton(self, q: np.ndarray, mu: np.ndarray, cap: np.ndarray, its: int) -> tuple:
         n, prev, step = self.sys.ndof, np.inf, np.inf
-        for _ in range(4 * MAX_ITER + 1):
+        for _ in range(its + 1):
             R, W, Gh, c = self.assemble(q, mu)
             res = float(np.max(np.abs(R)))
             floor = step <= 1e-13 * self.L or res > 0.5 * prev
@@ -72,7 +79,7 @@ class StagedFE:
             A = np.zeros((n + m, n + m))
             A[:n, :n], A[:n, n:], A[n:, :n] = W, Gh.T, Gh
             dx = np.linalg.solve(A, -np.append(R, c))
-            dx *= 1.0 / max(1.0, float(np.max(np.abs(dx[:n]) / self.cap)))
+            dx *= 1.0 / max(1.0, float(np.max(np.abs(dx[:n]) / cap)))
             q, mu = q + dx[:n], mu + dx[n:]
             step = float(np.max(np.abs(dx[:n])))
         raise DeployError(f"Newton did not converge (residual {res:.2e})")
@@ -83,6 +90,27 @@ class StagedFE:
         self.held, self.goal = list(idx), np.asarray(goal, float)
         mu = np.array([old.get(i, self.push[i]) for i in self.held])
         return self.newton(q, mu)
+
+    def release(self, q: np.ndarray, mu: np.ndarray, ell: np.ndarray, left: np.ndarray) -> tuple:
+        """Drive the unlocked boom with the least stroke left, the others free; where Newton
+        cannot follow that release (the free booms jump far), drive the next one."""
+        held, goal, tried = list(self.held), self.goal.copy(), []
+        for d in np.argsort(left)[: int(np.sum(~self.locked))]:
+            idx = [int(d), *np.nonzero(self.locked)[0]]
+            try:
+                return (int(d), *self.hold(idx, np.r_[ell[d], self.target[self.locked]], q, mu))
+            except (DeployError, np.linalg.LinAlgError) as err:
+                self.held, self.goal = list(held), goal.copy()  # mu still belongs to these
+                tried.append(f"{self.scene.booms[d].id}: {err}")
+        # no free equilibrium near: a free boom whose push wins runs to its stop -- lock it
+        surplus = dict(zip(self.held, mu))
+        k = max((i for i in surplus if not self.locked[i]), key=surplus.get, default=None)
+        if k is None or surplus[k] <= 0.0:
+            raise DeployError(
+                "staging: no boom can be driven with the others free: " + "; ".join(tried)
+            )
+        self.lock(k)
+        return None, q, mu
 
     def drive(self, q: np.ndarray, mu: np.ndarray, a: float, b: float) -> tuple:
         """Driven boom (held row 0) from length ``a`` to ``b``, halving on failure."""
@@ -136,9 +164,9 @@ class StagedFE:
         while not self.locked.all():
             ell = self.lengths(q)
             left = np.where(self.locked, np.inf, (self.target - ell) / (self.target - ell0))
-            d = int(np.argmin(left))
-            idx = [d, *np.nonzero(self.locked)[0]]
-            q, mu = self.hold(idx, np.r_[ell[d], self.target[self.locked]], q, mu)
+            d, q, mu = self.release(q, mu, ell, left)
+            if d is None:  # a boom ran to its stop: lock it there and stage the rest
+                continue
             free = ~self.locked
             free[d] = False
             if np.any(self.free_over(q, free) >= 0.0):
