@@ -71,7 +71,8 @@ class MechanismPart(Checks):
         out = []
         for i, t in enumerate(self.array("booms", required=False)):
             p = f"booms[{i}]"
-            self.keys(t, p, ("id", "from", "to", "force", "length"), ("id", "from", "to"))
+            allowed = ("id", "from", "to", "force", "length", "stop", "stop_stiffness")
+            self.keys(t, p, allowed, ("id", "from", "to"))
             for k in ("force", "length"):
                 if k not in t:
                     raise self.fail(f"{p}.{k}", "missing required key")
@@ -90,10 +91,24 @@ class MechanismPart(Checks):
                     b=b,
                     force=self.num(t, "force", p, positive=True),
                     length=self.num(t, "length", p, positive=True),
+                    **self.boom_stop(t, p),
                 )
             )
         self.unique([b.id for b in out], "booms")
         return tuple(out)
+
+    def boom_stop(self, t: dict, p: str) -> dict:
+        """``stop`` ("lock" | "damper") and, for a damper, its ``stop_stiffness`` (> 0)."""
+        stop = t.get("stop", "lock")
+        if stop not in ("lock", "damper"):
+            raise self.fail(f"{p}.stop", f"must be 'lock' or 'damper', got {stop!r}")
+        if stop == "lock":
+            if "stop_stiffness" in t:
+                raise self.fail(f"{p}.stop_stiffness", "only a 'damper' stop has a stiffness")
+            return {}
+        if "stop_stiffness" not in t:
+            raise self.fail(f"{p}.stop_stiffness", "missing (required with stop = 'damper')")
+        return {"stop": stop, "stop_stiffness": self.num(t, "stop_stiffness", p, positive=True)}
 
     def resolve_rest_angles(self, scene: Scene) -> Scene:
         """Springs given by ``rest_angle_deg`` get their ``free_angle_deg`` from the drawing."""

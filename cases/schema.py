@@ -151,6 +151,12 @@ class Boom:
     b: str
     force: float
     length: float
+    # "lock" (default): a bar of exactly ``length`` from the moment it gets there; "damper":
+    # the thesis's ADAMS collision damper (BISTOP, seed 001 Chapter 5): the push stays on and
+    # an elastic stop of ``stop_stiffness`` (force/length) resists extension past ``length``
+    # (dynamic; only ``replay`` models it)
+    stop: str = "lock"
+    stop_stiffness: float = 0.0
 
 
 @dataclass(frozen=True)

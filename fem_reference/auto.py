@@ -61,7 +61,7 @@ class FEMAuto:
         if reason:
             return not_applicable(scene, self.name, reason)
         if scene.analysis.kind == "deploy":  # no Richardson: the finest mesh of the sequence
-            from fem_reference.statics.deploy import solve_deploy
+            from fem_reference.statics.deploy_staged import solve_any as solve_deploy
 
             return solve_deploy(scene, self.name, self.sequence[-1])
         if len(flexible_ids(scene)) >= 2:  # each member meshed as its error needs

@@ -414,7 +414,7 @@ class FEM:
         if reason:
             return not_applicable(scene, self.name, reason)
         if scene.analysis.kind == "deploy":
-            from fem_reference.statics.deploy import solve_deploy
+            from fem_reference.statics.deploy_staged import solve_any as solve_deploy
 
             return solve_deploy(scene, self.name, self.n)
         r, status, message = self.runner(scene)

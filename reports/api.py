@@ -317,4 +317,9 @@ _JSON_EXTRAS = (
     "stability_number",
     "boom_reached",
     "boom_bar_force",
+    # deploy: the replay's time history and the thesis's 1 N impulse on J4 (issue 25)
+    "time_history",
+    "impulse_probe",
+    # deploy: the thesis's structure counts and stiffness (Eqs. 2-11, 2-12, 2-46 .. 2-48)
+    "structure",
 )

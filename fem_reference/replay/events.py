@@ -22,12 +22,16 @@ class LengthLock:
     a, b : node ids, or ``(x, y)`` ground points (length units).
     length : distance at which the boom locks into a bar (length units).
     force : constant push (> 0 pushes the points apart) applied until the lock (force units).
+    stop_stiffness : 0 (default): the boom latches into a bar; > 0: it never latches, the
+        push stays on and an elastic stop of this stiffness (force / length) resists
+        extension past ``length`` (the thesis's ADAMS collision damper, BISTOP).
     """
 
     a: str | tuple[float, float]
     b: str | tuple[float, float]
     length: float
     force: float = 0.0
+    stop_stiffness: float = 0.0
 
 
 class LockPair:

@@ -205,6 +205,16 @@ class GenAlpha:
                 Gc.append(G)
                 gc.append(ell - p.lock.length)
                 Hs.append(H)
+            elif p.lock.stop_stiffness:  # collision damper: push on, elastic stop past length
+                F = p.lock.force * self.act(t)
+                k, over = p.lock.stop_stiffness, max(ell - p.lock.length, 0.0)
+                r -= (F - k * over) * G
+                fe += F * G
+                if tangent:
+                    terms = [(1.0, K), (-(F - k * over), H)]
+                    if over > 0.0:
+                        terms.append((k, sp.csr_matrix(np.outer(G, G))))
+                    K = combine(terms)
             elif p.lock.force:
                 F = p.lock.force * self.act(t)
                 r -= F * G
@@ -326,7 +336,8 @@ class GenAlpha:
         located on the first, and the second still has its crossing ahead of it."""
         hits = []
         for p in self.pairs:
-            g0, g1 = (p.gap(s0.q), p.gap(s1.q)) if not p.locked else (0.0, 0.0)
+            latches = not p.locked and not p.lock.stop_stiffness  # a damper stop never latches
+            g0, g1 = (p.gap(s0.q), p.gap(s1.q)) if latches else (0.0, 0.0)
             if g0 < 0.0 <= g1:
                 hits.append((g0 / (g0 - g1), len(hits), p))
         return min(hits)[2] if hits else None

@@ -101,6 +101,7 @@ class Replay:
         "history_samples": ("int", 2, 10_000_000),
         "frames": ("int", 1, 100_000),
         "time_limit_s": ("float", 1e-3, 1e6),
+        "deploy_start": ("str", None, None, ("dynamic", "static")),
     }
 
     def __init__(

@@ -48,6 +48,9 @@ class ReplayOptions:
     exceeds this fraction of the work done (or strain energy change); a quasi-static ramp
     dissipates ~ 1 / (omega_1 T_ramp) of it, a snap most of it.
     history_samples, frames : caps on stored samples.  locks : boom events (``LengthLock``).
+    deploy_start : on a deploy scene, "dynamic" (the booms push from the drawn pose) or
+    "static" (start locked at the FE deploy equilibrium and only probe it: a sweep's verdicts
+    at ~1/10 of the cost, no time history; ``fem_reference.replay.deploy_static``).
     """
 
     zeta: float = 1.0
@@ -67,6 +70,7 @@ class ReplayOptions:
     frames: int = 120
     time_limit_s: float = 600.0  # wall clock; past it the replay fails with the reason
     locks: tuple[events.LengthLock, ...] = ()
+    deploy_start: str = "dynamic"
 
 
 SOFT_AFTER = 20.0  # T1 of holding after which a soft mode gets its own critical damping

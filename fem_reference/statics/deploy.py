@@ -22,6 +22,7 @@ import scipy.optimize as so
 from cases.schema import Scene
 from fem_reference.assembly import build
 from fem_reference.replay import events
+from fem_reference.statics.deploy_stiffness import joint_compliance
 from reduced_models.base import Solution, Step
 
 MAX_ITER = 30
@@ -33,7 +34,9 @@ class DeployError(RuntimeError):
 
 def booms_as_locks(scene: Scene) -> tuple[events.LengthLock, ...]:
     """The scene's booms as the replay's length-lock events (one contract for both)."""
-    return tuple(events.LengthLock(b.a, b.b, b.length, b.force) for b in scene.booms)
+    return tuple(
+        events.LengthLock(b.a, b.b, b.length, b.force, b.stop_stiffness) for b in scene.booms
+    )
 
 
 class FEDeploy:
@@ -144,8 +147,13 @@ class FEDeploy:
 
 def solve_deploy(scene: Scene, name: str, n_elements: int) -> Solution:
     """Phase 1 at ``steps`` + 1 boom lengths (stall located), then Phase 2 locked."""
-    if len(scene.booms) != 1:
-        return Solution(scene.name, name, "not-applicable", "FE deploy drives one boom")
+    if any(b.stop != "lock" for b in scene.booms):
+        why = "a collision-damper boom stop is dynamic: only replay models it"
+        return Solution(scene.name, name, "not-applicable", why)
+    if len(scene.booms) > 1:
+        why = "FE deploy drives one boom (several: deploy_staged.solve_any)"
+        return Solution(scene.name, name, "not-applicable", why)
+    b0 = scene.booms[0]
     d = FEDeploy(build(scene, n_elements), scene)
     q, mu = np.zeros(d.sys.ndof), 0.0
     ell0, Lend = d.ell(q), scene.booms[0].length
@@ -167,6 +175,9 @@ def solve_deploy(scene: Scene, name: str, n_elements: int) -> Solution:
         q2, bar, its = d.newton(q, mu - d.F, 0.0, Lend)
         steps.append(d.step(q2, 2.0, its, d.stability(q2, bar, 0.0, True)))
         extras.update(boom_reached=True, boom_bar_force=[bar])
+        ends = {m.a for m in scene.members} | {m.b for m in scene.members}
+        joint = "J4" if "J4" in ends else b0.b  # the thesis's Joint 4, else the pushed joint
+        extras["structure"] = joint_compliance(d, q2, bar, joint)
     except (DeployError, np.linalg.LinAlgError, ValueError) as err:
         return Solution(scene.name, name, "failed", str(err), tuple(steps), extras)
     eig = steps[-1].info["lowest_eigenvalue"]

@@ -257,12 +257,16 @@ class Deploy(Run):
         return L
 
 
-def deploy(sysm: MechanismSystem, name: str) -> Solution:
-    """The ``deploy`` analysis as a Solution (numerical trouble -> ``failed``)."""
+def deploy(sysm: MechanismSystem, name: str, staged: object = None) -> Solution:
+    """The ``deploy`` analysis as a Solution (numerical trouble -> ``failed``); ``staged``:
+    the class that runs Part 1 instead of ``Deploy.run_deploy``."""
     scene = sysm.scene
+    if any(b.stop != "lock" for b in scene.booms):
+        why = "a collision-damper boom stop is dynamic: only replay models it"
+        return not_applicable(scene, name, why)
     r = Deploy(sysm)
-    try:
-        msg = r.run_deploy()
+    try:  # several booms: ``staged`` (deploy_staged.Staged) stages them physically
+        msg = r.run_deploy() if staged is None else staged(r).run()
     except NotStaged as why:
         return not_applicable(scene, name, str(why))
     except (SolveError, ValueError, np.linalg.LinAlgError) as err:

@@ -260,7 +260,7 @@ def solve_with(scene: Scene, name: str, spec_of: Callable[[Member], tuple]) -> S
     if axial:
         return not_applicable(scene, name, axial)
     if kind == "deploy":
-        from reduced_models.mechanism.deploy import deploy
+        from reduced_models.mechanism.deploy_staged import deploy_any as deploy
 
         return deploy(sysm, name)
     r = analyses.run(sysm, kind, lazy=True)

@@ -86,6 +86,8 @@ def read_chain(scene: Scene) -> Chain | str:
     if nodes[0] not in pinned or nodes[-1] not in pinned:
         return "the chain's two ends must be pinned to ground"
     for b in scene.booms:
+        if b.stop != "lock":
+            return "a collision-damper boom stop is dynamic: only replay models it"
         if b.a not in pinned or b.b not in nodes[1:-1]:
             return f"boom {b.id!r} must run from a ground pin to a moving joint of the chain"
 

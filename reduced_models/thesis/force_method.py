@@ -43,6 +43,7 @@ import numpy as np
 from cases.schema import Scene
 from reduced_models.base import ModelCard, Solution, Step, not_applicable
 from reduced_models.thesis.chain import Chain, angles, boom_lengths, read_chain, rebuild, round_sig
+from reduced_models.thesis.structure import counts, flexibilities, joint_stiffness
 
 PART1_DELTA = 0.005  # Table 4-2: force fraction gamma for Part 1
 PART2_DELTA = 0.5  # ... and for Part 2
@@ -256,6 +257,22 @@ def thesis_stability(chain: Chain, part2: PartResult, lengths: np.ndarray) -> di
     }
 
 
+def structure(
+    scene: Scene, chain: Chain, p1: PartResult, p2: PartResult, lengths: np.ndarray
+) -> dict:
+    """Counts before the lock (start of Part 1) and deployed (Part 2's last matrices), and
+    the deployed structure's stiffness at J4 (or the first boom's joint), Eqs. 2-46 to 2-48."""
+    start = ForceMethodState(chain, p1.positions[0], lengths[: len(chain.nodes) - 1], False)
+    st = p2.last
+    node = "J4" if "J4" in [chain.nodes[j] for j in chain.free] else chain.nodes[chain.tip]
+    row = 2 * chain.free.index(chain.nodes.index(node))
+    c = flexibilities(scene, chain, lengths, st.A.shape[1])
+    out = {"start": counts(start.A, start.rank), "deployed": counts(st.A, st.rank)}
+    out["joint"] = node
+    out.update(joint_stiffness(st.A, c, st.R_rows, st.K, row))
+    return out
+
+
 class ThesisForceMethod:
     """``thesis-force-method``: the thesis's Appendix C incremental force method.
 
@@ -346,6 +363,10 @@ class ThesisForceMethod:
             return not_applicable(scene, self.name, why)
         chain, p1, p2 = self.run(scene)
         extras: dict[str, object] = {
+            # Part 1's states are a relaxation in pseudo-time (each increment moves by delta
+            # times the unbalanced load), not equilibria, and its first is the drawn pose:
+            # only the last step (Part 2, the equilibrium) is compared with a reference
+            "judged_steps": "last",
             "load_total_rows": [f"{chain.nodes[j]}.{c}" for j in chain.free for c in "xy"],
             "part1_increments": len(p1.positions) - 1,
             "part1_load_total": p1.load_total.tolist(),
@@ -366,6 +387,7 @@ class ThesisForceMethod:
         extras["part2_increments"] = len(p2.positions) - 1
         extras["part2_load_total"] = p2.load_total.tolist()
         extras["part2_residual"] = p2.residual
+        extras["structure"] = structure(scene, chain, p1, p2, lengths)
         ok = p2.done
         msg = (
             f"Part 1: {len(p1.positions) - 1} increments; Part 2: {len(p2.positions) - 1} "

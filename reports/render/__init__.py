@@ -256,6 +256,9 @@ def render_report(
     from reports.render import stability_maps  # deploy verdicts and sweep maps (issue 10)
 
     blocks += stability_maps.blocks(payload, out)
+    from reports.render import thesis_dynamics  # time histories, thesis tables (issue 25)
+
+    blocks += thesis_dynamics.blocks(payload, out)
     from reports.render import effectivity  # predicted against measured error (issue 19)
 
     blocks += effectivity.blocks(payload, out)

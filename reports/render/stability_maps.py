@@ -21,11 +21,13 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+IMPULSE = "replay-impulse"  # fifth verdict: the replay's extras["impulse_probe"] (issue 25)
 METHODS = (
     ("thesis-force-method", "thesis criterion"),
     ("kinetostatic", "reduced Hessian"),
     ("fem-auto", "FE tangent"),
     ("replay", "replay probe"),
+    (IMPULSE, "1 N impulse on J4"),
 )
 REFERENCE = "kinetostatic"
 EXPLAIN = (
@@ -85,7 +87,22 @@ def deploy_cases(payload: Mapping) -> dict[str, dict[str, Mapping]]:
     for r in payload["results"]:
         if r["case"] in out:
             out[r["case"]][r["model"]] = r
+            imp = (r.get("extras") or {}).get("impulse_probe") if r["model"] == "replay" else None
+            if imp:
+                out[r["case"]][IMPULSE] = _impulse_record(r, imp)
     return out
+
+
+def _impulse_record(rec: Mapping, imp: Mapping) -> dict:
+    """The replay's impulse probe as a record of its own: its verdict on the settled step,
+    its CPU time as the cost (``timing.first_s``)."""
+    last = dict(_last(rec) or {}, stable=imp.get("stable"), info={})
+    return {
+        "model": IMPULSE,
+        "status": rec["status"],
+        "steps": [last],
+        "timing": {"first_s": imp.get("cpu_s", 0.0)},
+    }
 
 
 def diff_mm(a: Mapping | None, b: Mapping | None) -> float:

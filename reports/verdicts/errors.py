@@ -377,9 +377,13 @@ def attach_errors(meta: Mapping, records: Sequence[dict]) -> dict[str, Any]:
         rec["errors"] = None
         rec["error_rel"], rec["error_L"], rec["summary_basis"] = None, None, None
         if ref is not None and rec["steps"] and not rec["is_reference"]:
-            pe = path_errors(rec["steps"], ref["steps"], length, abscissa_output(meta), meta)
+            # a model whose earlier steps are not equilibria (the thesis's Part 1 relaxation)
+            # says so: only its last step is judged
+            last = ((rec.get("extras") or {}).get("judged_steps")) == "last"
+            steps = rec["steps"][-1:] if last else rec["steps"]
+            pe = path_errors(steps, ref["steps"], length, abscissa_output(meta), meta)
             rec["errors"] = pe
-            if pe["summary"] is not None and pe["n_points"] >= 2:
+            if pe["summary"] is not None and pe["n_points"] >= (1 if last else 2):
                 rec["error_rel"], rec["error_L"] = pe["summary"], pe["summary_L"]
                 rec["summary_basis"] = "path"
         if rec["error_rel"] is None and not rec["is_reference"]:
