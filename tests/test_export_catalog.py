@@ -16,7 +16,8 @@ import pytest
 import cases
 from fem_reference.replay.model import Replay
 from reports.api import solve
-from reports.render.mechfig import _driver_panels, driver_xlabel
+from reports.render.mechfig import _driver_panels
+from reports.render.paths import driver_xlabel
 from reports.run.exports import DEFAULT_EXPORT, export_outputs
 
 MECHANISMS = [n for n in cases.catalog_names() if "mechanism" in cases.load(n).tags]

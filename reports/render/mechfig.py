@@ -30,7 +30,7 @@ import numpy as np
 from matplotlib.ticker import MaxNLocator
 
 from reports.render.figures import _save, _series, plt
-from reports.render.paths import clip_mark, zoom_range
+from reports.render.paths import clip_mark, driver_xlabel, zoom_range
 from reports.run.tables import unit_names
 
 SAME_AS_REF = 1e-3  # a model this close to the reference looks identical: named, not drawn
@@ -289,23 +289,6 @@ def _driver_panels(meta: Mapping, recs: Sequence[Mapping]) -> list[tuple[str, st
             panels.append((k, f"{k} [{_dot(unit)}]"))
     panels += [(k, f"{k} [–]") for k in sorted(keys) if k == "ma" or k.endswith(".ma")]
     return panels
-
-
-def driver_xlabel(meta: Mapping) -> str:
-    """x label of the driver figure: the driver coordinate of an energy analysis (Step.factor:
-    degrees for a rotation, case length otherwise), else the load factor."""
-    a = meta.get("analysis") or {}
-    driver = a.get("driver") or {}
-    if a.get("kind") != "energy" or not driver:
-        return "load factor [–]"
-    dunit = (
-        "deg"
-        if driver.get("kind") == "rotation"
-        else (unit_names(meta.get("units", ""))["length"] or "–")
-    )
-    what = driver.get("node") or driver.get("member") or ""
-    words = [driver.get("kind") or "", what, driver.get("direction") or ""]
-    return f"driver: {' '.join(w for w in words if w)} [{dunit}]"
 
 
 def driver_figure(

@@ -50,12 +50,21 @@ def clip_mark(ax: Any, x: np.ndarray, y: np.ndarray, xr: tuple, yr: tuple, colou
     return int(out.sum())
 
 
-def _factor_label(meta: Mapping) -> str:
-    """What ``Step.factor`` is in this case, with its unit: the load factor [–], or an energy
-    analysis's driver coordinate (deg for a rotation, case length otherwise)."""
-    from reports.render.mechfig import driver_xlabel  # mechfig draws on this module
-
-    return driver_xlabel(meta)
+def driver_xlabel(meta: Mapping) -> str:
+    """x label of the driver figure: the driver coordinate of an energy analysis (Step.factor:
+    degrees for a rotation, case length otherwise), else the load factor."""
+    a = meta.get("analysis") or {}
+    driver = a.get("driver") or {}
+    if a.get("kind") != "energy" or not driver:
+        return "load factor [–]"
+    dunit = (
+        "deg"
+        if driver.get("kind") == "rotation"
+        else (unit_names(meta.get("units", ""))["length"] or "–")
+    )
+    what = driver.get("node") or driver.get("member") or ""
+    words = [driver.get("kind") or "", what, driver.get("direction") or ""]
+    return f"driver: {' '.join(w for w in words if w)} [{dunit}]"
 
 
 def _unit(meta: Mapping, q: str) -> str:
@@ -104,7 +113,7 @@ def path_figure(
         ax.set_xlabel(f"{key} [{_unit(meta, q)}]", fontsize=8)
         ax.tick_params(labelsize=7)
         ax.grid(alpha=0.3)
-    axes[0].set_ylabel(_factor_label(meta), fontsize=7)
+    axes[0].set_ylabel(driver_xlabel(meta), fontsize=7)
     handles, labels = max((ax.get_legend_handles_labels() for ax in axes), key=lambda h: len(h[0]))
     labels = [f"{lab} ({outside[lab]} off-scale)" if outside.get(lab) else lab for lab in labels]
     fig.legend(
@@ -208,7 +217,7 @@ def error_factor_figure(
     ax.set_yscale("log")
     ax.set_ylim(zero / 2, hi)
     _decade_ticks(ax, "y", zero / 2, hi, zero)
-    ax.set_xlabel(_factor_label(meta), fontsize=7)
+    ax.set_xlabel(driver_xlabel(meta), fontsize=7)
     ax.set_ylabel(f"error_rel of {out} (own scale)", fontsize=7)
     ax.set_title(
         f"error along the path against {ref} (red dashed: tolerance {TOLERANCE:g}; "
