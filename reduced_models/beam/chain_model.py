@@ -3,7 +3,7 @@
 A chained-segment model of a single clamped beam with tip loads: ``applies_to`` checks the
 scene, ``solve`` builds the normalised ``chain.ChainProblem`` (kinematics, mixed Lagrangian
 and its banded Hessian -- see ``reduced_models.beam.chain``), runs the load continuation
-(``continuation.minimize_path``) and turns the converged states into ``Step``s (tip outputs,
+(``paths.engine.minimize_path``) and turns the converged states into ``Step``s (tip outputs,
 energy, shapes, stress, validity warnings).  Subclasses (``linear.LinearChain``,
 ``bcm.ChainedBCM``) supply the segment law, the local shape and the validity checks.
 """
@@ -21,6 +21,7 @@ from reduced_models.beam import single_beam
 from reduced_models.beam.chain import ChainProblem, SegmentLaw, chain_shape, local_coords
 from reduced_models.beam.chain_small import solve_single_segment
 from reduced_models.options import Option
+from reduced_models.paths.engine import minimize_path
 from reduced_models.paths.path_result import PathResult
 
 __all__ = ["ChainModel"]
@@ -117,8 +118,6 @@ class ChainModel:
 
     def _path(self, prob: ChainProblem, factors: np.ndarray) -> PathResult:
         """The general continuation (banded, retraction, follower loads)."""
-        from reduced_models.paths.continuation import minimize_path  # scipy: N > 1 or followers
-
         return minimize_path(
             prob.grad_hess,
             prob.x0,
@@ -156,7 +155,7 @@ class ChainModel:
         return dataclasses.replace(sol, steps=steps)
 
     def solve(self, scene: Scene) -> Solution:
-        """Equilibrium path by load continuation (see ``continuation.minimize_path``)."""
+        """Equilibrium path by load continuation (see ``paths.engine.minimize_path``)."""
         reason = self.applies_to(scene)
         if reason:
             return not_applicable(scene, self.name, reason)
