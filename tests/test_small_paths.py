@@ -21,7 +21,8 @@ from reduced_models.beam import single_beam
 from reduced_models.beam.bcm import BCM
 from reduced_models.beam.chain_small import single_segment_functions, solve_single_segment
 from reduced_models.beam.linear import LinearChain
-from reduced_models.beam.prb import PRB1R, PRB2R, PRB3R, RESIDUAL_TOL, PRBChain, equilibrium_path
+from reduced_models.beam.prb import PRB1R, PRB2R, PRB3R
+from reduced_models.beam.prb_chain import RESIDUAL_TOL, PRBChain, equilibrium_path
 from reduced_models.paths.engine import minimize_path
 
 

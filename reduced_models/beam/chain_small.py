@@ -22,8 +22,8 @@ from collections.abc import Callable
 import numpy as np
 
 from reduced_models.beam.chain import ChainProblem
-from reduced_models.paths.path_result import PathResult
 from reduced_models.paths.engine import minimize_path
+from reduced_models.paths.path_result import PathResult
 
 
 def single_segment_functions(prob: ChainProblem) -> tuple:

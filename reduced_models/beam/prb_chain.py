@@ -1,6 +1,6 @@
 """PRB chain numerics: kinematics, energy, analytic gradient/Hessian and the equilibrium path
 (end-load recovery, shape and stress of the solved states: ``prb_post``).  The registered
-models built on it are in ``reduced_models.beam.prb``.
+models built on it are in ``reduced_models.beam.prb`` (their shared layer ``prb_model``).
 
 A PRB chain is described by a PRB matrix ``[[k_theta, k_ex, gamma], ...]`` (see
 ``prb_tables``): segment i has length gamma_i L (plus an axial stretch u_i when k_ex_i is

@@ -292,8 +292,8 @@ def _arithmetic(x0: Any, n: int, fixed: Any, scale: Any, max_step: Any) -> Any:
     if np.all(inv == 1.0):
         inv = None  # unit scales: no products per update
     if isinstance(x0, (list, tuple)) and n <= MAX_N:
-        tolist = (lambda v: None if v is None else v.tolist())  # fmt: skip
-        return Floats(n, fixed.tolist(), tolist(inv), tolist(cap))
+        floats = [None if v is None else v.tolist() for v in (inv, cap)]
+        return Floats(n, fixed.tolist(), *floats)
     from reduced_models.paths.linalg import Arrays  # scipy's LAPACK: arrays only
 
     return Arrays(n, fixed, inv, cap)
@@ -344,7 +344,9 @@ def minimize_path(
     A = _arithmetic(x0, n, fixed, scale, max_step)
     x = A.vector(x0)
     factors = [float(f) for f in factors]
-    opts = dict(xtol=xtol, gtol=gtol, max_iter=max_iter, update=update, stability=stability,
-                keep_branch=keep_branch, load_gradient=load_gradient, symmetric=symmetric)  # fmt: skip
+    opts = dict(
+        xtol=xtol, gtol=gtol, max_iter=max_iter, update=update, stability=stability,
+        keep_branch=keep_branch, load_gradient=load_gradient, symmetric=symmetric,
+    )  # fmt: skip
     path = _Path(A, grad_hess, opts, x, factors[0] if factors else 0.0)
     return path.result(*path.follow(x, factors, max_cuts))
