@@ -109,8 +109,9 @@ class _Path:
         if A.n == 0:
             return (x, 0.0, None, None), 0, ""
         prev_res = math.inf
+        evaluate = A.evaluate if A.has_fixed else None  # identity equations to write
         for it in range(1, self.max_iter + 1):
-            g, H = A.evaluate(gh, x, lam)
+            g, H = gh(x, lam) if evaluate is None else evaluate(gh, x, lam)
             res = A.absmax(g)
             if not math.isfinite(res):
                 return None, it, "non-finite residual"

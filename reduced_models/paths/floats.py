@@ -119,6 +119,7 @@ class Floats:
         self, n: int, fixed: Sequence[int], inv_scale: list | None, cap: list | None
     ) -> None:
         self.n, self.fixed = n, tuple(int(i) for i in fixed)
+        self.has_fixed = bool(self.fixed)
         self.w, self.cap = inv_scale, cap
 
     @staticmethod

@@ -226,6 +226,7 @@ class Arrays:
     ) -> None:
         self.n, self.fixed, self.w, self.cap = n, fixed, inv_scale, cap
         self.fixed_key = tuple(fixed.tolist())
+        self.has_fixed = bool(self.fixed_key)
 
     @staticmethod
     def vector(x: object) -> np.ndarray:
