@@ -349,6 +349,23 @@ class PRBChain:
 
         return gh, lg
 
+    def path_functions_scalar(self, f1: np.ndarray) -> tuple:
+        """``path_functions_small`` of a one-joint inextensible chain on one bare float
+        (``paths.floats.Scalar``): g = K psi + lam (a sin psi + b cos psi - m1), h = dg/dpsi,
+        ``load_gradient`` = a sin psi + b cos psi - m1, with a + i b = F1 Lp."""
+        w = complex(f1[0], -f1[1]) * float(self.Lp[0])
+        a, b, k, m1 = w.real, w.imag, float(self._kd[0]), float(f1[2])
+        cos, sin = math.cos, math.sin
+
+        def gh(x: float, lam: float) -> tuple[float, float]:
+            c, s = cos(x), sin(x)
+            return k * x + lam * (a * s + b * c - m1), k + lam * (a * c - b * s)
+
+        def lg(x: float, lam: float) -> float:
+            return a * sin(x) + b * cos(x) - m1
+
+        return gh, lg
+
     def potential(self, x: np.ndarray, f: np.ndarray) -> float:
         """Total potential V = U - (fx X + fy Y + m Phi) (force * length)."""
         X, Y, phi = self.tip(x)
@@ -377,7 +394,10 @@ def equilibrium_path(
         f1 = np.array([f1[0], f1[1], 0.0])
     fixed = [chain.nj - 1] if guided else None
     gtol = RESIDUAL_TOL * chain.EI / chain.L
-    if chain.ne == 0 and chain.nj <= MAX_N:  # a few angles: the plain-float arithmetic
+    if chain.ne == 0 and chain.nj == 1 and not guided:  # one pivot angle: a bare float
+        gh, lg = chain.path_functions_scalar(f1)
+        x0 = 0.0
+    elif chain.ne == 0 and chain.nj <= MAX_N:  # a few angles: the plain-float arithmetic
         gh, lg = chain.path_functions_small(f1)
         x0 = [0.0] * chain.n
     else:

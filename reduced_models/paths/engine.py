@@ -5,8 +5,9 @@ Used by every energy-based single-beam reduced model (linear chains, BCM, chaine
 PRB family).  One algorithm, two arithmetics: the state ``x0`` handed in decides which --
 a numpy array (``linalg.Arrays``: dense LAPACK, ``Banded`` or sparse tangents) or, for a few
 unknowns (at most ``floats.MAX_N``), a list of plain floats (``floats.Floats``: a tridiagonal
-``L D L^T`` or a closed-form solve), where a numpy call would cost more than the arithmetic
-it does.  Every step of the algorithm below is the same code for both.
+``L D L^T`` or a closed-form solve) or one bare float (``floats.Scalar``), where a numpy call
+would cost more than the arithmetic it does.  Every step of the algorithm below is the same
+code for all of them.
 
 API
 ---
@@ -68,7 +69,7 @@ from typing import Any
 
 import numpy as np
 
-from reduced_models.paths.floats import MAX_N, Floats
+from reduced_models.paths.floats import MAX_N, Floats, Scalar
 from reduced_models.paths.path_result import PathResult, limit_note
 
 __all__ = ["minimize_path", "positive_definite"]
@@ -84,7 +85,7 @@ def positive_definite(x: Any, lam: float, H: object) -> bool | None:
 
 
 class _Path:
-    """One path's Newton solves, predictor and branch test in either arithmetic ``A``."""
+    """One path's Newton solves, predictor and branch test in any arithmetic ``A``."""
 
     def __init__(self, A: Any, grad_hess: Callable, opts: dict, x0: Any, lam0: float) -> None:
         self.A, self.gh = A, grad_hess
@@ -108,19 +109,20 @@ class _Path:
         A, gh, xtol, gtol, update = self.A, self.gh, self.xtol, self.gtol, self.update
         if A.n == 0:
             return (x, 0.0, None, None), 0, ""
-        prev_res = math.inf
+        prev_res, chol, isfinite = math.inf, self.chol, math.isfinite
         evaluate = A.evaluate if A.has_fixed else None  # identity equations to write
+        absmax, factor_solve, size_of = A.absmax, A.factor_solve, A.size
         for it in range(1, self.max_iter + 1):
             g, H = gh(x, lam) if evaluate is None else evaluate(gh, x, lam)
-            res = A.absmax(g)
-            if not math.isfinite(res):
+            res = absmax(g)
+            if not isfinite(res):
                 return None, it, "non-finite residual"
             try:
-                sol, pd, factor = A.factor_solve(H, g, self.chol)
+                sol, pd, factor = factor_solve(H, g, chol)
             except (ArithmeticError, ValueError) as exc:  # LinAlgError is a ValueError
                 return None, it, f"singular tangent ({exc})"
-            size = A.size(sol)
-            if not math.isfinite(size):
+            size = size_of(sol)
+            if not isfinite(size):
                 return None, it, "singular tangent"
             if size <= xtol:
                 if gtol is None or res <= gtol:
@@ -285,13 +287,18 @@ class _Path:
 
 
 def _arithmetic(x0: Any, n: int, fixed: Any, scale: Any, max_step: Any) -> Any:
-    """``Floats`` for a list of at most ``MAX_N`` floats, else ``linalg.Arrays``."""
+    """``Scalar`` for a bare float, ``Floats`` for a list of at most ``MAX_N`` floats, else
+    ``linalg.Arrays``."""
     fixed = np.asarray(fixed if fixed is not None else [], dtype=int)
     scale = np.ones(n) if scale is None else np.asarray(scale, dtype=float)
     inv = 1.0 / scale
     cap = None if max_step is None else 1.0 / (scale * np.asarray(max_step, dtype=float))
     if np.all(inv == 1.0):
         inv = None  # unit scales: no products per update
+    if isinstance(x0, float):
+        if fixed.size:
+            raise ValueError("a path of one unknown cannot hold it fixed")
+        return Scalar(*(None if v is None else float(v[0]) for v in (inv, cap)))
     if isinstance(x0, (list, tuple)) and n <= MAX_N:
         floats = [None if v is None else v.tolist() for v in (inv, cap)]
         return Floats(n, fixed.tolist(), *floats)
@@ -323,8 +330,8 @@ def minimize_path(
     Parameters
     ----------
     grad_hess : callable ``(x (n,), lam) -> (g (n,), H)``.
-    x0 : (n,) start (and values of the ``fixed`` unknowns); a list of at most
-        ``floats.MAX_N`` floats selects the plain-float arithmetic, an array numpy's.
+    x0 : (n,) start (and values of the ``fixed`` unknowns); a bare float or a list of at
+        most ``floats.MAX_N`` floats selects the plain-float arithmetic, an array numpy's.
     factors : (m,) reported load factors, increasing from the first.
     scale : (n,) typical size of each unknown for the convergence test (default ones).
     xtol, gtol : tolerances on the scaled Newton update and on ``max |g|`` (optional).
@@ -341,7 +348,7 @@ def minimize_path(
     -------
     PathResult
     """
-    n = len(x0)
+    n = 1 if isinstance(x0, float) else len(x0)
     A = _arithmetic(x0, n, fixed, scale, max_step)
     x = A.vector(x0)
     factors = [float(f) for f in factors]

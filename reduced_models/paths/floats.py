@@ -230,3 +230,96 @@ class Floats:
             return 1.0 / float(np.max(np.abs(np.linalg.eigvals(inv))))
         A = np.array(_dense(*H, n), dtype=float)
         return float(np.min(np.abs(np.linalg.eigvalsh(A))))
+
+
+class Scalar:
+    """``Floats`` for one unknown held as a bare float (``prb-1r``'s pivot angle): for one
+    unknown the lists of ``Floats`` cost more than the equation itself.  ``grad_hess(x, lam)
+    -> (g, h)``, the residual and its derivative; ``h > 0`` is positive definiteness."""
+
+    n = 1
+    cap = None
+
+    def __init__(self, inv_scale: float | None, cap: float | None) -> None:
+        self.w, self.cap = inv_scale, cap
+        self.has_fixed = False
+
+    @staticmethod
+    def vector(x: float) -> float:
+        """A state as this arithmetic holds it."""
+        return float(x)
+
+    @staticmethod
+    def evaluate(grad_hess: Callable, x: float, lam: float) -> tuple[float, float]:
+        """``grad_hess`` (nothing is fixed: a held single unknown is no path)."""
+        return grad_hess(x, lam)
+
+    @staticmethod
+    def absmax(v: float) -> float:
+        """|v| (nan stays nan)."""
+        return abs(v)
+
+    def size(self, v: float) -> float:
+        """|v| * inv_scale."""
+        return abs(v) if self.w is None else abs(v * self.w)
+
+    @staticmethod
+    def factor_solve(h: float, g: float, chol: bool) -> tuple[float, bool, float]:
+        """(g / h, h > 0, h); raises ZeroDivisionError if h = 0."""
+        if h == 0.0:
+            raise ZeroDivisionError("singular matrix")
+        return g / h, h > 0.0, h
+
+    @staticmethod
+    def resolve(h: float, b: float) -> float:
+        """b / h."""
+        return b / h
+
+    def damp(self, v: float) -> float:
+        """``v`` shortened so that |v| * cap <= 1."""
+        over = abs(v) * self.cap
+        return v / over if over > 1.0 else v
+
+    @staticmethod
+    def zero_fixed(v: float) -> float:
+        """``v`` (nothing is fixed)."""
+        return v
+
+    @staticmethod
+    def finite(v: float) -> bool:
+        """``v`` is finite."""
+        return math.isfinite(v)
+
+    @staticmethod
+    def sub(a: float, b: float) -> float:
+        """a - b."""
+        return a - b
+
+    @staticmethod
+    def add(a: float, b: float) -> float:
+        """a + b."""
+        return a + b
+
+    @staticmethod
+    def neg(a: float) -> float:
+        """-a."""
+        return -a
+
+    @staticmethod
+    def times(a: float, s: float) -> float:
+        """a * s."""
+        return a * s
+
+    @staticmethod
+    def comb(t: float, a1: float, b: float, a2: float, q: float | None, a3: float) -> float:
+        """t a1 + b a2 (+ q a3 when q is given)."""
+        return t * a1 + b * a2 if q is None else t * a1 + b * a2 + q * a3
+
+    def wdot(self, a: float, b: float) -> float:
+        """Scaled product (a w) (b w)."""
+        return a * b if self.w is None else (a * self.w) * (b * self.w)
+
+    @staticmethod
+    def min_abs_eig(h: float) -> float:
+        """|h|."""
+        return abs(h)
