@@ -1,12 +1,12 @@
-"""The arithmetic of ``engine.minimize_path`` on plain Python floats, for a few unknowns.
+"""The arithmetics of ``engine.minimize_path`` on plain Python floats, for a few unknowns.
 
 For a handful of unknowns a numpy call costs more than the arithmetic it does, so a path of
-up to ``MAX_N`` unknowns handed in as a list of floats is followed with this arithmetic (the
-same algorithm: ``engine`` calls the methods below where the array arithmetic,
-``linalg.Arrays``, calls numpy and LAPACK).  No scipy here: a model solved on floats imports
-no sparse or LAPACK layer.
+up to ``MAX_N`` unknowns handed in as a list of floats is followed with ``Floats``, one
+unknown handed in as a bare float with ``Scalar`` (the same algorithm: ``engine`` calls the
+methods below where the array arithmetic, ``linalg.Arrays``, calls numpy and LAPACK).  No
+scipy here: a model solved on floats imports no sparse or LAPACK layer.
 
-Vectors are lists of n floats.  ``grad_hess(x, lam) -> (g, H)`` with H either
+``Floats``: vectors are lists of n floats, ``grad_hess(x, lam) -> (g, H)`` with H either
 
 * ``(d, e)``: a symmetric tridiagonal matrix, its diagonal (n) and off-diagonal (n - 1) --
   the Hessian of a PRB chain in absolute link angles.  ``L D L^T`` costs O(n) and its pivots
