@@ -69,7 +69,7 @@ from typing import Any
 
 import numpy as np
 
-from reduced_models.paths.floats import MAX_N, Floats, Scalar
+from reduced_models.paths.floats import Floats, Scalar
 from reduced_models.paths.path_result import PathResult, limit_note
 
 __all__ = ["minimize_path", "positive_definite"]
@@ -287,8 +287,7 @@ class _Path:
 
 
 def _arithmetic(x0: Any, n: int, fixed: Any, scale: Any, max_step: Any) -> Any:
-    """``Scalar`` for a bare float, ``Floats`` for a list of at most ``MAX_N`` floats, else
-    ``linalg.Arrays``."""
+    """``Scalar`` for a bare float, ``Floats`` for a list of floats, else ``linalg.Arrays``."""
     fixed = np.asarray(fixed if fixed is not None else [], dtype=int)
     scale = np.ones(n) if scale is None else np.asarray(scale, dtype=float)
     inv = 1.0 / scale
@@ -299,7 +298,7 @@ def _arithmetic(x0: Any, n: int, fixed: Any, scale: Any, max_step: Any) -> Any:
         if fixed.size:
             raise ValueError("a path of one unknown cannot hold it fixed")
         return Scalar(*(None if v is None else float(v[0]) for v in (inv, cap)))
-    if isinstance(x0, (list, tuple)) and n <= MAX_N:
+    if isinstance(x0, (list, tuple)):
         floats = [None if v is None else v.tolist() for v in (inv, cap)]
         return Floats(n, fixed.tolist(), *floats)
     from reduced_models.paths.linalg import Arrays  # scipy's LAPACK: arrays only
@@ -330,8 +329,9 @@ def minimize_path(
     Parameters
     ----------
     grad_hess : callable ``(x (n,), lam) -> (g (n,), H)``.
-    x0 : (n,) start (and values of the ``fixed`` unknowns); a bare float or a list of at
-        most ``floats.MAX_N`` floats selects the plain-float arithmetic, an array numpy's.
+    x0 : (n,) start (and values of the ``fixed`` unknowns); a bare float or a list of floats
+        (for at most ``floats.MAX_N`` unknowns: beyond, numpy is faster) selects the
+        plain-float arithmetic, an array numpy's.
     factors : (m,) reported load factors, increasing from the first.
     scale : (n,) typical size of each unknown for the convergence test (default ones).
     xtol, gtol : tolerances on the scaled Newton update and on ``max |g|`` (optional).
