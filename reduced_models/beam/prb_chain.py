@@ -395,15 +395,15 @@ def equilibrium_path(
     fixed = [chain.nj - 1] if guided else None
     gtol = RESIDUAL_TOL * chain.EI / chain.L
     if chain.ne == 0 and chain.nj == 1 and not guided:  # one pivot angle: a bare float
-        gh, lg = chain.path_functions_scalar(f1)
-        x0 = 0.0
-    elif chain.ne == 0 and chain.nj <= MAX_N:  # a few angles: the plain-float arithmetic
+        gh1, lg1 = chain.path_functions_scalar(f1)
+        return minimize_path(gh1, 0.0, factors, xtol=xtol, gtol=gtol, load_gradient=lg1)
+    if chain.ne == 0 and chain.nj <= MAX_N:  # a few angles (unit scales): plain floats
         gh, lg = chain.path_functions_small(f1)
-        x0 = [0.0] * chain.n
-    else:
-        gh, lg = chain.path_functions(f1)
-        x0 = np.zeros(chain.n)
+        return minimize_path(
+            gh, [0.0] * chain.n, factors, xtol=xtol, gtol=gtol, fixed=fixed, load_gradient=lg
+        )
+    gh, lg = chain.path_functions(f1)
     return minimize_path(
-        gh, x0, factors, scale=chain.scale, xtol=xtol, gtol=gtol, fixed=fixed,
+        gh, np.zeros(chain.n), factors, scale=chain.scale, xtol=xtol, gtol=gtol, fixed=fixed,
         load_gradient=lg, symmetric=True,
     )  # fmt: skip

@@ -95,6 +95,10 @@ class _Path:
         # a Cholesky in the Newton solves decides positive definiteness on the way
         self.chol = self.stability is positive_definite and opts["symmetric"] is True
         self.x0, self.lam0 = x0, lam0
+        # what every Newton solve reads, looked up once (fixed unknowns: identity equations)
+        evaluate = A.evaluate if A.has_fixed else None
+        self._newton = (A, grad_hess, self.xtol, self.gtol, self.update, self.chol, evaluate,
+                        A.absmax, A.factor_solve, A.size)  # fmt: skip
         self.f: list[float] = []
         self.x: list = []
         self.its: list[int] = []
@@ -106,12 +110,10 @@ class _Path:
     def solve(self, x: Any, lam: float) -> tuple[tuple | None, int, str]:
         """Newton from ``x`` at factor ``lam``: ((x, residual, stable, factor) or None,
         iterations, reason)."""
-        A, gh, xtol, gtol, update = self.A, self.gh, self.xtol, self.gtol, self.update
+        A, gh, xtol, gtol, update, chol, evaluate, absmax, factor_solve, size_of = self._newton
         if A.n == 0:
             return (x, 0.0, None, None), 0, ""
-        prev_res, chol, isfinite = math.inf, self.chol, math.isfinite
-        evaluate = A.evaluate if A.has_fixed else None  # identity equations to write
-        absmax, factor_solve, size_of = A.absmax, A.factor_solve, A.size
+        prev_res, isfinite = math.inf, math.isfinite
         for it in range(1, self.max_iter + 1):
             g, H = gh(x, lam) if evaluate is None else evaluate(gh, x, lam)
             res = absmax(g)
@@ -287,23 +289,26 @@ class _Path:
 
 
 def _arithmetic(x0: Any, n: int, fixed: Any, scale: Any, max_step: Any) -> Any:
-    """``Scalar`` for a bare float, ``Floats`` for a list of floats, else ``linalg.Arrays``."""
-    fixed = np.asarray(fixed if fixed is not None else [], dtype=int)
-    scale = np.ones(n) if scale is None else np.asarray(scale, dtype=float)
-    inv = 1.0 / scale
-    cap = None if max_step is None else 1.0 / (scale * np.asarray(max_step, dtype=float))
-    if np.all(inv == 1.0):
-        inv = None  # unit scales: no products per update
+    """``Scalar`` for a bare float, ``Floats`` for a list of floats, else ``linalg.Arrays``
+    (the common options -- unit scales, no damping, nothing fixed -- without numpy calls:
+    for one unknown they would cost a tenth of its path)."""
+    inv = cap = None
+    if scale is not None or max_step is not None:
+        scale = np.ones(n) if scale is None else np.asarray(scale, dtype=float)
+        inv = 1.0 / scale
+        cap = None if max_step is None else 1.0 / (scale * np.asarray(max_step, dtype=float))
+        if np.all(inv == 1.0):
+            inv = None  # unit scales: no products per update
+    held = [] if fixed is None else np.asarray(fixed, dtype=int).tolist()
     if isinstance(x0, float):
-        if fixed.size:
+        if held:
             raise ValueError("a path of one unknown cannot hold it fixed")
         return Scalar(*(None if v is None else float(v[0]) for v in (inv, cap)))
     if isinstance(x0, (list, tuple)):
-        floats = [None if v is None else v.tolist() for v in (inv, cap)]
-        return Floats(n, fixed.tolist(), *floats)
+        return Floats(n, held, *(None if v is None else v.tolist() for v in (inv, cap)))
     from reduced_models.paths.linalg import Arrays  # scipy's LAPACK: arrays only
 
-    return Arrays(n, fixed, inv, cap)
+    return Arrays(n, np.asarray(held, dtype=int), inv, cap)
 
 
 def minimize_path(
