@@ -274,7 +274,7 @@ class _Parts(BeamMeshing):
         ]
         scatter = Scatter(free, self.coef, self.fam, ndof)
         # renumber free DOFs by reverse Cuthill-McKee: member chains become narrow bands, so
-        # the Newton solves can use a banded LU (static._factor)
+        # the Newton solves can use a banded LU (banded.factor)
         pattern = sp.csr_matrix(
             (np.ones(scatter.nnz), scatter.indices, scatter.indptr), shape=(ndof, ndof)
         )

@@ -14,7 +14,7 @@ import numpy as np
 from fem_reference.assembly import build
 from fem_reference.statics import static as S
 from fem_reference.statics.newton import converged
-from reduced_models.paths.continuation import minimize_path
+from reduced_models.paths.engine import minimize_path
 from tests.test_verify_linear_bcm import beam_scene
 
 

@@ -28,7 +28,7 @@ from reduced_models.beam.bcm import (
 )
 from reduced_models.beam.chain import ChainProblem, local_coords
 from reduced_models.beam.linear import G_LINEAR, LINEAR_LAW, LinearChain
-from reduced_models.paths.continuation import minimize_path
+from reduced_models.paths.engine import minimize_path
 
 PI2_4 = math.pi**2 / 4
 

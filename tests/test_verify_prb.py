@@ -31,7 +31,7 @@ from scipy.special import ellipe, ellipeinc, ellipk, ellipkinc
 import cases
 from cases.schema import Analysis, Load, Member, Node, Output, Scene, Support
 from reduced_models import registry
-from reduced_models.beam import prb, prb_fit
+from reduced_models.beam import prb, prb_chain, prb_fit, prb_model
 from reduced_models.beam import prb_tables as T
 from reduced_models.paths.linalg import Banded
 
@@ -114,7 +114,7 @@ MODELS = {
 }
 
 
-def make(name: str) -> prb.PRBModel:
+def make(name: str) -> prb_model.PRBModel:
     model = MODELS[name]()
     model.name = name
     return model
@@ -280,12 +280,12 @@ def test_fsm_converges_to_elastica_with_observed_order(placement, order):
 # ---------------------------------------------------------------------------------------------
 
 
-def _chain_state(model: prb.PRBModel, scene: Scene) -> tuple:
+def _chain_state(model: prb_model.PRBModel, scene: Scene) -> tuple:
     sol = model.postprocess(scene, model.solve(scene))
     assert sol.status == "converged", sol.message
     beam = model._beam(scene)
     matrix = np.asarray(sol.extras["prb_matrix"])
-    chain = prb.PRBChain(matrix, beam.L, beam.EI, beam.EA)
+    chain = prb_chain.PRBChain(matrix, beam.L, beam.EI, beam.EA)
     return sol, chain, np.asarray(sol.extras["prb_states"][-1])
 
 
@@ -487,7 +487,7 @@ def test_save_to_case_and_cli_roundtrip(tmp_path, capsys):
     opts = scene.model_options("prb-custom")
     model = prb.PRBCustom(**opts)
     model.name = "prb-custom"
-    matrix = prb.check_matrix(opts["matrix"])
+    matrix = prb_chain.check_matrix(opts["matrix"])
     assert np.isinf(matrix[0, 0]) and matrix.shape == (3, 3)
     sol = model.solve(scene)
     assert sol.status == "converged"

@@ -26,7 +26,6 @@ from scipy.optimize import minimize_scalar
 
 from fem_reference.banded import (
     BAND_MAX,
-    SingularTangent,
     _dpbtrf,
     band_stability,
     csr_to_band,
@@ -35,7 +34,6 @@ from fem_reference.banded import (
     inverse_iteration,
     symmetric_upper_band,
 )
-from fem_reference.banded import factor as _band_factor
 from fem_reference.rigid import stability_view
 from fem_reference.statics.arclength import ArcLength
 from fem_reference.statics.newton import (
@@ -65,15 +63,6 @@ __all__ = [
     "Scaler",
     "unwrap",
 ]
-
-
-def _factor(K: sp.csr_matrix, bw: int | None = None) -> object:
-    """LU of a csr tangent: banded LAPACK when the (RCM-ordered) band is narrow, else SuperLU;
-    ``SolveError`` if singular."""
-    try:
-        return _band_factor(K, bw)
-    except SingularTangent as err:
-        raise SolveError(str(err)) from None
 
 
 def load_control(

@@ -3,7 +3,7 @@
 A chained-segment model of a single clamped beam with tip loads: ``applies_to`` checks the
 scene, ``solve`` builds the normalised ``chain.ChainProblem`` (kinematics, mixed Lagrangian
 and its banded Hessian -- see ``reduced_models.beam.chain``), runs the load continuation
-(``continuation.minimize_path``) and turns the converged states into ``Step``s (tip outputs,
+(``paths.engine.minimize_path``) and turns the converged states into ``Step``s (tip outputs,
 energy, shapes, stress, validity warnings).  Subclasses (``linear.LinearChain``,
 ``bcm.ChainedBCM``) supply the segment law, the local shape and the validity checks.
 """
@@ -21,6 +21,7 @@ from reduced_models.beam import single_beam
 from reduced_models.beam.chain import ChainProblem, SegmentLaw, chain_shape, local_coords
 from reduced_models.beam.chain_small import solve_single_segment
 from reduced_models.options import Option
+from reduced_models.paths.engine import minimize_path
 from reduced_models.paths.path_result import PathResult
 
 __all__ = ["ChainModel"]
@@ -117,8 +118,6 @@ class ChainModel:
 
     def _path(self, prob: ChainProblem, factors: np.ndarray) -> PathResult:
         """The general continuation (banded, retraction, follower loads)."""
-        from reduced_models.paths.continuation import minimize_path  # scipy: N > 1 or followers
-
         return minimize_path(
             prob.grad_hess,
             prob.x0,
@@ -133,30 +132,41 @@ class ChainModel:
 
     def postprocess(self, scene: Scene, sol: Solution) -> Solution:
         """Shapes and bending stress of the reported states (``shape`` of every segment from
-        its tip state and axial force in ``extras``), outside the timed solve."""
+        its tip state and axial force in ``extras``), outside the timed solve: every step's
+        at once, the steps built once."""
         beam = single_beam.cantilever_of(scene)
         L, N, m = beam.L, self.N, len(sol.steps)
-        prob = self.problem(beam)
+        h = 1.0 / N  # ChainProblem.h: segment length over L
         nodes = np.asarray(sol.extras["nodes"], dtype=float)[:m] / np.array([L, L, 1.0])
         p = np.asarray(sol.extras["axial"], dtype=float)[:m]
-        xi, eta, a, _, _ = local_coords(nodes, prob.h)
-        flat = (xi.ravel() - 1.0, eta.ravel(), a.ravel(), p.ravel(), prob.k)
+        xi, eta, a, _, _ = local_coords(nodes, h)
+        flat = (xi.ravel() - 1.0, eta.ravel(), a.ravel(), p.ravel(), float(sol.extras["k"]))
         sigma = np.linspace(0.0, 1.0, self.shape_points)
         xl, yl, kappa = (v.reshape(m, N, sigma.size) for v in self.shape(*flat, sigma))
-        pts = beam.rotate_to_global(chain_shape(nodes, xl, yl, prob.h) * L)  # (m, P, 2)
+        pts = beam.rotate_to_global(chain_shape(nodes, xl, yl, h) * L)  # (m, P, 2)
         kmax = np.abs(kappa).max(axis=(1, 2), initial=0.0) * N / L
+        mem = scene.member(beam.member)
+        if mem.thickness is None or mem.E is None:
+            stress = [None] * m
+        else:  # single_beam.stress_from_curvature of each step, all at once
+            stress = (mem.E * mem.thickness * kmax / 2.0).tolist()
         steps = tuple(
-            dataclasses.replace(
-                st,
-                shapes={beam.member: pts[j]},
-                max_stress=single_beam.stress_from_curvature(scene, beam, kmax[j : j + 1]),
-            )
-            for j, st in enumerate(sol.steps)
+            Step(
+                st.factor,
+                st.outputs,
+                st.energy,
+                st.iterations,
+                st.stable,
+                {beam.member: xy},
+                sig,
+                st.info,
+            )  # fmt: skip
+            for st, xy, sig in zip(sol.steps, pts, stress)
         )
         return dataclasses.replace(sol, steps=steps)
 
     def solve(self, scene: Scene) -> Solution:
-        """Equilibrium path by load continuation (see ``continuation.minimize_path``)."""
+        """Equilibrium path by load continuation (see ``paths.engine.minimize_path``)."""
         reason = self.applies_to(scene)
         if reason:
             return not_applicable(scene, self.name, reason)

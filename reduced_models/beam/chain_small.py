@@ -1,4 +1,4 @@
-"""One-segment chains (``bcm``, ``linear-1``) on plain floats through ``small_path``.
+"""One-segment chains (``bcm``, ``linear-1``) on plain floats (``paths.floats``).
 
 With one segment clamped at the origin the chain's unknowns reduce to the tip state and the
 axial force, y = [X, Y, phi, p] (normalised as in ``reduced_models.beam.chain``; the segment
@@ -22,8 +22,8 @@ from collections.abc import Callable
 import numpy as np
 
 from reduced_models.beam.chain import ChainProblem
+from reduced_models.paths.engine import minimize_path
 from reduced_models.paths.path_result import PathResult
-from reduced_models.paths.small_path import minimize_path_small
 
 
 def single_segment_functions(prob: ChainProblem) -> tuple:
@@ -70,7 +70,7 @@ def single_segment_functions(prob: ChainProblem) -> tuple:
     def load_gradient(x: list, lam: float) -> list:
         return [-fX, -fY, -m, 0.0]
 
-    def stability(x: list, lam: float) -> bool:
+    def stability(x: list, lam: float, H: object) -> bool:
         # p condensed (pivot hpp = min(-D, -1e-9) < 0) leaves M = Hg - c c^T / hpp in (X, Y,
         # phi) with M_XX = -1/hpp > 0; the Schur complement of M_XX is K itself (the c c^T
         # terms cancel), so by Sylvester's criterion M is positive definite iff K is
@@ -85,10 +85,10 @@ def single_segment_functions(prob: ChainProblem) -> tuple:
 
 
 def solve_single_segment(prob: ChainProblem, factors: np.ndarray) -> PathResult:
-    """``continuation.minimize_path`` of a one-segment dead-load chain on floats; states in
+    """``engine.minimize_path`` of a one-segment dead-load chain on floats; states in
     the chain's full layout (m, 8) with the clamped root node first."""
     gh, lg, stab = single_segment_functions(prob)
-    res = minimize_path_small(
+    res = minimize_path(
         gh,
         [1.0, 0.0, 0.0, 0.0],
         factors,

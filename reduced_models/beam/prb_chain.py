@@ -1,6 +1,6 @@
 """PRB chain numerics: kinematics, energy, analytic gradient/Hessian and the equilibrium path
 (end-load recovery, shape and stress of the solved states: ``prb_post``).  The registered
-models built on it are in ``reduced_models.beam.prb``.
+models built on it are in ``reduced_models.beam.prb`` (their shared layer ``prb_model``).
 
 A PRB chain is described by a PRB matrix ``[[k_theta, k_ex, gamma], ...]`` (see
 ``prb_tables``): segment i has length gamma_i L (plus an axial stretch u_i when k_ex_i is
@@ -11,7 +11,7 @@ Equilibrium is the stationary point of the total potential energy
 ``V = sum 1/2 K_theta theta^2 + sum 1/2 K_ex u^2 - (fx X + fy Y + m Phi)``
 (dead tip loads; X, Y tip position, Phi tip-link angle), found by Newton's method with the
 analytic gradient and Hessian (vectorised over segments; tridiagonal in absolute link angles)
-along the load ramp with step cutting, through the shared ``reduced_models.paths.continuation``.
+along the load ramp with step cutting, through the shared ``reduced_models.paths.engine``.
 
 Shape and stress (``prb_post``; seed 000_265bc60728766176.txt, "Computing Beam Shape and Stress"):
 the end loads are recovered from the spring torques through the Moore-Penrose pseudo-inverse of the
@@ -30,9 +30,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from reduced_models.paths.engine import minimize_path
+from reduced_models.paths.floats import MAX_N
 from reduced_models.paths.path_result import PathResult
-from reduced_models.paths.scalar_path import minimize_path_scalar
-from reduced_models.paths.small_path import MAX_N, minimize_path_small
 
 if TYPE_CHECKING:
     from reduced_models.paths.linalg import Banded
@@ -78,7 +78,7 @@ class PRBChain:
     joint p (the seed's "each segment in the frame of the previous one" choice: a spring
     couples only neighbouring angles, theta_p = psi_p - psi_{p-1}), u_e the stretch of
     extensible segment e.  Without stretch the Hessian is tridiagonal; long chains hand it to
-    ``continuation`` as a ``Banded`` matrix (linear cost in N).
+    the continuation engine as a ``Banded`` matrix (linear cost in N).
 
     Parameters
     ----------
@@ -308,9 +308,9 @@ class PRBChain:
         return gh, lg
 
     def path_functions_small(self, f1: np.ndarray) -> tuple:
-        """``path_functions`` of an inextensible chain on plain floats (``small_path``).
+        """``path_functions`` of an inextensible chain on plain floats (``paths.floats``).
 
-        ``grad_hess(x, lam) -> (g, d, e)``: g = K_psi psi + lam (Im w - m1 e_tip), Hessian
+        ``grad_hess(x, lam) -> (g, (d, e))``: g = K_psi psi + lam (Im w - m1 e_tip), Hessian
         K_psi + lam diag(Re w) as its diagonal d and off-diagonal e, w_p = F1 Lp_p
         e^{i psi_p}; ``load_gradient`` = Im w - m1 e_tip.
         """
@@ -326,7 +326,7 @@ class PRBChain:
 
         seen: list = [None, None]  # the last point and its unit-load terms Im w
 
-        def gh(x: list, lam: float) -> tuple[list, list, list]:
+        def gh(x: list, lam: float) -> tuple[list, tuple[list, list]]:
             g, d, gw = [], [], []
             for xi, xl, xh, (k, cl, ch, ap, bp) in zip(x, [0.0, *x], [*x[1:], 0.0], rows):
                 c, s = cos(xi), sin(xi)
@@ -336,7 +336,7 @@ class PRBChain:
                 d.append(k + lam * (ap * c - bp * s))
             g[last] -= lam * m1
             seen[0], seen[1] = x, gw
-            return g, d, ko[:]
+            return g, (d, ko[:])
 
         def lg(x: list, lam: float) -> list:
             # called at the state just accepted: its terms were computed by gh
@@ -351,8 +351,8 @@ class PRBChain:
         return gh, lg
 
     def path_functions_scalar(self, f1: np.ndarray) -> tuple:
-        """``path_functions_small`` of a one-joint inextensible chain on scalars
-        (``scalar_path``): g = K psi + lam (a sin psi + b cos psi - m1), h = dg/dpsi,
+        """``path_functions_small`` of a one-joint inextensible chain on one bare float
+        (``paths.floats.Scalar``): g = K psi + lam (a sin psi + b cos psi - m1), h = dg/dpsi,
         ``load_gradient`` = a sin psi + b cos psi - m1, with a + i b = F1 Lp."""
         w = complex(f1[0], -f1[1]) * float(self.Lp[0])
         a, b, k, m1 = w.real, w.imag, float(self._kd[0]), float(f1[2])
@@ -381,7 +381,7 @@ def equilibrium_path(
     xtol: float = 1e-6,
 ) -> PathResult:
     """Equilibria for loads ``lambda * f1`` at the reported ``factors`` (from the unloaded
-    state) through the shared Newton/continuation (``reduced_models.paths.continuation``).
+    state) through the shared continuation engine (``reduced_models.paths.engine``).
 
     ``guided`` holds the tip-link angle at zero (fixed-guided beam; the tip moment is then a
     reaction and ``f1[2]`` is ignored).  Convergence: the last Newton update is below
@@ -395,33 +395,16 @@ def equilibrium_path(
         f1 = np.array([f1[0], f1[1], 0.0])
     fixed = [chain.nj - 1] if guided else None
     gtol = RESIDUAL_TOL * chain.EI / chain.L
-    if chain.ne == 0 and chain.nj == 1 and not guided:  # one pivot angle: scalars
+    if chain.ne == 0 and chain.nj == 1 and not guided:  # one pivot angle: a bare float
         gh1, lg1 = chain.path_functions_scalar(f1)
-        return minimize_path_scalar(
-            gh1, 0.0, factors, xtol=xtol, gtol=gtol, load_gradient=lg1
-        )  # fmt: skip
-    if chain.ne == 0 and chain.nj <= MAX_N:  # a few angles: plain floats
+        return minimize_path(gh1, 0.0, factors, xtol=xtol, gtol=gtol, load_gradient=lg1)
+    if chain.ne == 0 and chain.nj <= MAX_N:  # a few angles (unit scales): plain floats
         gh, lg = chain.path_functions_small(f1)
-        return minimize_path_small(
-            gh,
-            [0.0] * chain.n,
-            factors,
-            xtol=xtol,
-            gtol=gtol,
-            fixed=fixed or (),
-            load_gradient=lg,
+        return minimize_path(
+            gh, [0.0] * chain.n, factors, xtol=xtol, gtol=gtol, fixed=fixed, load_gradient=lg
         )
-    from reduced_models.paths.continuation import minimize_path  # sparse/LAPACK layer: import late
-
     gh, lg = chain.path_functions(f1)
     return minimize_path(
-        gh,
-        np.zeros(chain.n),
-        factors,
-        scale=chain.scale,
-        xtol=xtol,
-        gtol=gtol,
-        fixed=fixed,
-        load_gradient=lg,
-        symmetric=True,
-    )
+        gh, np.zeros(chain.n), factors, scale=chain.scale, xtol=xtol, gtol=gtol, fixed=fixed,
+        load_gradient=lg, symmetric=True,
+    )  # fmt: skip

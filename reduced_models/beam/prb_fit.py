@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import least_squares
 
-from reduced_models.beam.prb import PRBChain, equilibrium_path
+from reduced_models.beam.prb_chain import PRBChain, equilibrium_path
 
 INF = math.inf
 

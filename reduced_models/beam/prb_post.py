@@ -56,22 +56,6 @@ def _drop_round_off(f: np.ndarray, L: float) -> np.ndarray:
     return np.where(tiny, 0.0, f)
 
 
-def recover_tip_loads(
-    chain: PRBChain, x: np.ndarray, f_known: np.ndarray | None = None
-) -> tuple[np.ndarray, int]:
-    """End loads (fx, fy, m) from the spring forces through pinv(J^T) (seed slide).
-
-    With fewer than three independent spring rows (PRB-1R, PRB-2R) the pseudo-inverse only
-    recovers the load components in the row space of J^T.  The seed's remedy turns rigid links
-    into very stiff axial springs; in the stiff limit their forces are the known end load
-    projected on the links, which amounts to completing the null-space component from
-    ``f_known`` when it is given.  Returns ``(f, rank of J^T)``.
-    """
-    fk = None if f_known is None else np.asarray(f_known, dtype=float)[None, :]
-    f, rank = recover_tip_loads_batch(chain, np.asarray(x, dtype=float)[None, :], fk)
-    return f[0], int(rank[0])
-
-
 def shape_and_stress(
     scene: Scene, beam: Cantilever, chain: PRBChain, X: np.ndarray, F: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray | None]:

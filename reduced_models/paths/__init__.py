@@ -1,5 +1,5 @@
-"""Path following for the reduced models: one step controller (``stepper.follow``: load
-stepping, predicted starts, step cuts and branch watch) driving three arithmetic engines --
-``continuation`` (numpy, LAPACK/sparse), ``small_path`` (plain floats for a few unknowns) and
-``scalar_path`` (one float) -- the ``PathResult`` they return and the banded linear algebra
-(``linalg``) they solve with."""
+"""Path following for the reduced models: one continuation engine (``engine.minimize_path``:
+Newton, load stepping, predicted starts, step cuts and branch keeping) in three arithmetics --
+numpy arrays with LAPACK, banded and sparse tangents (``linalg.Arrays``), a list of plain
+floats for a few unknowns and one bare float (``floats.Floats``, ``floats.Scalar``) -- and the
+``PathResult`` it returns (``path_result``)."""

@@ -6,9 +6,11 @@ private ``_factor_solve``/``_resolve`` pair solve ``H x = rhs`` for a dense ``nu
 ``dpbsv``) or a ``scipy.sparse`` matrix (``splu``) and keep the factorisation for further
 right-hand sides.  The LAPACK drivers are called directly: for the small systems of reduced
 models the argument checking of ``numpy.linalg.solve`` / ``scipy.linalg.solve_banded`` costs
-more than the factorisation.  ``positive_definite`` is the default stability test of
-``continuation.minimize_path``; ``_fix_dense``/``_fix_sparse``/``Banded.fix`` replace the
-rows and columns of supported unknowns by identity rows, keeping the band structure.
+more than the factorisation.  ``hessian_positive_definite`` is the default stability test of
+``engine.minimize_path`` where no Cholesky solve decided it; ``_fix_dense``/``_fix_sparse``/
+``Banded.fix`` replace the rows and columns of supported unknowns by identity rows, keeping
+the band structure.  ``Arrays`` is the engine's arithmetic on numpy arrays (``floats.Floats``
+is the same on plain floats).
 """
 
 from __future__ import annotations
@@ -23,8 +25,9 @@ import scipy.sparse.linalg as spla
 from scipy.linalg import lapack
 
 __all__ = [
+    "Arrays",
     "Banded",
-    "positive_definite",
+    "hessian_positive_definite",
     "solve_linear",
 ]
 
@@ -187,8 +190,9 @@ def solve_linear(H: object, rhs: np.ndarray) -> np.ndarray:
     return x
 
 
-def positive_definite(x: np.ndarray, lam: float, H: object) -> bool | None:
-    """Stability test for pure energy minimisation: is the Hessian positive definite?
+def hessian_positive_definite(H: object) -> bool | None:
+    """Is the Hessian positive definite (``engine.positive_definite`` where no Newton solve
+    decided it)?
 
     Dense and symmetric ``Banded`` matrices use a Cholesky factorisation; sparse or
     unsymmetric matrices give None (not assessed).
@@ -203,3 +207,117 @@ def positive_definite(x: np.ndarray, lam: float, H: object) -> bool | None:
     if not np.allclose(H, H.T, rtol=1e-9, atol=1e-12 * np.max(np.abs(H))):
         return None
     return lapack.dpotrf(H)[1] == 0
+
+
+class Arrays:
+    """Vector arithmetic and tangent solves of ``engine`` on numpy arrays (dense, ``Banded``
+    or sparse tangents); the methods of ``floats.Floats``.
+
+    Parameters
+    ----------
+    n : number of unknowns.
+    fixed : indices of unknowns held at their start value (identity equations).
+    inv_scale : (n,) 1 / typical size of each unknown, or None (unit scales).
+    cap : (n,) 1 / (scale * max_step) per unknown, or None (no damping).
+    """
+
+    def __init__(
+        self, n: int, fixed: np.ndarray, inv_scale: np.ndarray | None, cap: np.ndarray | None
+    ) -> None:
+        self.n, self.fixed, self.w, self.cap = n, fixed, inv_scale, cap
+        self.fixed_key = tuple(fixed.tolist())
+        self.has_fixed = bool(self.fixed_key)
+
+    @staticmethod
+    def vector(x: object) -> np.ndarray:
+        """A state as this arithmetic holds it."""
+        return np.array(x, dtype=float)
+
+    def evaluate(self, grad_hess: object, x: np.ndarray, lam: float) -> tuple[np.ndarray, object]:
+        """``grad_hess`` with the fixed unknowns replaced by identity equations."""
+        g, H = grad_hess(x, lam)
+        fixed = self.fixed
+        if fixed.size:
+            g = np.array(g, dtype=float)
+            g[fixed] = 0.0
+            if isinstance(H, Banded):
+                H.fix(self.fixed_key)
+            elif sp.issparse(H):
+                H = _fix_sparse(H, fixed, self.n)
+            else:
+                H = _fix_dense(H, fixed)
+        return g, H
+
+    absmax = staticmethod(_absmax)
+    factor_solve = staticmethod(_factor_solve)
+
+    def size(self, v: np.ndarray) -> float:
+        """max |v_i| * inv_scale_i."""
+        return _absmax(v if self.w is None else v * self.w)
+
+    @staticmethod
+    def resolve(factor: tuple, b: np.ndarray) -> np.ndarray:
+        """H^-1 b with a factor kept by ``factor_solve``."""
+        return _resolve(factor, b)
+
+    def damp(self, v: np.ndarray) -> np.ndarray:
+        """``v`` shortened as a whole so that max |v_i| * cap_i <= 1."""
+        over = float((abs(v) * self.cap).max())
+        return v / over if over > 1.0 else v
+
+    def zero_fixed(self, v: np.ndarray) -> np.ndarray:
+        """``v`` with the fixed entries set to zero."""
+        if self.fixed.size:
+            v = np.array(v, dtype=float)
+            v[self.fixed] = 0.0
+        return v
+
+    @staticmethod
+    def finite(v: np.ndarray) -> bool:
+        """Every entry finite."""
+        return math.isfinite(v.dot(v))
+
+    @staticmethod
+    def sub(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """a - b."""
+        return a - b
+
+    @staticmethod
+    def add(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """a + b."""
+        return a + b
+
+    @staticmethod
+    def neg(a: np.ndarray) -> np.ndarray:
+        """-a (in place: ``a`` is a fresh solve)."""
+        a *= -1.0
+        return a
+
+    @staticmethod
+    def times(a: np.ndarray, s: float) -> np.ndarray:
+        """a * s."""
+        return a * s
+
+    @staticmethod
+    def comb(
+        t: np.ndarray, a1: float, b: np.ndarray, a2: float, q: np.ndarray | None, a3: float
+    ) -> np.ndarray:
+        """t a1 + b a2 (+ q a3 when q is given)."""
+        out = t * a1 + b * a2
+        if q is not None:
+            out += q * a3
+        return out
+
+    def wdot(self, a: np.ndarray, b: np.ndarray) -> float:
+        """Scaled dot product (a w) . (b w)."""
+        if self.w is None:
+            return float(a.dot(b))
+        return float((a * self.w).dot(b * self.w))
+
+    @staticmethod
+    def min_abs_eig(H: object) -> float:
+        """Smallest |eigenvalue| of the symmetric part of H (a diagnosis after failure,
+        never in the Newton loop)."""
+        A = H.to_dense() if isinstance(H, Banded) else (H.toarray() if sp.issparse(H) else H)
+        A = np.asarray(A, dtype=float)
+        return float(np.min(np.abs(np.linalg.eigvalsh(0.5 * (A + A.T)))))

@@ -1,4 +1,4 @@
-"""``PathResult``: what a load continuation returns (``continuation``, ``small_path``).
+"""``PathResult``: what the continuation engine (``engine.minimize_path``) returns.
 
 Its own module, free of scipy, so that models solved on plain floats import no sparse or
 LAPACK layer (``flexbench solve`` of a small PRB model starts in a fraction of a second).

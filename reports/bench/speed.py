@@ -62,7 +62,9 @@ SCALING = {
 # why a small model costs what it costs (printed next to a missed target; the figures beside
 # it -- iterations per path and CPU per iteration -- are measured in the same run)
 COST_NOTES = {
-    "prb-1r": "scalar Newton on one pivot angle (scalar_path); the rest is Step/output assembly",
+    "prb-1r": (
+        "Newton on one pivot angle (paths.engine on floats); the rest is Step/output assembly"
+    ),
     "prb-3r": (
         "plain-float Newton on 3 angles (fused tridiagonal L D L^T): 2-3 evaluations per "
         "step to reach 1e-8 EI/L, ~10 us each in Python, plus ~0.1 ms of Step assembly"
