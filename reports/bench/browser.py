@@ -35,6 +35,12 @@ from typing import Any
 CANDIDATES = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
 LOCAL_SCHEMES = ("file:", "data:", "about:", "blob:", "chrome:", "devtools:")
 VIEWPORT = (1400, 900)  # px: the "first screen" of the screenshot
+# the answer (report.html's pick table, one row per case) ends within two screens: the
+# section after it ("accuracy") starts above this (px); 1453 px for the default run
+FRONT_PAGE_MAX_PX = 2 * VIEWPORT[1]
+# report.html of the default run (`flexbench run`, 41 case rows, 34 case sections) measured
+# at 1400 px: PAGE_HEIGHT_NOTE; the bound leaves ~25 % for new cases and figures
+DEFAULT_RUN_MAX_HEIGHT_PX = 0
 CHECK_JS = """(() => {
   const de = document.documentElement;
   const links = [...document.querySelectorAll('a[href^="#"]')].map(a => a.getAttribute('href'));

@@ -413,9 +413,17 @@ def pick_blocks(payload: Mapping, figures: Mapping) -> list[Block]:
     return blocks
 
 
+def _count_cases(cases: Mapping, sweeps: Mapping[str, Sequence[str]]) -> str:
+    """``"34 cases and 7 sweeps (385 points)"``, or ``"4 cases"``."""
+    points = sum(len(v) for v in sweeps.values())
+    text = f"{len(cases) - points} cases"
+    return text + (f" and {len(sweeps)} sweeps ({points} points)" if sweeps else "")
+
+
 def build_document(payload: Mapping, figures: Mapping[str, Mapping[str, Any]]) -> list[Block]:
-    """Format-neutral content of the report (``figures``: case or ``"_overall"`` -> kind ->
-    relative PNG path)."""
+    """Format-neutral content of the report (``figures``: case -> kind -> relative PNG path;
+    ``"_families"``: family -> its speed-against-error chart; ``"_sweeps"``: sweep -> (its
+    stability-map thumbnail, hover text); ``"_render"``: ``{"cpu_s"}`` of drawing them)."""
     results = payload["results"]
     cases = payload["cases"]
     env = payload.get("environment", {})
@@ -438,7 +446,7 @@ def build_document(payload: Mapping, figures: Mapping[str, Mapping[str, Any]]) -
     blocks.append(
         (
             "p",
-            f"{len(cases)} cases x {n_models} models, {len(results)} pairs; run "
+            f"{_count_cases(cases, sweeps)} x {n_models} models, {len(results)} pairs; run "
             f"{when} UTC on {env.get('cpu', '?')}, commit "
             f"{(env.get('git_commit') or '?')[:10]}, {FP.fmt_time(payload.get('elapsed_s'))}.",
         )

@@ -166,22 +166,29 @@ def _no_pick(recs: Sequence[Mapping], case: Mapping) -> str:
 PICK_HEAD = ["case", "pick", "its error_rel", "its CPU time", "vs reference", "why"]
 
 
+RULES = {  # pick.choose's deciding rule, as the pick table says it
+    "only qualifying": "the only one",
+    "cost": "cheapest",
+    "tie: fewer unknowns": "tie, fewer unknowns",
+    "tie: name": "tie, first name",
+}
+
+
 def why(case: Mapping, p: Mapping, tol: float) -> str:
     """The pick's reason in one line (the recommender's paragraph is the cell's hover text)."""
     if not p["within"]:
-        return f"none of the {p['n_solved']} models that solved it is within {tol:g}: closest shown"
+        return p["reason"]
+    share = f"{p['n_good']}/{p['n_solved']} within {tol:g}"
     if p["error"] == 0.0 and p["model"] in EXACT_MODELS:
         what = "rigid links and springs" if p["model"] == "kinetostatic" else "closed form"
-        return f"exact here ({what}); {p['n_good']} of {p['n_solved']} within {tol:g}"
-    rule = p["decided_by"] or "–"
-    return f"cheapest of {p['n_good']} within {tol:g} ({p['n_solved']} solved); decided by {rule}"
+        return f"exact ({what}); {share}"
+    return f"{share}; {RULES.get(p['decided_by'], p['decided_by'] or '–')}"
 
 
-def vs_reference(p: Mapping) -> str:
-    """``31x faster than fem-auto``, ``is the reference``."""
-    speed = fmt_speed(p["ratio"])
+def vs_reference(p: Mapping) -> Cell:
+    """``31x faster`` (hover: than which reference), ``is the reference``."""
     ref = p.get("reference")
-    return f"{speed} than {ref}" if ref and speed.endswith(("faster", "slower")) else speed
+    return Cell(fmt_speed(p["ratio"]), title=f"CPU time against the reference {ref}")
 
 
 def pick_row(name: str, case: Mapping, recs: Sequence[Mapping], tol: float) -> list:

@@ -33,12 +33,12 @@ img { max-width: 100%; display: block; margin: 0.5em 0; }
 .figs img { width: 100%; height: auto; margin: 0; }
 .figs a.wide { grid-column: 1 / -1; } .figs a.wide img { width: auto; max-width: 100%; }
 table.pick { display: table; width: 100%; table-layout: fixed; }
-table.pick th:nth-child(1) { width: 22%; } table.pick th:nth-child(2) { width: 10%; }
+table.pick th:nth-child(1) { width: 21%; } table.pick th:nth-child(2) { width: 10%; }
 table.pick th:nth-child(3) { width: 9%; } table.pick th:nth-child(4) { width: 7%; }
-table.pick th:nth-child(5) { width: 15%; }
+table.pick th:nth-child(5) { width: 10%; }
 table.pick td { white-space: nowrap; overflow: hidden; text-overflow: ellipsis; }
 td img.thumb { display: inline-block; vertical-align: middle; margin: 0 0.5em 0 0;
-               max-height: 40px; }
+               max-height: 20px; }
 .scroll { overflow: auto; max-width: 100%; border: 1px solid #ccc;
           margin: 0.5em 0; }
 .scroll table { display: table; margin: 0; font-size: 0.72em; }

@@ -28,7 +28,7 @@ COLOURS = {  # RGB of the verdicts (the deploy section's map colours)
 }
 MISSING = (0.0, 0.0, 0.0)
 CELL_PX = 6  # a point's square; 1 px of white between the blocks
-HEIGHT_PX = 40  # the thumbnail's height cap (a row of the pick table)
+HEIGHT_PX = 20  # the thumbnail's height cap: one line of the pick table
 
 
 def layout(points: Sequence[Mapping[str, float]]) -> tuple[np.ndarray, tuple[int, int, int]]:

@@ -51,11 +51,11 @@ def pick_row(
     speed = FP.vs_reference({**mine[0], "ratio": statistics.median(ratios) if ratios else None})
     others = ", ".join(f"{m} at {c}" for m, c in good.most_common()[1:])
     none = sum(1 for p in picks if not (p and p["within"]))
-    text = f"picked at {k} of {len(names)} points" + (f"; {others}" if others else "")
+    text = f"picked at {k}/{len(names)} points" + (f"; {others}" if others else "")
     tip = f"{tip}; {text}" if tip else text
     text += f"; none within {tol:g} at {none}" if none else ""
     if all(p["error"] == 0.0 for p in mine) and model in FP.EXACT_MODELS:
-        text = "exact here (rigid links and springs); " + text
+        text = "exact (rigid links and springs); " + text
     return [
         link,
         Cell(model, FP.error_class(worst, tol)),

@@ -4,7 +4,9 @@ From the run's own records: each pair's ``timing`` (the first solve, the timing 
 post-processing) and ``cost`` (the samples of the pick's cost estimate, when not taken
 from the cache); the runner's ``stats["cpu"]`` (``reports.run.runner``: CPU of every process
 of the local pool over the solving stage, the teaching atlases computed in this run, the
-per-case figures drawn while solving); and the CPU of rendering this report
+per-case figures drawn while solving, and writing the teaching page, which only the run
+itself knows: a re-render with ``flexbench report`` does not show that row); and the CPU of
+rendering this report
 (``figures["_render"]``, measured by ``reports.render.render_report``).  What the solving
 stage spent outside the timed parts (exports, serialisation, the pool, imports) is shown as
 the rest, so the rows add up to what was measured.
@@ -15,7 +17,6 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 from reports.render import frontpage as FP
-from reports.render.cells import Cell
 
 GROUPS = (  # model-name prefix -> row of the panel (first match)
     ("fem-", "reference: finite elements (fem-N, fem-auto)"),
@@ -81,15 +82,21 @@ def rows(payload: Mapping, figures: Mapping) -> tuple[list[list], float]:
         items.append(("rest of the solving stage", "", rest, what))
     if early:
         items.append(("per-case figures drawn while solving", "", early, ""))
+    if cpu.get("teaching_page_s") is not None:
+        what = "atlases no pool worker ran included"
+        items.append(("writing the teaching page", "", cpu["teaching_page_s"], what))
     render = (figures.get("_render") or {}).get("cpu_s")
     if render is not None:
         items.append(("rendering this report (figures, scenes, maps)", "", render, ""))
     total = sum(i[2] for i in items)
-    out = [
-        [label, n, f"{sec:.3g}", Cell(f"{sec / total:.0%}" if total else "–"), detail]
-        for label, n, sec, detail in items
-    ]
+    out = [[label, n, f"{sec:.3g}", _share(sec, total), detail] for label, n, sec, detail in items]
     return out, total
+
+
+def _share(sec: float, total: float) -> str:
+    if not total:
+        return "–"
+    return "< 1%" if 0 < sec / total < 0.005 else f"{sec / total:.0%}"
 
 
 def blocks(payload: Mapping, figures: Mapping) -> list[tuple]:

@@ -299,7 +299,9 @@ def run_matrix(
 
             with stage("rendering report", enabled=bar_mode != ""):
                 if teach is not None:  # never raises; a page that failed is not linked
+                    cpu_page = _cpu_all()
                     paths["teaching.html"] = teach.write(payload, out)
+                    payload["stats"]["cpu"]["teaching_page_s"] = _cpu_all() - cpu_page
                 figs = early.figures if early is not None else None
                 paths.update(render_report(payload, out, render=render_shapes, early=figs))
         except Exception as exc:  # results are safe on disk; say what broke
