@@ -227,7 +227,7 @@ def accuracy_map(
             link = Cell(name, href="#" + anchor(name), title=payload["cases"][name].get("title"))
             rows.append([link, *(_map_cell(by.get(name, {}).get(m), tol) for m in models)])
     for parent, names in (sweeps or {}).items():
-        link = Cell(f"{parent} ({len(names)} points)", href="#" + anchor(parent))
+        link = Cell(f"{parent} ({len(names)} points)", href="#" + anchor(parent), title=parent)
         recs = {m: [by.get(n, {}).get(m) for n in names] for m in models}
         rows.append([link, *(_sweep_cell(recs[m], tol) for m in models)])
     return ["case", *models], rows
