@@ -332,49 +332,6 @@ def card_blocks(cards: Mapping[str, Mapping]) -> list[Block]:
     return blocks
 
 
-def _overall_blocks(payload: Mapping, figures: Mapping) -> list[Block]:
-    """Speed against error per family of cases (``reports.render.families``): a chart each,
-    every model over the cases of the family it solved; the numbers folded below."""
-    groups = FA.grouped(payload["cases"])
-    blocks: list[Block] = [("h2", "Speed against error, by family of cases", "overall")]
-    blocks.append(
-        (
-            "p",
-            "Per family, one point per model: geometric-mean CPU time per solve and worst "
-            "error_rel over the cases of the family that model solved (the exact model counts "
-            "with error 0 where it is the reference); models that decline a family are not "
-            "on its chart. The number of cases behind each point is in the table below.",
-        )
-    )
-    charts = figures.get("_families") or {}
-    blocks.append(("grid",))
-    for fam in groups:
-        if charts.get(fam):
-            blocks.append(("img", charts[fam], f"speed against error: {FA.FAMILIES[fam]}"))
-    blocks.append(("/grid",))
-    blocks.append(("details", "Each family's points: cases solved, CPU time, errors"))
-    for fam, names in groups.items():
-        pts = FA.points(payload["results"], names)
-        blocks.append(("h3", f"{FA.FAMILIES[fam]} ({len(names)} cases)"))
-        if not pts:
-            blocks.append(("p", "No model solved a case of this family with a path error."))
-            continue
-        rows = [
-            [
-                p["model"],
-                f"{p['n']} / {len(names)}",
-                FP.fmt_time(p["time"]),
-                Cell(FP.fmt_err(p["error"]), FP.error_class(p["error"])),
-                Cell(FP.fmt_err(p["median_error"]), FP.error_class(p["median_error"])),
-            ]
-            for p in sorted(pts, key=lambda p: p["time"])
-        ]
-        head = ["model", "cases solved", "CPU time (geo-mean)", "worst error_rel", "median"]
-        blocks.append(("table", head, rows))
-    blocks.append(("/details",))
-    return blocks
-
-
 def pick_blocks(payload: Mapping, figures: Mapping) -> list[Block]:
     """The answer: one row per case (a sweep one row with its stability map), grouped by
     family; how the pick is made folded below."""
@@ -463,7 +420,7 @@ def build_document(payload: Mapping, figures: Mapping[str, Mapping[str, Any]]) -
         )
     )
     blocks.append(("table", *FP.accuracy_map(payload, sweeps), {"cls": "map"}))
-    blocks += _overall_blocks(payload, figures)
+    blocks += FA.blocks(payload, figures)
     blocks += timebudget.blocks(payload, figures)
     ratios = payload.get("speed_ratios") or []
     if ratios:

@@ -18,6 +18,7 @@ import statistics
 from collections.abc import Mapping, Sequence
 
 from reports.render import frontpage as FP
+from reports.render.cells import Cell
 
 FAMILIES = {
     "beams": "Single beams, arches and frames",
@@ -93,3 +94,47 @@ def points(results: Sequence[Mapping], names: Sequence[str]) -> list[dict]:
             }
         )
     return pts
+
+
+def blocks(payload: Mapping, figures: Mapping) -> list[tuple]:
+    """The report section: a chart per family (drawn by ``reports.render.overall_charts``,
+    ``figures["_families"]``), every model over the cases of the family it solved; the
+    numbers folded below."""
+    groups = grouped(payload["cases"])
+    out: list[tuple] = [("h2", "Speed against error, by family of cases", "overall")]
+    out.append(
+        (
+            "p",
+            "Per family, one point per model: geometric-mean CPU time per solve and worst "
+            "error_rel over the cases of the family that model solved (the exact model counts "
+            "with error 0 where it is the reference); models that decline a family are not "
+            "on its chart. The number of cases behind each point is in the table below.",
+        )
+    )
+    charts = figures.get("_families") or {}
+    out.append(("grid",))
+    for fam in groups:
+        if charts.get(fam):
+            out.append(("img", charts[fam], f"speed against error: {FAMILIES[fam]}"))
+    out.append(("/grid",))
+    out.append(("details", "Each family's points: cases solved, CPU time, errors"))
+    for fam, names in groups.items():
+        pts = points(payload["results"], names)
+        out.append(("h3", f"{FAMILIES[fam]} ({len(names)} cases)"))
+        if not pts:
+            out.append(("p", "No model solved a case of this family with a path error."))
+            continue
+        rows = [
+            [
+                p["model"],
+                f"{p['n']} / {len(names)}",
+                FP.fmt_time(p["time"]),
+                Cell(FP.fmt_err(p["error"]), FP.error_class(p["error"])),
+                Cell(FP.fmt_err(p["median_error"]), FP.error_class(p["median_error"])),
+            ]
+            for p in sorted(pts, key=lambda p: p["time"])
+        ]
+        head = ["model", "cases solved", "CPU time (geo-mean)", "worst error_rel", "median"]
+        out.append(("table", head, rows))
+    out.append(("/details",))
+    return out
