@@ -186,8 +186,10 @@ def test_report_in_headless_chromium_and_a_broken_image_fails(small, tmp_path):
     assert res.ok, res.summary()
     html = (small.out_dir / "report.html").read_text()
     assert res.n_images == html.count("<img ") > 5
-    # the cases plus six sections (pick, accuracy, speed, effectivity, cards, environment)
-    assert res.n_toc == len(SMALL_CASES) + 6 and not res.missing_anchors
+    # the cases plus seven sections (pick, accuracy, speed, time, effectivity, cards,
+    # environment)
+    assert res.n_toc == len(SMALL_CASES) + 7 and not res.missing_anchors
+    assert res.overflow_px == 0, res.wide_elements
     assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and res.page_height_px > 900
 
     # the same page with one image path broken, a planted script error and a web request
@@ -226,12 +228,17 @@ def test_history_lists_runs_and_the_report_shows_the_trend(dummies, tmp_path, ca
     assert "no such history file" in capsys.readouterr().err
 
 
-def test_front_page_pick_and_overall_plot_over_common_cases(small):
+def test_front_page_pick_and_a_chart_per_family_with_every_model_that_ran(small):
+    from reports.render import families
     from reports.render import frontpage as FP
 
     data = _results(small)
-    head, rows = FP.pick_table(data)
-    picks = {str(r[0]): str(r[2]) for r in rows}
+    picks = {}
+    for name, case in data["cases"].items():
+        recs = [r for r in data["results"] if r["case"] == name]
+        row = FP.pick_row(name, case, recs, FP.tolerance(data))
+        assert len(row) == len(FP.PICK_HEAD)
+        picks[str(row[0])] = str(row[1])
     recs = [r for r in data["results"] if r["case"] == "cantilever-tip-load"]
     cost = {r["model"]: r["cost"]["cpu_s"] for r in recs if r.get("cost")}
     err = {
@@ -246,20 +253,31 @@ def test_front_page_pick_and_overall_plot_over_common_cases(small):
     # bistable-toggle: prb-3r and linear-1 miss the tolerance; since the elastica member law
     # (issue 9) the elastica solves the mechanism and is the only model within it
     assert picks["bistable-toggle"] == "elastica"
-    models, common, _ = FP.common_set(data)
-    drawn = json.loads((small.out_dir / "figures" / "overall-pareto.json").read_text())["points"]
-    assert sorted(p["model"] for p in drawn) == sorted(models) and common
-    for p in drawn:  # worst error and geometric-mean time over exactly the common cases
+    # the beams' chart: every model that solved a single beam with a path error is on it, at
+    # its worst error and geometric-mean CPU time over the beams it solved
+    beams = [n for n in data["cases"] if families.family(data["cases"][n]) == "beams"]
+    assert beams == ["cantilever-tip-load", "pure-moment-rollup"]
+    side = small.out_dir / "figures" / "overall-beams-pareto.json"
+    drawn = {p["model"]: p for p in json.loads(side.read_text())["points"]}
+    ran = {
+        r["model"]
+        for r in data["results"]
+        if r["case"] in beams
+        and r["status"] == "converged"
+        and (r["role"] != "reference" or r["model"] in FP.EXACT_MODELS)  # exact: error 0
+    }
+    assert set(drawn) == ran >= {"prb-3r", "linear-1", "elastica", "elastica-bvp"}
+    for m, p in drawn.items():
         vals = [
-            (r["timing"]["median_s"], 0.0 if r["is_reference"] else r["error_rel"])
+            (r["timing"]["cpu_median_s"], 0.0 if r["is_reference"] else r["error_rel"])
             for r in data["results"]
-            if r["model"] == p["model"] and r["case"] in common
+            if r["model"] == m and r["case"] in beams and r["status"] == "converged"
         ]
-        assert len(vals) == len(common)
         assert p["error"] == max(e for _, e in vals)
         assert p["time"] == pytest.approx(np.exp(np.mean(np.log([t for t, _ in vals]))))
     html = (small.out_dir / "report.html").read_text()
-    assert f"Over the {len(common)} cases every plotted model solved" in html
+    assert "Speed against error, by family of cases" in html
+    assert 'src="figures/overall-mechanisms-pareto.png"' in html
 
 
 def test_rigid_scene_pick_is_the_exact_kinetostatic_reference(tmp_path):

@@ -8,8 +8,12 @@ exceptions (a missing image logs ``Failed to load resource``), no request leaves
 resolves, every image has loaded (``naturalWidth > 0``).  A screenshot of the first screen
 is saved and the page height measured.
 
-``python -m reports.bench.browser DIR`` checks ``DIR/report.html``, writes
-``DIR/report-screenshot.png`` and exits 1 when anything is wrong.
+Also measured at a 1400 px window: horizontal overflow of the page (anything a reader would
+have to scroll the whole page sideways for; a table scrolling inside its own container is
+fine) and the top of every section heading with an id (where the front page ends).
+
+``python -m reports.bench.browser DIR`` checks ``DIR/report.html`` and ``DIR/teaching.html``,
+writes ``DIR/report-screenshot.png`` (first two screens) and exits 1 when anything is wrong.
 """
 
 from __future__ import annotations
@@ -31,15 +35,36 @@ from typing import Any
 CANDIDATES = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
 LOCAL_SCHEMES = ("file:", "data:", "about:", "blob:", "chrome:", "devtools:")
 VIEWPORT = (1400, 900)  # px: the "first screen" of the screenshot
+# the answer (report.html's pick table, one row per case, a sweep one row) ends within two
+# screens: the section after it ("accuracy") starts above this (px); 1487 px for the default run
+FRONT_PAGE_MAX_PX = 2 * VIEWPORT[1]
+# report.html of the default run (34 cases and 7 sweeps, 34 case sections with their figures)
+# measured 84,618 px at 1400 px (145,534 px before the front page was rebuilt); the bound
+# leaves ~25 % for new cases and figures: `python -m reports.bench.browser DIR --max-height`
+DEFAULT_RUN_MAX_HEIGHT_PX = 105_000
 CHECK_JS = """(() => {
+  const de = document.documentElement;
   const links = [...document.querySelectorAll('a[href^="#"]')].map(a => a.getAttribute('href'));
   const toc = [...document.querySelectorAll('nav a[href^="#"]')].length;
-  const missing = [...new Set(links)].filter(h => !document.getElementById(h.slice(1)));
+  const resolves = h => h === '#' || h === '#top'
+    || document.getElementById(decodeURIComponent(h.slice(1))) !== null;
+  const missing = [...new Set(links)].filter(h => !resolves(h));
   const imgs = [...document.images];
   const broken = imgs.filter(i => !(i.complete && i.naturalWidth > 0))
                      .map(i => i.getAttribute('src'));
+  const clips = e => { for (let a = e.parentElement; a && a !== de; a = a.parentElement) {
+      if (getComputedStyle(a).overflowX !== 'visible') return true; } return false; };
+  const name = e => e.tagName.toLowerCase() + (e.id ? '#' + e.id : '')
+    + (e.className && typeof e.className === 'string' ? '.' + e.className.split(' ')[0] : '');
+  const wide = [...document.body.querySelectorAll('*')]
+    .filter(e => e.getBoundingClientRect().right > de.clientWidth + 1 && !clips(e))
+    .slice(0, 10)
+    .map(e => `${name(e)} right edge at ${Math.round(e.getBoundingClientRect().right)} px`);
+  const tops = Object.fromEntries([...document.querySelectorAll('h2[id], section[id]')]
+    .map(e => [e.id, Math.round(e.getBoundingClientRect().top + window.scrollY)]));
   return {links: links.length, toc: toc, missing: missing, images: imgs.length, broken: broken,
-          height: document.documentElement.scrollHeight};
+          height: de.scrollHeight, overflow: Math.max(de.scrollWidth, document.body.scrollWidth)
+          - de.clientWidth, wide: wide, tops: tops};
 })()"""
 
 
@@ -56,12 +81,20 @@ class BrowserCheck:
     n_toc: int
     page_height_px: int
     screenshot: Path | None
+    overflow_px: int = 0
+    wide_elements: list[str] = dataclasses.field(default_factory=list)
+    section_tops: dict[str, int] = dataclasses.field(default_factory=dict)
 
     @property
     def ok(self) -> bool:
-        """No console error, no network request, every anchor and image fine."""
+        """No console error, no network request, every anchor and image fine, nothing wider
+        than the window."""
         return not (
-            self.console_errors or self.network or self.missing_anchors or self.broken_images
+            self.console_errors
+            or self.network
+            or self.missing_anchors
+            or self.broken_images
+            or self.overflow_px > 0
         )
 
     def summary(self) -> str:
@@ -71,9 +104,11 @@ class BrowserCheck:
             f"{state}: {self.n_images} images ({len(self.broken_images)} broken), "
             f"{self.n_links} in-page links ({self.n_toc} in the contents, "
             f"{len(self.missing_anchors)} unresolved), {len(self.console_errors)} console "
-            f"errors, {len(self.network)} network requests; page height {self.page_height_px} px"
+            f"errors, {len(self.network)} network requests; page height {self.page_height_px} px, "
+            f"horizontal overflow {self.overflow_px} px at {VIEWPORT[0]} px"
         )
         details = self.console_errors + self.network + self.missing_anchors + self.broken_images
+        details += self.wide_elements if self.overflow_px > 0 else []
         return text + "".join(f"\n  {d}" for d in details[:20])
 
 
@@ -209,8 +244,10 @@ def check_report(
     screenshot: str | Path | None = None,
     timeout: float = 60.0,
     exe: str | None = None,
+    screens: float = 1.0,
 ) -> BrowserCheck:
-    """Load ``html`` in headless Chromium and check it (see module docstring).
+    """Load ``html`` in headless Chromium and check it (see module docstring); the
+    screenshot shows the top ``screens`` window heights of the page.
 
     Raises
     ------
@@ -246,8 +283,12 @@ def check_report(
             )["result"]["value"]
             shot = None
             if screenshot is not None:
+                clip = {"x": 0, "y": 0, "width": w, "height": int(h * screens), "scale": 1}
                 png = pipe.call(
-                    "Page.captureScreenshot", {"format": "png"}, session=sess, timeout=timeout
+                    "Page.captureScreenshot",
+                    {"format": "png", "clip": clip, "captureBeyondViewport": screens > 1},
+                    session=sess,
+                    timeout=timeout,
                 )["data"]
                 shot = Path(screenshot)
                 shot.write_bytes(base64.b64decode(png))
@@ -276,25 +317,54 @@ def check_report(
         res["toc"],
         int(res["height"]),
         shot,
+        int(res["overflow"]),
+        res["wide"],
+        res["tops"],
     )
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m reports.bench.browser DIR``: check DIR/report.html, keep a screenshot."""
-    argv = sys.argv[1:] if argv is None else argv
-    if len(argv) != 1:
-        print("usage: python -m reports.bench.browser RUN_DIR", file=sys.stderr)
-        return 2
-    out = Path(argv[0])
-    html = out / "report.html" if out.is_dir() else out
-    try:
-        res = check_report(html, html.parent / "report-screenshot.png")
-    except FileNotFoundError as exc:
-        print(f"browser check skipped: {exc}", file=sys.stderr)
-        return 2
-    print(res.summary())
-    print(f"screenshot: {res.screenshot}")
-    return 0 if res.ok else 1
+    """``python -m reports.bench.browser DIR [--max-height PX] [--shots DIR]``: check
+    DIR/report.html and DIR/teaching.html (when there), keep a screenshot of each page's
+    first two screens; exit 1 when a check fails or report.html is taller than PX."""
+    import argparse
+
+    ap = argparse.ArgumentParser(prog="python -m reports.bench.browser")
+    ap.add_argument("run_dir", type=Path)
+    ap.add_argument(
+        "--max-height",
+        type=int,
+        nargs="?",
+        const=DEFAULT_RUN_MAX_HEIGHT_PX,
+        help=f"report.html's height bound, px (alone: {DEFAULT_RUN_MAX_HEIGHT_PX})",
+    )
+    ap.add_argument("--shots", type=Path, help="folder of the screenshots (default: RUN_DIR)")
+    args = ap.parse_args(argv)
+    out = args.run_dir
+    pages = [out / "report.html", out / "teaching.html"] if out.is_dir() else [out]
+    shots = args.shots or (out if out.is_dir() else out.parent)
+    shots.mkdir(parents=True, exist_ok=True)
+    failed = False
+    for page in [p for p in pages if p.is_file()]:
+        try:
+            res = check_report(page, shots / f"{page.stem}-screenshot.png", screens=2)
+        except FileNotFoundError as exc:
+            print(f"browser check skipped: {exc}", file=sys.stderr)
+            return 2
+        print(f"{page.name}: {res.summary()}\nscreenshot: {res.screenshot}")
+        problems = []
+        if page.name == "report.html":
+            if args.max_height and res.page_height_px > args.max_height:
+                problems.append(f"taller than {args.max_height} px")
+            front = res.section_tops.get("accuracy")
+            if front is not None:
+                print(f"the answer (pick table) ends at {front} px ({FRONT_PAGE_MAX_PX} allowed)")
+                if front > FRONT_PAGE_MAX_PX:
+                    problems.append("the answer does not fit in two screens")
+        for p in problems:
+            print(f"{page.name}: {p}")
+        failed = failed or not res.ok or bool(problems)
+    return 1 if failed else 0
 
 
 if __name__ == "__main__":

@@ -61,10 +61,13 @@ def case_points(records: Sequence[Mapping], uncertainty: float | None = None) ->
 # -- orchestration --------------------------------------------------------------------------------
 def _case_figures(job: tuple) -> dict[str, Any]:
     """All figures of one case (a picklable job, so cases can render in parallel)."""
+    import time
+
     from reports.render import figures as F
     from reports.render import mechfig as M
     from reports.render import paths as P
 
+    cpu0 = time.process_time()  # "Where the time goes" (render/timebudget.py)
     name, case, recs, cmap, out_dir, backend, hist_db = job
     figdir = out_dir / "figures"
     ref = case.get("reference")
@@ -102,6 +105,7 @@ def _case_figures(job: tuple) -> dict[str, Any]:
         "render_error": render_error,
         "animation": _existing(out_dir, [(r.get("exports") or {}).get("animation") for r in recs]),
         "links": export_links(recs, out_dir),
+        "cpu_s": time.process_time() - cpu0,
     }
 
 
@@ -216,19 +220,46 @@ def render_figures(
     for name, (png, error) in drawn.result().items():
         made[name]["render"] = Path(png).relative_to(out_dir).as_posix() if png else None
         made[name]["render_error"] = made[name]["render_error"] or error
-    from reports.render import frontpage as FP
-
-    models, common, _ = FP.common_set(payload)
-    pts = [{**p, "tmin": None, "tmax": None} for p in FP.overall_points(payload, models, common)]
-    overall = F.pareto_figure(
-        pts,
-        out_dir / "figures" / "overall-pareto.png",
-        f"over the {len(common)} cases every plotted model solved",
-        cmap,
-        xlabel="wall time per solve, geometric mean over those cases [s]",
-    )
-    made["_overall"] = {"pareto": overall.relative_to(out_dir).as_posix() if overall else None}
+    made["_families"] = overall_charts(payload, out_dir, cmap)
+    made["_sweeps"] = sweep_thumbnails(payload, out_dir)
     return made
+
+
+def overall_charts(payload: Mapping, out_dir: Path, cmap: Mapping) -> dict[str, str]:
+    """Family -> relative path of its speed-against-error chart (``reports.render.families``:
+    each model over the cases of the family it solved)."""
+    from reports.render import families as FA
+    from reports.render import figures as F
+
+    out = {}
+    for fam, names in FA.grouped(payload["cases"]).items():
+        pts = FA.points(payload["results"], names)
+        title = f"{FA.FAMILIES[fam]}: each model over the cases of the family it solved"
+        png = F.pareto_figure(
+            pts,
+            out_dir / "figures" / f"overall-{fam}-pareto.png",
+            title,
+            cmap,
+            xlabel="CPU time per solve, geometric mean over the cases it solved [s]",
+        )
+        if png is not None:
+            out[fam] = png.relative_to(out_dir).as_posix()
+    return out
+
+
+def sweep_thumbnails(payload: Mapping, out_dir: Path) -> dict[str, tuple[str, str]]:
+    """Sweep parent -> (relative path of its stability-map thumbnail, hover text)."""
+    from reports.render import stability_maps, sweep_map
+    from reports.render.sweep_section import parents
+
+    by_case = stability_maps.deploy_cases(payload)
+    out = {}
+    for parent, names in parents(payload["cases"]).items():
+        if all(n in by_case for n in names):  # deploy sweeps have a stability verdict
+            png = out_dir / "figures" / f"sweep-{slug(parent)}-map.png"
+            sweep_map.thumbnail(names, payload["cases"], by_case, png)
+            out[parent] = (png.relative_to(out_dir).as_posix(), sweep_map.summary(names, by_case))
+    return out
 
 
 def render_report(
@@ -246,19 +277,24 @@ def render_report(
     draws it with matplotlib.  ``early``: per-case figures drawn while solving (see
     ``render_figures``).
     """
+    import os
+
     from reports.render.html import to_html
     from reports.render.md import to_markdown
 
     out = Path(out_dir)
     backend = None if not render else ("matplotlib" if pyvista is False else "auto")
+    t0 = os.times()
     figs = render_figures(payload, out, backend, early)
-    blocks = build_document(payload, figs)
     from reports.render import stability_maps  # deploy verdicts and sweep maps (issue 10)
 
-    blocks += stability_maps.blocks(payload, out)
+    stability = stability_maps.blocks(payload, out)
     from reports.render import thesis_dynamics  # time histories, thesis tables (issue 25)
 
-    blocks += thesis_dynamics.blocks(payload, out)
+    stability += thesis_dynamics.blocks(payload, out)
+    t1 = os.times()  # this process and the figure pool's / render child's workers
+    figs["_render"] = {"cpu_s": sum(t1[:4]) - sum(t0[:4])}
+    blocks = build_document(payload, figs) + stability
     from reports.render import effectivity  # predicted against measured error (issue 19)
 
     blocks += effectivity.blocks(payload, out)

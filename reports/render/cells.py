@@ -8,12 +8,14 @@ import dataclasses
 @dataclasses.dataclass(frozen=True)
 class Cell:
     """One table cell: ``text``; ``cls`` (CSS class: good, warn, bad, na, fail, ref);
-    ``href`` (a link, e.g. ``#case-x``); ``title`` (hover text in HTML)."""
+    ``href`` (a link, e.g. ``#case-x``); ``title`` (hover text in HTML); ``img`` (a small
+    picture before the text in HTML, a relative path; Markdown shows the text only)."""
 
     text: str
     cls: str | None = None
     href: str | None = None
     title: str | None = None
+    img: str | None = None
 
     def __str__(self) -> str:
         return self.text

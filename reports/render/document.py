@@ -1,13 +1,15 @@
 """The report's content as format-neutral blocks (``html.py`` and ``md.py`` format them).
 
-Order: the front page (which model to pick per case, the accuracy map, speed against error
-over the cases every plotted model solved), then one section per case (verdict, the figures
-people read, everything else folded in ``<details>``), model cards, failures, environment.
+Order: the front page (which model to pick: one row per case, grouped by family; the
+accuracy map; speed against error per family of cases; where the run's CPU time went), then
+one section per case (verdict, the figures people read, everything else folded in
+``<details>``), model cards, failures, environment.
 
 Block kinds: ``("h1"|"h3"|"p", text)``, ``("h2", text[, anchor])``, ``("table", headers,
-rows)`` (cells: str or ``Cell``), ``("img", relative_path, alt[, width_px])``, ``("ul",
-items)``, ``("links", label, [(text, relative_path), ...])``, ``("toc", [(text, anchor),
-...])``, ``("details", summary)`` ... ``("/details",)``.
+rows[, {"cls": css class}])`` (cells: str or ``Cell``), ``("img", relative_path, alt[,
+width_px])``, ``("ul", items)``, ``("links", label, [(text, relative_path), ...])``,
+``("toc", [(text, anchor), ...])``, ``("details", summary)`` ... ``("/details",)``,
+``("grid",)`` ... ``("/grid",)`` (figures side by side in HTML; nothing in Markdown).
 """
 
 from __future__ import annotations
@@ -16,14 +18,16 @@ import re
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from reports.render import families as FA
 from reports.render import frontpage as FP
 from reports.render import sweep_section as SW
-from reports.render import synthnote
+from reports.render import synthnote, timebudget
 from reports.render.cells import Cell
 from reports.verdicts import grading
 
 Block = tuple
-FIGURE_ORDER = ("pareto", "path", "driver", "shapes", "errfactor", "render")
+FIGURE_ORDER = ("pareto", "errfactor", "path", "driver", "shapes", "render")
+WIDE_FIGURES = ("path", "driver", "shapes")  # rows of panels: the grid's full width
 FOLDED_FIGURES = ("history", "trend", "animation")
 DEFINITIONS = (
     "error_rel (the yardstick of every grade and pick): the largest deviation from the "
@@ -119,8 +123,11 @@ def verdict(case: Mapping, recs: Sequence[Mapping], tol: float = FP.TOLERANCE) -
                 f"(error {FP.fmt_err(p['error'])}, {FP.fmt_time(p['time'])}{speed})."
             )
         out.append(("p", text))
-    for reason, models in groups.items():
-        out.append(("p", f"Not applicable ({len(models)}): {', '.join(models)}: {reason}."))
+    if groups:  # one line; the reasons one click away
+        names = [m for models in groups.values() for m in models]
+        out.append(("details", f"Not applicable ({len(names)}): {', '.join(names)}"))
+        out.append(("ul", [f"{', '.join(models)}: {reason}" for reason, models in groups.items()]))
+        out.append(("/details",))
     return out
 
 
@@ -257,10 +264,12 @@ def case_blocks(
     """One case's section."""
     blocks: list[Block] = [("h2", f"{case.get('title') or name} ({name})", FP.anchor(name))]
     blocks += verdict(case, recs, tol)
+    blocks.append(("grid",))  # two figures a row; each opens full size on a click
     for kind in FIGURE_ORDER:
         if figs.get(kind):
-            width = 600 if kind == "render" else None
-            blocks.append(("img", figs[kind], f"{name}: {kind}", width))
+            wide = "wide" if kind in WIDE_FIGURES else None
+            blocks.append(("img", figs[kind], f"{name}: {kind}", None, wide))
+    blocks.append(("/grid",))
     blocks.append(("details", "Every model's numbers, published checks, description, files"))
     line = f"Tags: {', '.join(case.get('tags', [])) or '–'}. Units: {case.get('units', '')}. "
     line += f"Length scale L = {case.get('length_scale', 1.0):g}."
@@ -335,37 +344,55 @@ def card_blocks(cards: Mapping[str, Mapping]) -> list[Block]:
     return blocks
 
 
-def _overall_blocks(payload: Mapping, figures: Mapping) -> list[Block]:
-    models, cases, left = FP.common_set(payload)
-    blocks: list[Block] = [("h2", "Speed against error, all cases", "overall")]
-    if not models:
-        return blocks + [("p", "No two cases were solved by the same models: no overall plot.")]
-    if figures.get("_overall", {}).get("pareto"):
-        blocks.append(("img", figures["_overall"]["pareto"], "overall speed against error"))
-    text = (
-        f"Over the {len(cases)} cases every plotted model solved ({', '.join(cases)}): "
-        "geometric-mean wall time and worst summary error per model; the exact model "
-        "counts with error 0 where it is the reference."
+def pick_blocks(payload: Mapping, figures: Mapping) -> list[Block]:
+    """The answer: one row per case (a sweep one row with its stability map), grouped by
+    family; how the pick is made folded below."""
+    cases, tol = payload["cases"], FP.tolerance(payload)
+    by_case: dict[str, list[Mapping]] = {}
+    for r in payload["results"]:
+        by_case.setdefault(r["case"], []).append(r)
+    sweeps = SW.parents(cases)
+    thumbs = figures.get("_sweeps") or {}
+    blocks: list[Block] = [("h2", "Which model to pick", "pick")]
+    blocks.append(
+        (
+            "p",
+            f"The cheapest model whose error_rel stays within {tol:g} over the whole reference "
+            "path, as flexbench recommend names it; its CPU time per solve; hover 'why' for "
+            "the recommender's full reason. A sweep is one row: its stability map (blue "
+            "stable, red unstable) and a link to its points.",
+        )
     )
-    if left:
-        text += f" Left out (solved fewer of these cases): {', '.join(left)}."
-    blocks.append(("p", text))
-    pts = FP.overall_points(payload, models, cases)
-    rows = [
-        [
-            p["model"],
-            FP.fmt_time(p["time"]),
-            Cell(FP.fmt_err(p["error"]), FP.error_class(p["error"])),
+    for fam, names in FA.grouped(cases).items():
+        rows = [
+            FP.pick_row(n, cases[n], by_case.get(n, []), tol)
+            for n in names
+            if not cases[n].get("sweep")
         ]
-        for p in sorted(pts, key=lambda p: p["time"])
-    ]
-    blocks.append(("table", ["model", "wall time (geo-mean)", "worst summary error"], rows))
+        rows += [
+            SW.pick_row(p, pts, cases, by_case, tol, thumbs.get(p))
+            for p, pts in sweeps.items()
+            if FA.family(cases[pts[0]]) == fam
+        ]
+        blocks += [("h3", FA.FAMILIES[fam]), ("table", FP.PICK_HEAD, rows, {"cls": "pick"})]
+    blocks.append(("details", "How the pick is made, and the grades"))
+    blocks.append(("p", FP.pick_rule(tol)))
+    blocks.append(("p", grading.summary_text((payload.get("config") or {}).get("tolerance"))))
+    blocks.append(("/details",))
     return blocks
 
 
+def _count_cases(cases: Mapping, sweeps: Mapping[str, Sequence[str]]) -> str:
+    """``"34 cases and 7 sweeps (385 points)"``, or ``"4 cases"``."""
+    points = sum(len(v) for v in sweeps.values())
+    text = f"{len(cases) - points} cases"
+    return text + (f" and {len(sweeps)} sweeps ({points} points)" if sweeps else "")
+
+
 def build_document(payload: Mapping, figures: Mapping[str, Mapping[str, Any]]) -> list[Block]:
-    """Format-neutral content of the report (``figures``: case or ``"_overall"`` -> kind ->
-    relative PNG path)."""
+    """Format-neutral content of the report (``figures``: case -> kind -> relative PNG path;
+    ``"_families"``: family -> its speed-against-error chart; ``"_sweeps"``: sweep -> (its
+    stability-map thumbnail, hover text); ``"_render"``: ``{"cpu_s"}`` of drawing them)."""
     results = payload["results"]
     cases = payload["cases"]
     env = payload.get("environment", {})
@@ -374,6 +401,7 @@ def build_document(payload: Mapping, figures: Mapping[str, Mapping[str, Any]]) -
         ("Which model to pick", "pick"),
         ("Accuracy map", "accuracy"),
         ("Speed against error", "overall"),
+        ("Where the time goes", "time"),
     ]
     sweeps = SW.parents(cases)  # sweep points: one section per sweep (sweep_section.py)
     toc += [(name, FP.anchor(name)) for name in cases if not cases[name].get("sweep")]
@@ -387,23 +415,25 @@ def build_document(payload: Mapping, figures: Mapping[str, Mapping[str, Any]]) -
     blocks.append(
         (
             "p",
-            f"{len(cases)} cases x {n_models} models, {len(results)} pairs; run "
+            f"{_count_cases(cases, sweeps)} x {n_models} models, {len(results)} pairs; run "
             f"{when} UTC on {env.get('cpu', '?')}, commit "
             f"{(env.get('git_commit') or '?')[:10]}, {FP.fmt_time(payload.get('elapsed_s'))}.",
         )
     )
-    blocks += [("h2", "Which model to pick", "pick"), ("table", *FP.pick_table(payload))]
-    blocks.append(("p", FP.pick_rule(FP.tolerance(payload))))
-    blocks.append(("p", grading.summary_text((payload.get("config") or {}).get("tolerance"))))
-    blocks += [("h2", "Accuracy map", "accuracy"), ("table", *FP.accuracy_map(payload))]
+    blocks += pick_blocks(payload, figures)
+    blocks += [("h2", "Accuracy map", "accuracy")]
     blocks.append(
         (
             "p",
-            "Summary error per case and model (hover a cell for its wall time or "
-            "the reason it declined); ref = the case's reference.",
+            "Summary error_rel per case and model (hover a cell for its wall time or the "
+            "reason it declined; a sweep's row gives each model's worst point); ref = the "
+            "case's reference. The table scrolls inside its frame; the case names and model "
+            "names stay in view.",
         )
     )
-    blocks += _overall_blocks(payload, figures)
+    blocks.append(("table", *FP.accuracy_map(payload, sweeps), {"cls": "map"}))
+    blocks += FA.blocks(payload, figures)
+    blocks += timebudget.blocks(payload, figures)
     ratios = payload.get("speed_ratios") or []
     if ratios:
         blocks.append(("details", "Speed ratios against baselines (same run)"))

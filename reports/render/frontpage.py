@@ -1,5 +1,9 @@
 """The front page: which model to pick per case, which models are accurate where, how fast.
 
+One row per case in the pick table (``pick_row``; a sweep's row is
+``reports.render.sweep_section.pick_row``), grouped by family (``reports.render.families``);
+the accuracy map has a row per case and one per sweep (its worst error per model).
+
 The pick of a case is the one ``flexbench recommend`` makes among the models of the run
 (``reports.verdicts.advice.from_records``: the recommender's judgement of every record, the shared
 cost estimates of ``reports.verdicts.cost``, ``reports.verdicts.pick.choose``; ``pick_rule`` says it
@@ -24,7 +28,6 @@ ERROR = "error_rel"
 # exact where they apply: beam theory (closed form / BVP), and rigid-body kinematics with springs
 # (kinetostatic declines any scene with a compliant member, so where it runs it is exact)
 EXACT_MODELS = ("elastica", "elastica-bvp", "kinetostatic")
-REFERENCE_PREFIXES = ("fem-", "replay")  # references, not candidates for the pick
 
 
 def pick_rule(tol: float = TOLERANCE) -> str:
@@ -56,6 +59,17 @@ def fmt_err(x: float | None) -> str:
     return f"{x:.1e}"
 
 
+def fmt_short(x: float | None) -> str:
+    """An error in four characters for the accuracy map: ``3e-3``, ``0`` at round-off (the
+    cell's hover text has ``fmt_err``)."""
+    if x is None or not math.isfinite(x):
+        return "–"
+    if abs(x) < ROUNDOFF:
+        return "0"
+    mant, exp = f"{x:.0e}".split("e")
+    return f"{mant}e{int(exp)}"
+
+
 def fmt_time(s: float | None) -> str:
     """Seconds as µs/ms/s."""
     if s is None or not math.isfinite(s):
@@ -79,11 +93,6 @@ def anchor(case: str) -> str:
     return "case-" + "".join(c if c.isalnum() or c in "-_" else "-" for c in case)
 
 
-def case_anchor(name: str, case: Mapping) -> str:
-    """Where a case's row links: its section, or its sweep's (points have no section)."""
-    return anchor((case.get("sweep") or {}).get("parent") or name)
-
-
 def error_class(err: float | None, tol: float = TOLERANCE) -> str:
     """CSS class of an error cell."""
     if err is None:
@@ -100,36 +109,11 @@ def _complete(rec: Mapping) -> bool:
     return rec["status"] == "converged" and (cov is None or cov >= 0.999)
 
 
-def judged(recs: Sequence[Mapping]) -> list[Mapping]:
-    """Records with an error and a time that are not the case's reference."""
-    return [r for r in recs if not r.get("is_reference") and r.get(ERROR) is not None and _time(r)]
-
-
-def is_reduced(model: str, role: str | None = "model") -> bool:
-    """A model a designer would pick (not an FE/replay reference, not a timing baseline)."""
-    exact = model in EXACT_MODELS  # the exact model is a choice even where it is the reference
-    return (role == "model" or exact) and not model.startswith(REFERENCE_PREFIXES)
-
-
-def candidates(recs: Sequence[Mapping]) -> list[dict]:
-    """Complete reduced-model pairs with (error, time); the exact model counts with error 0
-    where it is the case's reference (the "most accurate" column and the overall plot)."""
-    out = []
-    for r in recs:
-        t = _time(r)
-        if not t or not _complete(r) or not is_reduced(r["model"], r.get("role")):
-            continue
-        if r.get("is_reference") and r["model"] in EXACT_MODELS:
-            out.append({**r, ERROR: 0.0, "speedup_vs_reference": 1.0})
-        elif not r.get("is_reference") and r.get(ERROR) is not None:
-            out.append(r)
-    return out
-
-
 def pick(case: Mapping, recs: Sequence[Mapping], tol: float = TOLERANCE) -> dict[str, Any] | None:
     """The pick of one case (``reports.verdicts.advice.from_records``): ``{"model", "error", "time"
     (CPU s), "ratio" (reference / model CPU), "within" (good enough?), "n_good", "n_solved",
-    "decided_by"}``; None when no model could be judged."""
+    "decided_by", "reason" (the recommender's paragraph), "reference"}``; None when no model
+    could be judged."""
     from reports.verdicts.advice import from_records
 
     rec = from_records(case, recs, tol)
@@ -151,6 +135,8 @@ def pick(case: Mapping, recs: Sequence[Mapping], tol: float = TOLERANCE) -> dict
         "n_good": len(good),
         "n_solved": len(judged),
         "decided_by": rec.decided_by,
+        "reason": rec.reason,
+        "reference": rec.reference,
     }
 
 
@@ -177,127 +163,105 @@ def _no_pick(recs: Sequence[Mapping], case: Mapping) -> str:
     return "none: " + ", ".join(parts) if parts else "none: no reduced model solved it"
 
 
-def pick_table(payload: Mapping) -> tuple[list[str], list[list]]:
-    """Headers and rows of the front page's "which model to pick" table."""
-    head = [
-        "case",
-        "reference",
-        "pick",
-        "its error",
-        "its CPU time",
-        "vs reference",
-        "good enough / solved",
-        "most accurate approximate model",
-        "decided by",
+PICK_HEAD = ["case", "pick", "its error_rel", "its CPU time", "vs reference", "why"]
+
+
+RULES = {  # pick.choose's deciding rule, as the pick table says it
+    "only qualifying": "the only one",
+    "cost": "cheapest",
+    "tie: fewer unknowns": "tie, fewer unknowns",
+    "tie: name": "tie, first name",
+}
+
+
+def why(case: Mapping, p: Mapping, tol: float) -> str:
+    """The pick's reason in one line (the recommender's paragraph is the cell's hover text)."""
+    if not p["within"]:
+        return p["reason"]
+    share = f"{p['n_good']}/{p['n_solved']} within {tol:g}"
+    if p["error"] == 0.0 and p["model"] in EXACT_MODELS:
+        what = "rigid links and springs" if p["model"] == "kinetostatic" else "closed form"
+        return f"exact ({what}); {share}"
+    return f"{share}; {RULES.get(p['decided_by'], p['decided_by'] or '–')}"
+
+
+def vs_reference(p: Mapping) -> Cell:
+    """``31x faster`` (hover: than which reference), ``is the reference``."""
+    ref = p.get("reference")
+    return Cell(fmt_speed(p["ratio"]), title=f"CPU time against the reference {ref}")
+
+
+def pick_row(name: str, case: Mapping, recs: Sequence[Mapping], tol: float) -> list:
+    """One case's row of the pick table (``PICK_HEAD``)."""
+    link = Cell(name, href="#" + anchor(name), title=case.get("title"))
+    p = pick(case, recs, tol)
+    if p is None:
+        text = _no_pick(recs, case)
+        return [link, Cell("none", "na"), "", "", "", Cell(text, "na", title=text)]
+    label = p["model"] if p["within"] else f"none within {tol:g}"
+    cls = error_class(p["error"], tol)
+    return [
+        link,
+        Cell(label, cls if p["within"] else "bad", title=None if p["within"] else p["model"]),
+        Cell(fmt_err(p["error"]) + ("" if p["within"] else f" ({p['model']})"), cls),
+        fmt_time(p["time"]),
+        vs_reference(p),
+        Cell(why(case, p, tol), "why", title=p["reason"]),
     ]
-    rows = []
-    tol = tolerance(payload)
-    for name, case in payload["cases"].items():
-        recs = [r for r in payload["results"] if r["case"] == name]
-        p = pick(case, recs, tol)
-        ref = case.get("reference") or "–"
-        link = Cell(name, href="#" + case_anchor(name, case), title=case.get("title"))
-        if p is None:
-            text = _no_pick(recs, case)
-            rows.append([link, ref, Cell(text, "na")] + [""] * 6)
-            continue
-        approx = [r for r in candidates(recs) if r["model"] not in EXACT_MODELS]
-        acc = min(approx, key=lambda r: (r[ERROR], _time(r))) if approx else None
-        label = p["model"] if p["within"] else f"none within {tol:g}"
-        rows.append(
-            [
-                link,
-                ref,
-                Cell(label, error_class(p["error"], tol) if p["within"] else "bad"),
-                Cell(fmt_err(p["error"]), error_class(p["error"], tol)),
-                fmt_time(p["time"]),
-                fmt_speed(p["ratio"]),
-                f"{p['n_good']} / {p['n_solved']}",
-                "–" if acc is None else f"{acc['model']} ({fmt_err(acc[ERROR])})",
-                p["decided_by"] or "–",
-            ]
-        )
-    return head, rows
 
 
-def accuracy_map(payload: Mapping) -> tuple[list[str], list[list]]:
-    """Case x model matrix of summary errors (coloured cells; hover: wall time)."""
+def accuracy_map(
+    payload: Mapping, sweeps: Mapping[str, Sequence[str]] | None = None
+) -> tuple[list[str], list[list]]:
+    """Case x model matrix of summary errors (coloured cells; hover: CPU time or the reason);
+    a sweep (``sweeps``: parent -> its points) is one row of its worst errors."""
     models = sorted({r["model"] for r in payload["results"]})
-    head = ["case", *models]
     tol = tolerance(payload)
-    rows = []
-    for name in payload["cases"]:
-        by = {r["model"]: r for r in payload["results"] if r["case"] == name}
-        row: list = [Cell(name, href="#" + case_anchor(name, payload["cases"][name]))]
-        for m in models:
-            r = by.get(m)
-            if r is None:
-                row.append(Cell("", "na"))
-            elif r.get("is_reference"):
-                row.append(Cell("ref", "ref", title=f"reference, {fmt_time(_time(r))}"))
-            elif r["status"] == "not-applicable":
-                row.append(Cell("n/a", "na", title=r.get("message")))
-            elif r["status"] == "failed":
-                row.append(Cell("fail", "fail", title=r.get("message")))
-            else:
-                e = r.get(ERROR)
-                tip = f"{fmt_time(_time(r))}; {r['status']}"
-                row.append(
-                    Cell(fmt_err(e).replace(" (< 1e-12)", ""), error_class(e, tol), title=tip)
-                )
-        rows.append(row)
-    return head, rows
-
-
-def solved_by_model(payload: Mapping) -> dict[str, dict[str, tuple[float, float]]]:
-    """model -> case -> (median time, summary error) over converged, complete pairs; the
-    exact model where it is the reference counts with error 0."""
-    out: dict[str, dict[str, tuple[float, float]]] = {}
+    by: dict[str, dict[str, Mapping]] = {}
     for r in payload["results"]:
-        t = _time(r)
-        if not t or not _complete(r):
-            continue
-        if r.get("is_reference") and r["model"] in EXACT_MODELS:
-            out.setdefault(r["model"], {})[r["case"]] = (t, 0.0)
-        elif not r.get("is_reference") and r.get(ERROR) is not None:
-            out.setdefault(r["model"], {})[r["case"]] = (t, r[ERROR])
-    return out
+        by.setdefault(r["case"], {})[r["model"]] = r
+    rows = []
+    points = {n for names in (sweeps or {}).values() for n in names}
+    for name in payload["cases"]:
+        if name not in points:
+            link = Cell(name, href="#" + anchor(name), title=payload["cases"][name].get("title"))
+            rows.append([link, *(_map_cell(by.get(name, {}).get(m), tol) for m in models)])
+    for parent, names in (sweeps or {}).items():
+        link = Cell(f"{parent} ({len(names)} points)", href="#" + anchor(parent), title=parent)
+        recs = {m: [by.get(n, {}).get(m) for n in names] for m in models}
+        rows.append([link, *(_sweep_cell(recs[m], tol) for m in models)])
+    return ["case", *models], rows
 
 
-def common_set(payload: Mapping, min_cases: int = 2) -> tuple[list[str], list[str], list[str]]:
-    """(models, cases, left-out models): models added in order of how many cases they solved
-    while the cases every chosen model solved stay at least ``min_cases``; the choice with the
-    most (model, case) pairs wins."""
-    solved = solved_by_model(payload)
-    order = sorted(solved, key=lambda m: (-len(solved[m]), m))
-    best: tuple[int, list[str], list[str]] = (0, [], [])
-    common: set[str] | None = None
-    for k, m in enumerate(order, start=1):
-        common = set(solved[m]) if common is None else common & set(solved[m])
-        if len(common) < min_cases:
-            break
-        if k * len(common) > best[0]:
-            best = (k * len(common), order[:k], sorted(common))
-    models = best[1]
-    return models, best[2], [m for m in order if m not in models]
+def _map_cell(r: Mapping | None, tol: float) -> Cell:
+    if r is None:
+        return Cell("", "na")
+    if r.get("is_reference"):
+        return Cell("ref", "ref", title=f"reference, {fmt_time(_time(r))}")
+    if r["status"] == "not-applicable":
+        return Cell("n/a", "na", title=r.get("message"))
+    if r["status"] == "failed":
+        return Cell("fail", "fail", title=r.get("message"))
+    e = r.get(ERROR)
+    tip = f"{fmt_err(e)}; {fmt_time(_time(r))}; {r['status']}"
+    return Cell(fmt_short(e), error_class(e, tol), title=tip)
 
 
-def overall_points(payload: Mapping, models: Sequence[str], cases: Sequence[str]) -> list[dict]:
-    """Per model over ``cases``: geometric-mean time, worst error (the overall plot's points)."""
-    solved = solved_by_model(payload)
-    pts = []
-    for m in models:
-        vals = [solved[m][c] for c in cases]
-        gmean = math.exp(sum(math.log(t) for t, _ in vals) / len(vals))
-        pts.append(
-            {
-                "model": m,
-                "time": gmean,
-                "error": max(e for _, e in vals),
-                "tmin": min(t for t, _ in vals),
-                "tmax": max(t for t, _ in vals),
-                "ok": True,
-                "kind": "exact" if m in EXACT_MODELS else "model",
-            }
-        )
-    return pts
+def _sweep_cell(recs: Sequence[Mapping | None], tol: float) -> Cell:
+    """A model over a sweep's points: ``ref`` when it is the reference at every point, its
+    worst error, ``n/a`` when it declines every point; failures counted in the text."""
+    there = [r for r in recs if r is not None]
+    if not there:
+        return Cell("", "na")
+    if all(r.get("is_reference") for r in there):
+        return Cell("ref", "ref", title=f"reference at all {len(there)} points")
+    if all(r["status"] == "not-applicable" for r in there):
+        return Cell("n/a", "na", title=there[0].get("message"))
+    errs = [r[ERROR] for r in there if r["status"] == "converged" and r.get(ERROR) is not None]
+    n_fail = sum(r["status"] == "failed" for r in there)
+    worst = max(errs) if errs else None
+    text = "fail" if worst is None else fmt_short(worst)
+    tip = f"{fmt_err(worst)}: worst of {len(errs)} converged points of {len(there)}; "
+    tip += f"{n_fail} failed"
+    cls = "fail" if worst is None else ("bad" if n_fail else error_class(worst, tol))
+    return Cell(text + (f" ({n_fail} fail)" if n_fail and errs else ""), cls, title=tip)

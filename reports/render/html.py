@@ -5,7 +5,7 @@ contents in a sticky side bar, folded per-case detail."""
 from __future__ import annotations
 
 import html
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 from reports.render.cells import Cell, text_of
 
@@ -28,6 +28,28 @@ td.good { background: #d9f2d9 !important; } td.warn { background: #fbeccb !impor
 td.bad, td.fail { background: #f7d4d4 !important; } td.fail { font-weight: bold; }
 td.na { color: #999; } td.ref { background: #dde6f5 !important; }
 img { max-width: 100%; display: block; margin: 0.5em 0; }
+.figs { display: grid; grid-template-columns: repeat(auto-fill, minmax(480px, 1fr));
+        gap: 0.4em 1em; align-items: start; }
+.figs img { width: 100%; height: auto; margin: 0; }
+.figs a.wide { grid-column: 1 / -1; } .figs a.wide img { width: auto; max-width: 100%; }
+table.pick { display: table; width: 100%; table-layout: fixed; }
+table.pick th:nth-child(1) { width: 21%; } table.pick th:nth-child(2) { width: 10%; }
+table.pick th:nth-child(3) { width: 9%; } table.pick th:nth-child(4) { width: 7%; }
+table.pick th:nth-child(5) { width: 10%; }
+table.pick td { white-space: nowrap; overflow: hidden; text-overflow: ellipsis; }
+td img.thumb { display: inline-block; vertical-align: middle; margin: 0 0.5em 0 0;
+               max-height: 20px; }
+.scroll { overflow: auto; max-width: 100%; border: 1px solid #ccc;
+          margin: 0.5em 0; }
+.scroll table { display: table; margin: 0; font-size: 0.72em; }
+table.map th { position: sticky; top: 0; z-index: 2; writing-mode: vertical-rl;
+               transform: rotate(180deg); white-space: nowrap; padding: 4px 2px; }
+table.map th:first-child { writing-mode: horizontal-tb; transform: none; left: 0;
+                           z-index: 3; vertical-align: bottom; }
+table.map td:first-child { position: sticky; left: 0; z-index: 1; background: #fff;
+                           max-width: 16em; overflow: hidden; text-overflow: ellipsis;
+                           white-space: nowrap; }
+table.map td { padding: 1px 3px; white-space: nowrap; }
 details { margin: 0.6em 0; } summary { cursor: pointer; color: #124; }
 p { max-width: 62em; }
 """
@@ -41,6 +63,9 @@ def _cell(cell: object, tag: str = "td") -> str:
         if cell.title:
             attrs += f' title="{html.escape(cell.title, quote=True)}"'
         body = html.escape(cell.text)
+        if cell.img:
+            src = html.escape(cell.img, quote=True)
+            body = f'<img class="thumb" src="{src}" alt="">{body}'
         if cell.href:
             body = f'<a href="{html.escape(cell.href, quote=True)}">{body}</a>'
         return f"<{tag}{attrs}>{body}</{tag}>"
@@ -57,16 +82,16 @@ def _block(block: tuple) -> str:
     if kind in ("h1", "h2", "h3", "p"):
         return f"<{kind}>{html.escape(block[1])}</{kind}>"
     if kind == "table":
-        headers, rows = block[1], block[2]
-        out = ["<table>"]
-        if any(text_of(h) for h in headers):
-            out.append("<tr>" + "".join(_cell(h, "th") for h in headers) + "</tr>")
-        out += ["<tr>" + "".join(_cell(c) for c in row) + "</tr>" for row in rows]
-        return "\n".join(out + ["</table>"])
-    if kind == "img":
+        return _table(*block[1:])
+    if kind == "img":  # a click opens the figure at full size
         src, alt = html.escape(block[1], quote=True), html.escape(block[2], quote=True)
         width = f' width="{int(block[3])}"' if len(block) > 3 and block[3] else ""
-        return f'<img src="{src}" alt="{alt}"{width}>'
+        cls = f' class="{html.escape(block[4], quote=True)}"' if len(block) > 4 and block[4] else ""
+        return f'<a href="{src}"{cls}><img src="{src}" alt="{alt}"{width}></a>'
+    if kind == "grid":
+        return '<div class="figs">'
+    if kind == "/grid":
+        return "</div>"
     if kind == "links":
         items = " · ".join(
             f'<a href="{html.escape(href, quote=True)}">{html.escape(text)}</a>'
@@ -80,6 +105,20 @@ def _block(block: tuple) -> str:
     if kind == "/details":
         return "</details>"
     return ""
+
+
+def _table(headers: Sequence, rows: Sequence, opts: Mapping | None = None) -> str:
+    """A table; ``opts["cls"]`` its CSS class (``map``: in a frame that scrolls, with the
+    header row and the first column sticky)."""
+    cls = (opts or {}).get("cls")
+    out = [f'<table class="{html.escape(cls, quote=True)}">' if cls else "<table>"]
+    if any(text_of(h) for h in headers):
+        out.append("<tr>" + "".join(_cell(h, "th") for h in headers) + "</tr>")
+    out += ["<tr>" + "".join(_cell(c) for c in row) + "</tr>" for row in rows]
+    out.append("</table>")
+    if cls == "map":
+        out = ['<div class="scroll">', *out, "</div>"]
+    return "\n".join(out)
 
 
 def _toc(items: Sequence[tuple[str, str]]) -> str:

@@ -241,7 +241,7 @@ def run_matrix(
     no page); they are pool jobs beside the pairs, cached in ``out_dir``
     (``reports.run.teach_run``).
     """
-    t_start = time.perf_counter()
+    t_start, cpu_start = time.perf_counter(), _cpu_all()
     out = Path(out_dir)
     journal.prepare(out)
     partial = out / "partial.jsonl"
@@ -287,6 +287,7 @@ def run_matrix(
     elapsed = time.perf_counter() - t_start
     payload["elapsed_s"] = elapsed
     payload["stats"] = {"solved": len(todo), "resumed": len(done), "pairs": len(records)}
+    payload["stats"]["cpu"] = _stage_cpu(_cpu_all() - cpu_start, teach, early)
     paths = _write(payload, out, Path(history) if history else out / "history.sqlite", token)
     partial.unlink(missing_ok=True)  # every pair is in results.json now (resume reads it)
     result = RunResult(payload, out, paths, len(todo), len(done), elapsed)
@@ -298,13 +299,35 @@ def run_matrix(
 
             with stage("rendering report", enabled=bar_mode != ""):
                 if teach is not None:  # never raises; a page that failed is not linked
+                    cpu_page = _cpu_all()
                     paths["teaching.html"] = teach.write(payload, out)
+                    payload["stats"]["cpu"]["teaching_page_s"] = _cpu_all() - cpu_page
                 figs = early.figures if early is not None else None
                 paths.update(render_report(payload, out, render=render_shapes, early=figs))
         except Exception as exc:  # results are safe on disk; say what broke
             result.report_error = f"{type(exc).__name__}: {exc}"
     result.elapsed_s = time.perf_counter() - t_start
     return result
+
+
+def _cpu_all() -> float:
+    """CPU s of this process and its finished children (the pool's workers, once joined)."""
+    t = os.times()
+    return t.user + t.system + t.children_user + t.children_system
+
+
+def _stage_cpu(stage_s: float, teach: Any, early: Any) -> dict:
+    """The solving stage's CPU (all local processes), the atlases computed in it and the
+    figures drawn in it: the report's "Where the time goes" (render/timebudget.py)."""
+    done = {} if teach is None else teach.results
+    atlases = {k: v.get("cpu_s", 0.0) for k, v in done.items() if k not in teach.cached}
+    figs = [] if early is None else early.figures.values()
+    return {
+        "solve_stage_s": stage_s,
+        "atlases_s": atlases,
+        "atlases_reused": [] if teach is None else teach.cached,
+        "figures_s": sum(f.get("cpu_s") or 0.0 for f in figs),
+    }
 
 
 def _resumed(out: Path, partial: Path, tasks: list[dict], fresh: bool) -> tuple[dict, str]:
