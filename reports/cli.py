@@ -254,6 +254,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             raise UsageError(
                 "--dask needs dask[distributed] (pip install flexbench[dask])"
             ) from None
+    print(_first_line(args), file=sys.stderr, flush=True)  # output from the first second
     scenes = select_cases(args.cases)
     tol = None
     if args.tol is not None:
@@ -289,6 +290,16 @@ def cmd_run(args: argparse.Namespace) -> int:
     return _summary(res)
 
 
+def _first_line(args: argparse.Namespace) -> str:
+    """What the run covers, printed before anything is loaded."""
+    what = f"cases {args.cases}" if args.cases else "every catalog case and sweep point"
+    models = f"models {args.models}" if args.models else "each case's models + the defaults"
+    return (
+        f"{PROG} run: {what}, {models}{' (--quick)' if args.quick else ''}, "
+        f"{args.workers or os.cpu_count()} workers, into {args.out}; planning ..."
+    )
+
+
 def _run(
     args: argparse.Namespace, runner: Any, scenes: list, models: Any, out: Path, tol: Any
 ) -> Any:
@@ -313,6 +324,7 @@ def _summary(res: Any) -> int:
     failed = sum(r["status"] == "failed" for r in res.payload["results"])
     print(
         f"{stats['pairs']} pairs ({stats['solved']} solved, {stats['resumed']} resumed, "
+        f"{stats.get('cached', 0)} references from the cache, "
         f"{failed} failed) in {res.elapsed_s:.1f} s"
     )
     for label, p in res.paths.items():
