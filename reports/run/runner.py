@@ -48,7 +48,7 @@ from typing import Any
 
 from cases.schema import Scene
 from reports import api
-from reports.run import journal, limits, overlap, refcache, store, sweep, teach_run
+from reports.run import journal, limits, overlap, refcache, schedule, store, sweep, teach_run
 from reports.run.exports import (
     DEFAULT_EXPORT,
     QUICK_EXPORT,
@@ -266,7 +266,7 @@ def run_matrix(
     todo = [t for t in tasks if t["key"] not in done]
     records = list(done.values()) + fixed
     n_all = len(todo)
-    todo = _from_cache(todo, records, out, partial)
+    todo = schedule.order(_from_cache(todo, records, out, partial), schedule.read())
     if teaching == "auto":  # the page is about the default models: not for a --models run
         teaching = None if models else teach_run.QUICK_GRID if quick else teach_run.GRID
     teach = teach_run.TeachingJobs(out, teaching, code_hash()) if render and teaching else None
@@ -291,6 +291,7 @@ def run_matrix(
     payload["stats"] = {"solved": len(todo), "resumed": len(done), "pairs": len(records)}
     payload["stats"]["cached"] = n_all - len(todo)  # reference pairs of an earlier run
     paths = _write(payload, out, Path(history) if history else out / "history.sqlite", token)
+    schedule.write(records)  # the next run starts its longest pairs first
     partial.unlink(missing_ok=True)  # every pair is in results.json now (resume reads it)
     result = RunResult(payload, out, paths, len(todo), len(done), elapsed)
     if render:
