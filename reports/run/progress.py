@@ -66,6 +66,12 @@ class Progress:
         self.measured: dict[tuple[str | None, bool], list[float]] = {}
         self.every = max(1, round(total * LOG_EVERY_FRACTION))
 
+    def note(self, text: str) -> None:
+        """One line now (before the bar or the plain log starts), unless disabled."""
+        if self.mode:
+            self.stream.write(f"flexbench: {text}\n")
+            self.stream.flush()
+
     def eta(self) -> tuple[float, bool] | None:
         """(seconds left, is it only a lower bound?) from measured pair times; None before
         anything was measured.  A pending pair of a class (heavy/light) with no measurement

@@ -366,6 +366,12 @@ def _solve(
     if teach is not None and pooled:
         queue.extendleft(reversed(teach.jobs))  # long jobs: first, beside the pairs
     bar = Progress(len(todo), enabled=progress, tasks=todo, workers=workers or os.cpu_count() or 1)
+    jobs = len(teach.jobs) if teach is not None and pooled else 0
+    beside = f", beside {jobs} teaching-page atlas jobs" if jobs else ""
+    bar.note(
+        f"{len(todo)} pairs to solve ({len(records)} already known: resumed, cached or not "
+        f"applicable), longest first{beside}"
+    )
     try:
         for rec in execute(queue if pooled else todo, workers, dask, time_limit):
             if early is not None and early.take(rec):
