@@ -254,7 +254,6 @@ def cmd_run(args: argparse.Namespace) -> int:
             raise UsageError(
                 "--dask needs dask[distributed] (pip install flexbench[dask])"
             ) from None
-    print(_first_line(args), file=sys.stderr, flush=True)  # output from the first second
     scenes = select_cases(args.cases)
     tol = None
     if args.tol is not None:
@@ -270,6 +269,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise UsageError(f"--out {out}: exists and is not a directory")
+    print(_first_line(args), file=sys.stderr, flush=True)  # input checked: say what runs
     try:
         with journal.RunLock(out, wait=args.wait):
             res = _run(args, runner, scenes, models, out, tol)
@@ -324,8 +324,8 @@ def _summary(res: Any) -> int:
     failed = sum(r["status"] == "failed" for r in res.payload["results"])
     print(
         f"{stats['pairs']} pairs ({stats['solved']} solved, {stats['resumed']} resumed, "
-        f"{stats.get('cached', 0)} references from the cache, "
         f"{failed} failed) in {res.elapsed_s:.1f} s"
+        + (f", {stats['cached']} references from the cache" if stats.get("cached") else "")
     )
     for label, p in res.paths.items():
         if isinstance(p, Path):
