@@ -17,7 +17,8 @@ import time
 from collections.abc import Iterator, Mapping, Sequence
 from typing import TextIO
 
-LOG_EVERY_FRACTION = 0.1  # plain log: one line per ~10 % of the pairs
+LOG_EVERY_FRACTION = 0.1  # plain log: one line per ~10 % of the pairs ...
+LOG_EVERY_S = 15.0  # ... or after this many seconds without a line (heavy pairs come first)
 
 
 def clock(s: float) -> str:
@@ -65,6 +66,7 @@ class Progress:
         self.pending = [(t.get("model"), bool(t.get("heavy"))) for t in tasks]
         self.measured: dict[tuple[str | None, bool], list[float]] = {}
         self.every = max(1, round(total * LOG_EVERY_FRACTION))
+        self.last_line = self.t0
 
     def note(self, text: str) -> None:
         """One line now (before the bar or the plain log starts), unless disabled."""
@@ -108,10 +110,12 @@ class Progress:
         self._finish(rec)
         if not self.mode or self.total == 0:
             return
+        now = time.monotonic()
         shown = self.mode == "bar" or self.done % self.every == 0 or self.done == self.total
+        shown = shown or now - self.last_line >= LOG_EVERY_S
         if not shown:  # the ETA walks every pending pair: only for a line that is printed
             return
-        el = time.monotonic() - self.t0
+        el, self.last_line = now - self.t0, now
         eta = self.eta()
         eta_txt = "ETA ?" if eta is None else f"ETA {'>= ' if eta[1] else ''}{clock(eta[0])}"
         if self.mode == "bar":
