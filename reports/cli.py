@@ -269,7 +269,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise UsageError(f"--out {out}: exists and is not a directory")
-    print(_first_line(args), file=sys.stderr, flush=True)  # input checked: say what runs
+    # stdout, as the summary: options are checked while planning, and bad input must stay
+    # one line on stderr
+    print(_first_line(args), flush=True)
     try:
         with journal.RunLock(out, wait=args.wait):
             res = _run(args, runner, scenes, models, out, tol)
