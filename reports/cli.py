@@ -293,7 +293,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 def _first_line(args: argparse.Namespace) -> str:
-    """What the run covers, printed before anything is loaded."""
+    """What the run covers, printed once the case files are read (before planning)."""
     what = f"cases {args.cases}" if args.cases else "every catalog case and sweep point"
     models = f"models {args.models}" if args.models else "each case's models + the defaults"
     return (
