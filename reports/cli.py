@@ -378,6 +378,7 @@ def _summary(res: Any) -> int:
     print(
         f"{stats['pairs']} pairs ({stats['solved']} solved, {stats['resumed']} resumed, "
         f"{failed} failed) in {res.elapsed_s:.1f} s"
+        + (f", {stats['cached']} references from the cache" if stats.get("cached") else "")
     )
     for label, p in res.paths.items():
         if isinstance(p, Path):

@@ -25,6 +25,8 @@ def cost_cache(tmp_path_factory):
     with pytest.MonkeyPatch.context() as mp:
         path = tmp_path_factory.mktemp("flexbench-cache")
         mp.setenv("FLEXBENCH_CACHE", str(path))
+        # every test solves its references itself (tests/test_refcache.py turns it back on)
+        mp.setenv("FLEXBENCH_NO_PAIR_CACHE", "1")
         yield path
 
 

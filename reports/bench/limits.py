@@ -213,7 +213,7 @@ TARGETS = {
     "prb-3r": ("plain-float PRB path", 3.0, None),
     "bcm": ("plain-float BCM path", 3.0, None),
     "linear-8": ("none: absolute target", None, 0.2),
-    "fem-16": ("OpenSeesPy (not installed)", None, None),
+    "fem-16": ("OpenSeesPy: the fem-N table", None, None),
 }
 
 

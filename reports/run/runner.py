@@ -48,7 +48,7 @@ from typing import Any
 
 from cases.schema import Scene
 from reports import api
-from reports.run import journal, limits, overlap, store, sweep, teach_run
+from reports.run import journal, limits, overlap, refcache, schedule, store, sweep, teach_run
 from reports.run.exports import (
     DEFAULT_EXPORT,
     QUICK_EXPORT,
@@ -265,6 +265,8 @@ def run_matrix(
     done, token = _resumed(out, partial, tasks, fresh)
     todo = [t for t in tasks if t["key"] not in done]
     records = list(done.values()) + fixed
+    n_all = len(todo)
+    todo = schedule.order(_from_cache(todo, records, out, partial), schedule.read())
     if teaching == "auto":  # the page is about the default models: not for a --models run
         teaching = None if models else teach_run.QUICK_GRID if quick else teach_run.GRID
     teach = teach_run.TeachingJobs(out, teaching, code_hash()) if render and teaching else None
@@ -288,7 +290,9 @@ def run_matrix(
     payload["elapsed_s"] = elapsed
     payload["stats"] = {"solved": len(todo), "resumed": len(done), "pairs": len(records)}
     payload["stats"]["cpu"] = _stage_cpu(_cpu_all() - cpu_start, teach, early)
+    payload["stats"]["cached"] = n_all - len(todo)  # reference pairs of an earlier run
     paths = _write(payload, out, Path(history) if history else out / "history.sqlite", token)
+    schedule.write(records)  # the next run starts its longest pairs first
     partial.unlink(missing_ok=True)  # every pair is in results.json now (resume reads it)
     result = RunResult(payload, out, paths, len(todo), len(done), elapsed)
     if render:
@@ -346,6 +350,20 @@ def _resumed(out: Path, partial: Path, tasks: list[dict], fresh: bool) -> tuple[
     return done, token
 
 
+def _from_cache(todo: list[dict], records: list[dict], out: Path, partial: Path) -> list[dict]:
+    """``todo`` without the reference pairs an earlier run of the same code solved
+    (``reports.run.refcache``); their records join ``records`` and the journal."""
+    left = []
+    for t in todo:
+        rec = refcache.lookup(t, out)
+        if rec is None:
+            left.append(t)
+            continue
+        journal.append(partial, rec)
+        records.append(rec)
+    return left
+
+
 def _solve(
     todo: list[dict],
     records: list[dict],
@@ -363,6 +381,7 @@ def _solve(
     """Solve the ``todo`` pairs (with the early figure and teaching-page jobs in the same
     pool), journal and append each record; (the early figures, the progress bar's mode)."""
     queue = collections.deque(todo)  # figure jobs join it as cases complete (overlap.py)
+    keys = {t["key"]: t for t in todo if refcache.cacheable(t)}  # kept for later runs
     pooled = not dask and (workers or os.cpu_count() or 1) > 1 and len(todo) > 1
     early = None
     if render and pooled:
@@ -381,6 +400,8 @@ def _solve(
                 continue
             journal.append(partial, rec)
             records.append(rec)
+            if rec["key"] in keys:
+                refcache.store(keys[rec["key"]], rec, out)
             bar.update(f"{rec['case']} / {rec['model']}", rec)
             if early is not None:
                 early.pair_done(rec, queue)

@@ -88,12 +88,19 @@ def plan_jobs(
     jobs, cached = [], {}
     for part in parts():
         path = cache_path(out_dir, part, grid, code)
-        if path.is_file() and not fresh:
-            try:
-                cached[part] = json.loads(path.read_text(encoding="utf-8"))
+        shared = _shared(path)
+        for src in (path, shared):
+            if src is None or not src.is_file() or fresh:
                 continue
+            try:
+                cached[part] = json.loads(src.read_text(encoding="utf-8"))
             except (OSError, ValueError):
-                pass  # unreadable: computed again
+                continue  # unreadable: computed again
+            if src is shared:  # the run's folder holds what its page used
+                _write(path, cached[part])
+            break
+        if part in cached:
+            continue
         job = {"key": f"{ROLE}|{part}", "case": f"({ROLE})", "model": part, "role": ROLE}
         job["killable"] = False  # no per-pair time limit: an atlas is many solves
         jobs.append(job | {"call": run_job, "grid": grid, "cache": str(path)})
@@ -128,16 +135,35 @@ def run_job(job: Mapping) -> dict:
     data["wall_s"] = time.perf_counter() - t0
     data["cpu_s"] = time.process_time() - c0
     path = Path(job["cache"])
+    for target in (path, _shared(path)):
+        if target is not None:
+            _write(target, data, f"{job['model']}-{job['grid'][0]}x{job['grid'][1]}-*")
+    return out | {"data": data}
+
+
+def _shared(path: Path) -> Path | None:
+    """The same result's place in ``$FLEXBENCH_CACHE/teaching/`` (shared by every output
+    folder: a run into a new folder reuses the atlases of the same code), or None when
+    ``FLEXBENCH_NO_PAIR_CACHE`` is set."""
+    import os
+
+    from reports.verdicts.cost import cache_dir
+
+    return None if os.environ.get("FLEXBENCH_NO_PAIR_CACHE") else cache_dir() / ROLE / path.name
+
+
+def _write(path: Path, data: Mapping, stale: str | None = None) -> None:
+    """Write one cached part (atomically), removing results of older code versions that
+    match ``stale``; a cache that cannot be written is skipped (computed again next time)."""
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        for stale in path.parent.glob(f"{job['model']}-{job['grid'][0]}x{job['grid'][1]}-*"):
-            stale.unlink(missing_ok=True)  # an older code version's result
-        tmp = path.with_suffix(".tmp")
+        for old in path.parent.glob(stale) if stale else ():
+            old.unlink(missing_ok=True)
+        tmp = path.with_suffix(f".tmp{id(data)}")
         tmp.write_text(json.dumps(data, allow_nan=False), encoding="utf-8")
         tmp.replace(path)
     except OSError:
-        pass  # not cached: the next run computes it again
-    return out | {"data": data}
+        pass
 
 
 def per_state(at: atlas.Atlas) -> dict[str, dict[str, float]]:
