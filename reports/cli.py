@@ -346,7 +346,9 @@ def _say_start(args: argparse.Namespace, scenes: list, models: list[str] | None)
     with_models = ", ".join(models) if models else "the default models + each case's own"
     where = f"dask {args.dask}" if args.dask else plural(args.workers or os.cpu_count(), "worker")
     line = f"{PROG}: run: {what}; models: {with_models}; {where}; out {args.out}"
-    print(line, file=sys.stderr, flush=True)
+    # stdout, as the summary: model options are checked while planning, and bad input must
+    # stay one line on stderr
+    print(line, flush=True)
 
 
 def _run(

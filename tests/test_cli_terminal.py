@@ -111,7 +111,10 @@ def test_run_says_what_runs_before_it_solves(tmp_path):
         cwd=ROOT, capture_output=True, text=True, timeout=300,
     )  # fmt: skip
     assert proc.returncode == 0, proc.stderr
+    # the start line on stdout (bad input found while planning stays one line on stderr)
+    assert proc.stdout.splitlines()[0] == (
+        f"flexbench: run: 1 case; models: linear-1; 1 worker; out {out}"
+    )
     err = proc.stderr.splitlines()
-    assert err[0] == f"flexbench: run: 1 case; models: linear-1; 1 worker; out {out}"
-    assert err[1].startswith("flexbench: solving 3 pairs (1 case x 3 models) on 1 worker")
+    assert err[0].startswith("flexbench: solving 3 pairs (1 case x 3 models) on 1 worker")
     assert err[-1].startswith("flexbench: 3/3 pairs")

@@ -32,7 +32,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import TextIO
 
 LOG_EVERY_FRACTION = 0.1  # plain log: one line per ~10 % of the pairs ...
-LOG_EVERY_S = 15.0  # ... or after this many seconds, whichever comes first
+LOG_EVERY_S = 30.0  # ... or after this many seconds, whichever comes first
 ETA_SMOOTHING_S = 45.0  # time constant of the finish-time smoothing
 SHRINK = 3.0  # pseudo-count of the family mean in a model's estimate
 POINT_RUNS = 4.0  # solves of a timed pair (first + TimingPolicy.min_runs) per sweep point's one
