@@ -153,6 +153,7 @@ def judge(
     elif coverage < 1.0 - 1e-6:
         cand.message = f"path covers {coverage:.0%} of the reference's"
     else:
+        cand.uncertainty = uncertainty
         cand.qualifies = all(
             e + (0.0 if k in tol.absolute else uncertainty) <= t for _, k, e, t in judged
         )

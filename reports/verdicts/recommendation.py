@@ -32,6 +32,7 @@ class Candidate:
     tolerance: float | None = None
     cpu_s: float | None = None
     noise_s: float = 0.0
+    uncertainty: float = 0.0  # the reference's own error estimate (error_rel) it must also fit
     ratio_to_reference: float | None = None
     qualifies: bool = False
     warning: str = ""
@@ -175,7 +176,8 @@ def _miss(c: Candidate) -> str:
     if c.status != "converged":
         why += f", {c.status}: {c.message}"
     elif c.worst_error <= (c.tolerance or 0.0):
-        why += f", {c.message}"
+        # within the tolerance alone: it is the reference's own uncertainty that does not fit
+        why += f" + the reference's own uncertainty {c.error_text(c.uncertainty)}, {c.message}"
     return f"{c.model} ({why} > {c.error_text(c.tolerance)})"
 
 
