@@ -45,7 +45,8 @@ class Encoding:
     Lf, Ff : new length and force measure of one old unit (m -> mm: Lf = 1000).
     units : the units label written into the scene (None: unchanged).
     rename : give every node a new id (and reverse the node list).
-    reverse : draw every member from its end b to its end a (and reverse the member list).
+    reverse : draw every member from its end b to its end a (and reverse the member list,
+        unless an output's rotation is by contract its first listed member's).
     weld_pin : write a pinned support holding one welded member as a clamp and a pinned end.
     """
 
@@ -123,14 +124,18 @@ class Encoding:
         )
         booms = tuple(
             replace(
-                b, a=self.node_id(b.a), b=self.node_id(b.b), force=b.force * Ff, length=b.length * Lf
+                b,
+                a=self.node_id(b.a),
+                b=self.node_id(b.b),
+                force=b.force * Ff,
+                length=b.length * Lf,
             )
             for b in scene.booms
         )
         outputs = tuple(replace(o, node=self.node_id(o.node)) for o in scene.outputs)
         if self.rename:
             nodes = nodes[::-1]
-        if self.reverse:
+        if self.reverse and not self._order_matters(scene):
             members = members[::-1]
         if self.weld_pin:
             supports, members = self._weld_pin(scene, supports, members)
@@ -186,7 +191,9 @@ class Encoding:
         kw = {f: getattr(m, f) * s for f, s in scaled.items() if getattr(m, f) is not None}
         kw.update(a=self.node_id(m.a), b=self.node_id(m.b), sweep_deg=self.det * m.sweep_deg)
         if self.reverse:
-            kw.update(a=kw["b"], b=kw["a"], end_a=m.end_b, end_b=m.end_a, sweep_deg=-kw["sweep_deg"])
+            kw.update(
+                a=kw["b"], b=kw["a"], end_a=m.end_b, end_b=m.end_a, sweep_deg=-kw["sweep_deg"]
+            )
         return replace(m, **kw)
 
     def _support(self, s):
@@ -219,7 +226,9 @@ class Encoding:
             scale = self.Ff if force else self.Ff * self.Lf
             kw["synthesis"] = replace(an.synthesis, target=an.synthesis.target * scale)
         elif an.synthesis is not None and an.synthesis.goal == "stable-position":
-            kw["synthesis"] = replace(an.synthesis, target=self.driver_to(scene, an.synthesis.target))
+            kw["synthesis"] = replace(
+                an.synthesis, target=self.driver_to(scene, an.synthesis.target)
+            )
         return replace(an, **kw)
 
     def _driver(self, d):
@@ -287,6 +296,20 @@ class Encoding:
         if q == "length":
             return Lf
         return 1.0
+
+    def _order_matters(self, scene: Scene) -> bool:
+        """True when an output node joins only pinned member ends: its ``rot`` is the first
+        listed member's by the contract (cases.schema), so the member list keeps its order."""
+        for o in scene.outputs:
+            ends = [
+                getattr(m, f"end_{e}")
+                for m in scene.members
+                for e, nid in (("a", m.a), ("b", m.b))
+                if nid == o.node
+            ]
+            if len(ends) > 1 and all(e == "pin" for e in ends):
+                return True
+        return False
 
     # -- the weld + pin rewrite --------------------------------------------------------------
     def _weld_pin_nodes(self, scene: Scene) -> list[str]:
@@ -387,7 +410,6 @@ ENCODINGS = (
         Lf=1000.0,
         units=UNITS_MM,
         rename=True,
-        reverse=True,
         weld_pin=True,
     ),
 )

@@ -6,8 +6,8 @@ issue 12) returned, so that faster solvers, reused factorisations and PRB post-p
 moved out of the solve are shown to leave every reported number where it was, within the
 solvers' own tolerances.  Correctness is verified elsewhere (``test_verify_*``) against exact
 solutions, published values and the FE reference.  Regenerate only for an intended change of
-answers: ``python -m tests.test_speed_regression --write [CASE|MODEL ...]``.  Entries updated by issue 11
-(judge), intended changes of answers only: the FE's stability watch moved the sampled
+answers: ``python -m tests.test_speed_regression --write [CASE|MODEL ...]``.  Entries updated
+by issue 11 (judge), intended changes of answers only: the FE's stability watch moved the sampled
 column-postbuckling fem-N runs from the unstable complementary branch (uy = -0.003 at
 1.33 Pcr) onto the stable post-buckled one (uy = 0.739); follower loads get no static
 stability verdict (None).  Issue 14: the FE's rigid links are exact constraints, no longer
