@@ -42,8 +42,9 @@ class Encoding:
     about : the fixed point P of the map, as a fraction of the scene's length scale L from
         its first node (an arbitrary point, not the origin).
     shift : translation added after the map (in units of L, before scaling).
-    Lf, Ff : new length and force measure of one old unit (m -> mm: Lf = 1000).
-    units : the units label written into the scene (None: unchanged).
+    Lf, Ff : new length and force measure of one old unit (m -> mm: Lf = 1000); set per
+        scene from ``units`` by ``for_scene``.
+    units : scene units label -> (new label, Lf, Ff): a change of units (None: unchanged).
     rename : give every node a new id (and reverse the node list).
     reverse : draw every member from its end b to its end a (and reverse the member list,
         unless an output's rotation is by contract its first listed member's).
@@ -57,10 +58,17 @@ class Encoding:
     shift: tuple[float, float] = (0.0, 0.0)
     Lf: float = 1.0
     Ff: float = 1.0
-    units: dict[str, str] | None = None
+    units: dict[str, tuple[str, float, float]] | None = None
     rename: bool = False
     reverse: bool = False
     weld_pin: bool = False
+
+    def for_scene(self, scene: Scene) -> Encoding:
+        """This encoding with the length and force factors of the scene's units change."""
+        if not self.units or scene.units not in self.units:
+            return self
+        _, Lf, Ff = self.units[scene.units]
+        return replace(self, Lf=Lf, Ff=Ff)
 
     # -- the affine map ----------------------------------------------------------------------
     @property
@@ -139,7 +147,7 @@ class Encoding:
             members = members[::-1]
         if self.weld_pin:
             supports, members = self._weld_pin(scene, supports, members)
-        units = (self.units or {}).get(scene.units, scene.units)
+        units = (self.units or {}).get(scene.units, (scene.units,))[0]
         return replace(
             scene,
             units=units,
@@ -170,7 +178,7 @@ class Encoding:
         keys += [k for ax in an.grid for k in ax.keys]
         if keys and (self.Lf != 1.0 or self.Ff != 1.0 or self.mirror):
             return "a sweep of a dimensional or signed quantity (not rewritten here)"
-        if (self.Lf != 1.0 or self.Ff != 1.0) and scene.units not in (self.units or {}):
+        if self.units is not None and scene.units not in self.units:
             return f"no other units to write {scene.units} scenes in"
         if self.weld_pin and self.name == "weldpin" and not self._weld_pin_nodes(scene):
             return "no pinned support holding a single welded member"
@@ -389,15 +397,21 @@ def length_scale(scene: Scene) -> float:
     return max(scene.member_length(m.id) for m in scene.members)
 
 
-UNITS_MM = {"m-N-Pa": "mm-N-MPa", "mm-N-MPa": "m-N-Pa", "nondim": "nondim"}
+#: the other unit system of each (label, length factor, force factor): m <-> mm, and a
+#: dimensionless scene measured in thousandths of its length unit
+UNITS_MM = {
+    "m-N-Pa": ("mm-N-MPa", 1e3, 1.0),
+    "mm-N-MPa": ("m-N-Pa", 1e-3, 1.0),
+    "nondim": ("nondim", 1e3, 1.0),
+}
 
 #: the encodings every case is tried in (one change each, then all at once)
 ENCODINGS = (
     Encoding("rotate37", angle_deg=37.0, about=(0.31, -0.72)),
     Encoding("mirror", mirror=True, about=(-0.43, 0.17)),
     Encoding("translate", shift=(12.5, -7.25)),
-    Encoding("units", Lf=1000.0, units=UNITS_MM),
-    Encoding("unitsdown", Lf=1e-3, Ff=1e3, units={"nondim": "nondim"}),
+    Encoding("units", units=UNITS_MM),
+    Encoding("unitsdown", units={"nondim": ("nondim", 1e-3, 1e3)}),
     Encoding("relabel", rename=True),
     Encoding("reverse", reverse=True),
     Encoding("weldpin", weld_pin=True),
@@ -407,7 +421,6 @@ ENCODINGS = (
         mirror=True,
         about=(0.31, -0.72),
         shift=(3.0, 2.0),
-        Lf=1000.0,
         units=UNITS_MM,
         rename=True,
         weld_pin=True,
