@@ -226,17 +226,15 @@ class Encoding:
             kw["driver"] = self._driver(an.driver)
         if an.stop_output is not None and an.stop_value is not None:
             kw["stop_value"] = self.value_to(scene, an.stop_output, an.stop_value)
-        if an.synthesis is not None and an.synthesis.output is not None:
-            syn = an.synthesis
+        syn = an.synthesis
+        if syn is not None and syn.goal == "stiffness":  # target: a value of its output
             kw["synthesis"] = replace(syn, target=self.value_to(scene, syn.output, syn.target))
-        elif an.synthesis is not None and an.synthesis.goal == "critical-load":
+        elif syn is not None and syn.goal == "critical-load":  # a force or a torque
             force = an.driver is not None and an.driver.kind == "displacement"
             scale = self.Ff if force else self.Ff * self.Lf
-            kw["synthesis"] = replace(an.synthesis, target=an.synthesis.target * scale)
-        elif an.synthesis is not None and an.synthesis.goal == "stable-position":
-            kw["synthesis"] = replace(
-                an.synthesis, target=self.driver_to(scene, an.synthesis.target)
-            )
+            kw["synthesis"] = replace(syn, target=syn.target * scale)
+        elif syn is not None and syn.goal == "stable-position":  # a driver coordinate
+            kw["synthesis"] = replace(syn, target=self.driver_to(scene, syn.target))
         return replace(an, **kw)
 
     def _driver(self, d):
