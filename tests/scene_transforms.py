@@ -117,7 +117,11 @@ class Encoding:
             replace(n, id=self.node_id(n.id), x=float(p[0]), y=float(p[1]))
             for n, p in zip(scene.nodes, xy, strict=True)
         )
-        members = tuple(self._member(m) for m in scene.members)
+        # a stable-position synthesis moves its link's end b (the contract): that link keeps
+        # its direction, or another node would move
+        syn = scene.analysis.synthesis
+        keep = set(syn.members) if syn is not None and syn.goal == "stable-position" else set()
+        members = tuple(self._member(m, m.id not in keep) for m in scene.members)
         supports = tuple(self._support(s) for s in scene.supports)
         loads = tuple(self._load(ld, scene) for ld in scene.loads)
         springs = tuple(
@@ -184,7 +188,7 @@ class Encoding:
             return "no pinned support holding a single welded member"
         return ""
 
-    def _member(self, m):
+    def _member(self, m, reversible: bool = True):
         Lf, Ff = self.Lf, self.Ff
         scaled = {
             "E": Ff / Lf**2,
@@ -198,7 +202,7 @@ class Encoding:
         }
         kw = {f: getattr(m, f) * s for f, s in scaled.items() if getattr(m, f) is not None}
         kw.update(a=self.node_id(m.a), b=self.node_id(m.b), sweep_deg=self.det * m.sweep_deg)
-        if self.reverse:
+        if self.reverse and reversible:
             kw.update(
                 a=kw["b"], b=kw["a"], end_a=m.end_b, end_b=m.end_a, sweep_deg=-kw["sweep_deg"]
             )
@@ -215,7 +219,9 @@ class Encoding:
         kw = dict(fx=float(f[0]), fy=float(f[1]), moment=self.det * self.Ff * self.Lf * ld.moment)
         if ld.node is not None:
             kw["node"] = self.node_id(ld.node)
-        if self.reverse and ld.fraction is not None:
+        syn = scene.analysis.synthesis
+        keep = syn is not None and syn.goal == "stable-position" and ld.member in syn.members
+        if self.reverse and ld.fraction is not None and not keep:
             kw["fraction"] = 1.0 - ld.fraction
         return replace(ld, **kw)
 
