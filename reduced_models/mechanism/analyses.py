@@ -26,6 +26,11 @@ from reduced_models.mechanism.newton import SolveError, Solver, State, follow
 from reduced_models.mechanism.snap import snap_step
 from reduced_models.mechanism.system import MechanismSystem
 
+# |driving force| / max(its largest magnitude, the force scale) below which it is zero:
+# on a grid point (round-off: a tolerance there would pin an equilibrium to the grid), and
+# where the refinement between grid points stops
+GRID_ZERO, ZERO_FORCE = 1e-12, 1e-9
+
 
 class Run:
     """One analysis on one system; collects steps and extras."""
@@ -156,8 +161,8 @@ class Run:
         (the slope of F along the driver where that is singular)."""
         F = np.array([s.outputs[key] for s in self.steps])
         # a force at round-off on a grid point is a zero there (an unstressed drawing's start:
-        # exactly 0 or 1e-17 depending on the last Newton update), counted once
-        zero = np.abs(F) <= 1e-12 * max(float(np.abs(F).max()), self.s.fscale)
+        # exactly 0 or 1e-17, depending on the last Newton update), counted once
+        zero = np.abs(F) <= GRID_ZERO * max(float(np.abs(F).max()), self.s.fscale)
         eq = []
         for k in range(len(F) - 1):
             f0, f1 = F[k], F[k + 1]
@@ -194,9 +199,9 @@ class Run:
         d = self.solver.driver_index()
         a, b, fa, fb = float(vals[k]), float(vals[k + 1]), float(F[k]), float(F[k + 1])
         sa, sb = self.states[k], self.states[k + 1]
-        if abs(fa) <= 1e-12 * max(float(np.abs(F).max()), self.s.fscale):  # see equilibria
+        if abs(fa) <= GRID_ZERO * max(abs(F).max(), self.s.fscale):  # see ``equilibria``
             return sa, a
-        tol = 1e-9 * max(abs(F).max(), self.s.fscale)
+        tol = ZERO_FORCE * max(abs(F).max(), self.s.fscale)
         side = 0
         st, v = sa, a
         for _ in range(40):

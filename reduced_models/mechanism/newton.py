@@ -41,6 +41,7 @@ Matrix = np.ndarray | sp.csc_matrix
 
 TOL = 1e-10
 POLISH_BELOW = 1e-4  # a converged residual above tol * this gets one more update
+POLISH_STEP = 1e-6  # ... if it is that small (relative to the unknowns' scales)
 MAX_ITER = 30
 
 
@@ -112,8 +113,8 @@ class Solver:
         if st.residual <= POLISH_BELOW * self.tol:
             return st
         dx = _solve(st.K, -R)
-        if not np.isfinite(dx).all():
-            return st
+        if not np.isfinite(dx).all() or not self._small(dx, st.mu):
+            return st  # near a singular configuration the update is no polish
         q, mu, lam = st.q.copy(), st.mu + dx[self.nf :], st.lam
         q[self.f] += dx[: self.nf]
         if lam_free:
@@ -123,6 +124,17 @@ class Solver:
         if not (np.isfinite(R2).all() and res2 < st.residual):
             return st
         return State(q, mu, lam, st.iterations + 1, res2, K2, lam_free)
+
+    def _small(self, dx: np.ndarray, mu: np.ndarray) -> bool:
+        """True when the update moves no unknown by more than POLISH_STEP of its scale
+        (0.5 rad, L) and no multiplier by more than POLISH_STEP of the force scale."""
+        nf, lay = self.nf, self.s.lay
+        kind = np.array(lay.kind)[self.f]
+        scale = np.where(kind == "r", 0.5, np.where(kind == "p", np.inf, lay.Lref))
+        dq = float(np.max(np.abs(dx[:nf]) / scale, initial=0.0))
+        big_mu = max(float(np.max(np.abs(mu), initial=0.0)), self.s.fscale * lay.Lref)
+        dmu = float(np.max(np.abs(dx[nf:]), initial=0.0)) / big_mu
+        return dq <= POLISH_STEP and dmu <= POLISH_STEP
 
     def newton(self, st: State, lam_free: bool = False) -> State:
         """Newton from ``st`` (not modified); raises SolveError when it does not converge."""
