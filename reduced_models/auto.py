@@ -8,8 +8,9 @@ that N is solved and checked the same way.  The returned Solution is the chosen 
 (not an extrapolation), with the estimate in ``extras``.
 
 Change and estimate are measured like the report's path errors: the largest difference over
-the whole path of the node outputs, translations divided by the scene's longest member L,
-rotations in rad.  With three values on non-uniform N the order solves
+the whole path of the node outputs, a point's displacement change (as a vector: the same in
+any orientation of the drawing) divided by the scene's longest member L, rotations in rad.
+With three values on non-uniform N the order solves
 ``(h1^p - h2^p) / (h2^p - h3^p) = d21 / d32`` (h = 1/N); outside 0.5 <= p <= 6 (pre-asymptotic
 or round-off) the family's formal order is used and the estimate is made conservative (the
 larger of the Richardson correction and the last change).
@@ -35,14 +36,20 @@ MECHANISM_MAX_N = 64  # default largest N per member inside the mechanism assemb
 
 
 def path_change(a: Solution, b: Solution, length: float) -> float:
-    """Largest |a - b| over common steps and node outputs (translations / L, rot in rad)."""
+    """Largest change over common steps and node outputs: a point's displacement change as a
+    vector (|du| / L: the same number in any orientation of the drawing), rotations in rad."""
     m = min(len(a.steps), len(b.steps))
+    keys = a.steps[0].outputs if m else ()
     worst = 0.0
-    for key in a.steps[0].outputs if m else ():
-        q = key.rsplit(".", 1)[-1]
-        if q not in ("ux", "uy", "rot"):
+    for key in keys:
+        point, q = key.rsplit(".", 1) if "." in key else ("", key)
+        if q == "rot":
+            d = np.abs(a.path(key)[:m] - b.path(key)[:m])
+        elif q == "ux" and f"{point}.uy" in keys:
+            du = [a.path(f"{point}.{c}")[:m] - b.path(f"{point}.{c}")[:m] for c in ("ux", "uy")]
+            d = np.hypot(*du) / length
+        else:
             continue
-        d = np.abs(a.path(key)[:m] - b.path(key)[:m]) / (1.0 if q == "rot" else length)
         worst = max(worst, float(np.nanmax(d)))
     return worst
 

@@ -113,12 +113,13 @@ def test_replay_keeps_its_verdict_under_dead_loads():
     assert "stability" not in sol.extras
 
 
-def test_elastica_bvp_on_a_3x_overloaded_flexure_fails_within_its_time_limit():
-    """The steel flexure at 3x its catalog load (PL^2/EI = 30): solve_bvp's continuation
-    stalls near factor 0.9; the run ends at its wall-clock limit with the reason and the
-    states so far, not after minutes without output."""
+def test_elastica_bvp_on_a_30x_overloaded_flexure_fails_within_its_time_limit():
+    """The steel flexure at 30x its catalog load (PL^2/EI = 300): solve_bvp's continuation
+    takes far longer than the limit; the run ends at its wall-clock limit with the reason and
+    the states so far, not after minutes without output.  (At 3x, the issue's scene, the
+    dimensionless collocation now converges in about a second.)"""
     base = cases.load("steel-flexure-1000")
-    load = dataclasses.replace(base.loads[0], fy=3 * base.loads[0].fy)
+    load = dataclasses.replace(base.loads[0], fy=30 * base.loads[0].fy)
     scene = dataclasses.replace(base, loads=(load,), references=(), models=())
     limit = 3.0
     t0 = time.perf_counter()

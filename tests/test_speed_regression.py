@@ -6,13 +6,16 @@ issue 12) returned, so that faster solvers, reused factorisations and PRB post-p
 moved out of the solve are shown to leave every reported number where it was, within the
 solvers' own tolerances.  Correctness is verified elsewhere (``test_verify_*``) against exact
 solutions, published values and the FE reference.  Regenerate only for an intended change of
-answers: ``python -m tests.test_speed_regression --write``.  Entries updated by issue 11
-(judge), intended changes of answers only: the FE's stability watch moved the sampled
+answers: ``python -m tests.test_speed_regression --write [CASE|MODEL ...]``.  Entries updated
+by issue 11 (judge), intended changes of answers only: the FE's stability watch moved the sampled
 column-postbuckling fem-N runs from the unstable complementary branch (uy = -0.003 at
 1.33 Pcr) onto the stable post-buckled one (uy = 0.739); follower loads get no static
 stability verdict (None).  Issue 14: the FE's rigid links are exact constraints, no longer
 stiff elements; on scenes with rigid links fem-N answers moved by the old links' compliance
 (~1e-6 of the scene's stiffness, up to 8e-6 mm on DAS-2D Ex. 2) and are compared at 1e-5.
+Issue 23: the 36 pairs the fixture recorded as not-applicable and the mechanism assembler
+answers since issue 9 (they were skipped) were recorded as they are now (``--write`` with
+those pairs); nothing is skipped.
 """
 
 from __future__ import annotations
@@ -66,15 +69,32 @@ def scene_for(case: str, model: str) -> cases.Scene:
     return dataclasses.replace(scene, analysis=a)
 
 
-def pairs() -> list[tuple[str, str]]:
-    """Every recorded pair whose case is still in the catalog.
+# the cases the fixture records (those of the catalog when it was first written); cases added
+# since are verified by their own tests (``test_verify_*``)
+RECORDED = (
+    "bistable-toggle",
+    "cantilever-follower-load",
+    "cantilever-inclined-compression",
+    "cantilever-inclined-tension",
+    "cantilever-tip-load",
+    "column-postbuckling",
+    "das2d-ex2-parallelogram",
+    "fixed-guided-beam",
+    "lee-frame",
+    "pure-moment-rollup",
+    "shallow-arch-snap",
+    "steel-flexure-1000",
+    "thesis-sixbar-config4",
+    "thesis-sixbar-config4-stall",
+    "thesis-sixbar-config4-sweep-rest",
+    "thesis-sixbar-config4-sweep-stiffness",
+)
 
-    Cases added after the recording are verified by their own tests (``test_verify_*``);
-    a regression fixture can only speak for what it recorded.
-    """
-    out = [(c, m) for c in cases.catalog_names() for m in MODELS]
-    out += [(c, "replay") for c in REPLAY_CASES]
-    return [(c, m) for c, m in out if f"{c}|{m}" in _FIXTURE]
+
+def pairs() -> list[tuple[str, str]]:
+    """Every recorded pair: each model on each recorded case, the replay on two.  Fixed by
+    this list, not by the fixture: a pair the fixture lacks (or a missing fixture) fails."""
+    return [(c, m) for c in RECORDED for m in MODELS] + [(c, "replay") for c in REPLAY_CASES]
 
 
 def record(case: str, model: str) -> dict:
@@ -122,24 +142,12 @@ def tolerance(model: str) -> float:
     return 1e-4 if model == "replay" else 1e-6
 
 
-def _assembler_scene(case: str, model: str) -> bool:
-    """A reduced beam model on a scene that is not a plain cantilever: before issue 9 it
-    declined, now the mechanism assembler answers (an intended change of answers)."""
-    from reduced_models.beam.single_beam import cantilever_of
-
-    beam = not model.startswith(("fem", "replay"))
-    return beam and isinstance(cantilever_of(cases.load(case)), str)
-
-
 @pytest.mark.parametrize("case,model", pairs())
 def test_same_answers_as_before(case: str, model: str) -> None:
     before = _FIXTURE.get(f"{case}|{model}")
     if before is None:
-        pytest.fail(f"{case}|{model} missing from the regression fixture")
+        pytest.fail(f"{case}|{model} missing from the regression fixture {FIXTURE}")
     now = record(case, model)
-    newly = before["status"] == "not-applicable" != now["status"]
-    if newly and _assembler_scene(case, model):
-        pytest.skip("answered by the mechanism assembler since issue 9 (tests/test_mechanism*)")
     assert now["status"] == before["status"]
     assert now["n_steps"] == before["n_steps"]
     tol = tolerance(model)
@@ -162,6 +170,11 @@ def test_same_answers_as_before(case: str, model: str) -> None:
 
 
 if __name__ == "__main__" and "--write" in sys.argv:
-    data = {f"{c}|{m}": record(c, m) for c, m in pairs()}
+    # ``--write``: every pair; ``--write CASE|MODEL ...``: only those (an intended change)
+    only = set(sys.argv[sys.argv.index("--write") + 1 :])
+    data = dict(_FIXTURE)
+    for c, m in pairs():
+        if not only or f"{c}|{m}" in only:
+            data[f"{c}|{m}"] = record(c, m)
     FIXTURE.write_text(json.dumps(data, separators=(",", ":"), sort_keys=True) + "\n")
     print(f"wrote {len(data)} pairs to {FIXTURE}")

@@ -72,6 +72,9 @@ class ServoSystem:
         self.n_elements = full.n_elements
         self.algebraic = np.array([self.i])
         self.is_rotation = np.array(full.is_rotation, dtype=bool)
+        # the full system's follower DOFs: a servo-held replay under follower loads gives no
+        # static stability verdict either (``bifurcation.is_conservative``)
+        self.fol_dofs = getattr(full, "fol_dofs", None)
         self.is_rotation[self.i] = False  # slot i is a length (lam * ell)
         self._p = 0.0
         M = sp.csr_matrix(full.mass())

@@ -88,21 +88,25 @@ class ElasticaBVP:
         return None
 
     def _solve_at(self, beam: Cantilever, t: float, guess: tuple) -> tuple | None:
-        """solve_bvp at load factor t from ``guess`` = (mesh, y, p); None if it fails."""
-        EI = beam.EI
+        """solve_bvp at load factor t from ``guess`` = (mesh, y, p); None if it fails.
+
+        Dimensionless (s / L, curvature * L, x / L, y / L, energy * L / EI): ``tol`` then
+        means the same in any units the scene is written in.
+        """
+        w = beam.L**2 / beam.EI  # force -> dimensionless load
         follower = beam.follower and not beam.guided and (beam.fx or beam.fy)
-        P, gamma = t * math.hypot(beam.fx, beam.fy), math.atan2(beam.fy, beam.fx)
-        fx, fy, kL = t * beam.fx, t * beam.fy, t * beam.m / EI
+        P, gamma = t * w * math.hypot(beam.fx, beam.fy), math.atan2(beam.fy, beam.fx)
+        fx, fy, kL = t * w * beam.fx, t * w * beam.fy, t * beam.m * beam.L / beam.EI
 
         def rhs(s: np.ndarray, y: np.ndarray, p: np.ndarray | None = None) -> np.ndarray:
             if time.perf_counter() > self.end:  # solve_bvp calls it every few milliseconds
                 raise _TimeUp
             th, kap = y[0], y[1]
             if follower:  # force direction phi = p[0] (= theta(L) + gamma at the solution)
-                dk = P * np.sin(th - p[0]) / EI
+                dk = P * np.sin(th - p[0])
             else:
-                dk = (fx * np.sin(th) - fy * np.cos(th)) / EI
-            return np.vstack([kap, dk, np.cos(th), np.sin(th), 0.5 * EI * kap * kap])
+                dk = fx * np.sin(th) - fy * np.cos(th)
+            return np.vstack([kap, dk, np.cos(th), np.sin(th), 0.5 * kap * kap])
 
         def bc(ya: np.ndarray, yb: np.ndarray, p: np.ndarray | None = None) -> np.ndarray:
             tip = yb[0] if beam.guided else yb[1] - kL
@@ -157,7 +161,7 @@ class ElasticaBVP:
             if a.kind == "path"
             else load_factors(scene)
         )
-        mesh = np.linspace(0.0, beam.L, 201)
+        mesh = np.linspace(0.0, 1.0, 201)  # s / L
         Y = np.zeros((5, mesh.size))
         Y[2] = mesh
         follower = beam.follower and not beam.guided and (beam.fx or beam.fy)
@@ -191,8 +195,8 @@ class ElasticaBVP:
                     slope = (Yn - Y) / h
                     dt = min(2.0 * dt, float(np.max(factors)))
                 Y, p, sol, t_prev = Yn, out[2], out[3], t_new
-            ys = sol.sol(np.linspace(0.0, beam.L, N_SHAPE))
-            th, kap, x, y, U = sol.y[:, -1]
+            ys = beam.L * sol.sol(np.linspace(0.0, 1.0, N_SHAPE))
+            th, kap, x, y, U = sol.y[:, -1] * [1.0, 1.0 / beam.L, beam.L, beam.L, beam.EI / beam.L]
             steps.append(
                 Step(
                     factor=float(t),
@@ -201,7 +205,7 @@ class ElasticaBVP:
                     iterations=iters,
                     stable=None,
                     shapes={beam.member: beam.rotate_to_global(ys[2:4].T)},
-                    max_stress=stress_from_curvature(scene, beam, sol.y[1]),
+                    max_stress=stress_from_curvature(scene, beam, sol.y[1] / beam.L),
                     info={"nodes": float(sol.x.size)},
                 )
             )

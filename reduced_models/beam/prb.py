@@ -146,6 +146,10 @@ class PRB1R(PRBModel):
         if fy == 0.0 and fx != 0.0:
             return "purely axial tip force: the PRB-1R load ratio n is unbounded"
         n = -fx / abs(fy) + 0.0 if fy != 0.0 else 0.0  # + 0.0: no '-0' in messages
+        # Howell's K_Theta fit jumps at n = -1 and -2.5 (2.716 / 2.720 at -1): a load ratio
+        # that is a breakpoint up to the round-off of the drawing's frame (a load at -45 deg
+        # drawn rotated or mirrored) must land on the same side of it
+        n = round(n, 9) + 0.0
         if self.params == "average":
             p = T.HOWELL_AVERAGE
             return T.prb1r_matrix(p["gamma"], p["K_Theta"]), p["c_theta"], "average parameters"

@@ -26,6 +26,11 @@ from reduced_models.mechanism.newton import SolveError, Solver, State, follow
 from reduced_models.mechanism.snap import jumped, snap_step
 from reduced_models.mechanism.system import MechanismSystem
 
+# |driving force| / max(its largest magnitude, the force scale) below which it is zero:
+# on a grid point (round-off: a tolerance there would pin an equilibrium to the grid), and
+# where the refinement between grid points stops
+GRID_ZERO, ZERO_FORCE = 1e-12, 1e-9
+
 
 class Run:
     """One analysis on one system; collects steps and extras."""
@@ -158,10 +163,13 @@ class Run:
         driver coordinate; the verdict is the reduced Hessian with the driver released
         (the slope of F along the driver where that is singular)."""
         F = np.array([s.outputs[key] for s in self.steps])
+        # a force at round-off on a grid point is a zero there (an unstressed drawing's start:
+        # exactly 0 or 1e-17, depending on the last Newton update), counted once
+        zero = np.abs(F) <= GRID_ZERO * max(float(np.abs(F).max()), self.s.fscale)
         eq = []
         for k in range(len(F) - 1):
             f0, f1 = F[k], F[k + 1]
-            if not (f0 == 0.0 or f0 * f1 < 0.0):
+            if not (zero[k] or (f0 * f1 < 0.0 and not zero[k + 1])):
                 continue
             rising = (f1 - f0) * (vals[k + 1] - vals[k]) > 0
             st, v = self._zero_force(k, vals, F, apply)
@@ -194,9 +202,9 @@ class Run:
         d = self.solver.driver_index()
         a, b, fa, fb = float(vals[k]), float(vals[k + 1]), float(F[k]), float(F[k + 1])
         sa, sb = self.states[k], self.states[k + 1]
-        if fa == 0.0:
+        if abs(fa) <= GRID_ZERO * max(abs(F).max(), self.s.fscale):  # see ``equilibria``
             return sa, a
-        tol = 1e-9 * max(abs(F).max(), self.s.fscale)
+        tol = ZERO_FORCE * max(abs(F).max(), self.s.fscale)
         side = 0
         st, v = sa, a
         for _ in range(40):

@@ -40,6 +40,8 @@ if TYPE_CHECKING:
 Matrix = np.ndarray | sp.csc_matrix
 
 TOL = 1e-10
+POLISH_BELOW = 1e-4  # a converged residual above tol * this gets one more update
+POLISH_STEP = 1e-6  # ... if it is that small (relative to the unknowns' scales)
 MAX_ITER = 30
 
 
@@ -101,6 +103,39 @@ class Solver:
         R, K = self.asm.evaluate(st.q, st.lam, mu, col)
         return R, K, float(np.abs(R * self.asm.isc).max()) if len(R) else 0.0
 
+    def polish(self, st: State, R: np.ndarray, lam_free: bool) -> State:
+        """One more Newton update from a converged state, kept when it lowers the residual.
+
+        Converged at ``tol`` the state still depends on the iterates that led there (on how
+        the scene is drawn: rotated, translated, in other units); quadratic convergence takes
+        one more update to round-off, so the same scene gives the same answer to ~1e-14.
+        """
+        if st.residual <= POLISH_BELOW * self.tol:
+            return st
+        dx = _solve(st.K, -R)
+        if not np.isfinite(dx).all() or not self._small(dx, st.mu):
+            return st  # near a singular configuration the update is no polish
+        q, mu, lam = st.q.copy(), st.mu + dx[self.nf :], st.lam
+        q[self.f] += dx[: self.nf]
+        if lam_free:
+            d = self.driver_index()
+            lam, mu[d] = lam + mu[d], 0.0
+        R2, K2, res2 = self.kkt(State(q, mu, lam), lam_free)
+        if not (np.isfinite(R2).all() and res2 < st.residual):
+            return st
+        return State(q, mu, lam, st.iterations + 1, res2, K2, lam_free)
+
+    def _small(self, dx: np.ndarray, mu: np.ndarray) -> bool:
+        """True when the update moves no unknown by more than POLISH_STEP of its scale
+        (0.5 rad, L) and no multiplier by more than POLISH_STEP of the force scale."""
+        nf, lay = self.nf, self.s.lay
+        kind = np.array(lay.kind)[self.f]
+        scale = np.where(kind == "r", 0.5, np.where(kind == "p", np.inf, lay.Lref))
+        dq = float(np.max(np.abs(dx[:nf]) / scale, initial=0.0))
+        big_mu = max(float(np.max(np.abs(mu), initial=0.0)), self.s.fscale * lay.Lref)
+        dmu = float(np.max(np.abs(dx[nf:]), initial=0.0)) / big_mu
+        return dq <= POLISH_STEP and dmu <= POLISH_STEP
+
     def newton(self, st: State, lam_free: bool = False) -> State:
         """Newton from ``st`` (not modified); raises SolveError when it does not converge."""
         q, mu, lam = st.q.copy(), st.mu.copy(), st.lam
@@ -119,7 +154,7 @@ class Solver:
             if not np.isfinite(R).all():
                 raise SolveError("non-finite residual")
             if res <= self.tol:
-                return State(q, mu, lam, it, res, K, lam_free)
+                return self.polish(State(q, mu, lam, it, res, K, lam_free), R, lam_free)
             if it == self.max_iter or (it > 8 and res > 1e3 * prev):
                 break
             prev = res

@@ -235,7 +235,8 @@ def _relax(run: object, st: State) -> State:
         if not np.isfinite(R).all():
             break
         if res <= sv.tol or (res <= STALL * sv.tol and it - best[1] > 10):
-            return State(q, mu, lam, it, res, K)  # converged, or stalled at round-off
+            # converged (a Newton update takes it to round-off), or stalled at round-off
+            return sv.polish(State(q, mu, lam, it, res, K), R, False)
         res0 = res if res0 is None else res0
         best = (res, it) if res < best[0] else best
         d = np.zeros(K.shape[0])

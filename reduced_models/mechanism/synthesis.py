@@ -32,6 +32,7 @@ from reduced_models.mechanism.system import SceneError
 MAX_IT = 30
 RTOL = 1e-9
 S_STEP = 0.02  # second secant point of the stable-position synthesis (link length x 1.02)
+HALVINGS = 6  # a secant step of the stable-position synthesis halved at most this often
 
 
 def synthesised_scene(scene: Scene, scale: float) -> Scene:
@@ -72,13 +73,26 @@ def _stable_position(scene: Scene, name: str, spec_of: Callable[[Member], tuple]
             raise SolveError(f"link scale {s:.6g}: {r.exc}")
         return _second_stable(r) - syn.target, r
 
+    def backtracked(x0: float, x1: float) -> tuple[float, float, analyses.Run, int]:
+        """evaluate(x1), the step from x0 halved while the scene at x1 has no second stable
+        position (a secant step past the lengths where it exists: where it lands depends on
+        round-off, so the drawing's encoding would decide whether the synthesis succeeds)."""
+        for k in range(HALVINGS + 1):
+            try:
+                return (x1, *evaluate(x1), k + 1)
+            except SolveError:
+                if k == HALVINGS:
+                    raise
+                x1 = 0.5 * (x0 + x1)
+        raise AssertionError("unreachable")
+
     try:
         x0, x1 = 1.0, 1.0 + S_STEP
         f0, _ = evaluate(x0)
         its = 1
         while True:
-            f1, run = evaluate(x1)
-            its += 1
+            x1, f1, run, n = backtracked(x0, x1)
+            its += n
             if abs(f1) <= RTOL * max(abs(syn.target), 1.0):
                 break
             if f1 == f0 or its > MAX_IT:

@@ -72,7 +72,10 @@ class MechanismSystem:
         k = [abs(t.stiffness) for t in self.scene.torsion_springs]
         k += [ch.EI.max() / Lref for ch in self.chains]
         k += [abs(m.k or 0.0) * Lref**2 for m in self.scene.members if m.kind == "spring"]
-        k += [float(np.max(t.K)) for t in self.terms if isinstance(t, JointTerm) and t.K.size]
+        for t in self.terms:  # joint springs: a PRB axial spring (force / length) as a
+            if isinstance(t, JointTerm) and t.K.size:  # moment stiffness, K Lref^2, like k
+                axial = kind[t.dofs[:, 0]] == "t"
+                k.append(float(np.max(t.K * np.where(axial, Lref**2, 1.0))))
         self.Kref = max(k or [1.0])
         fl = 0.0
         for ld in self.scene.loads:

@@ -1,0 +1,211 @@
+"""Same scene, same answer (issue 23, item 5): every catalog case and a sample of hostile
+scenes, written in other encodings (``tests/scene_transforms.py``: rotated by 37 deg about
+an arbitrary point, mirrored, translated, in other units, nodes renamed and reordered,
+members reversed, a pin written as clamp + pinned end, and most of them at once), solved by
+every model that applies; the outputs mapped back must equal the original's to ``RTOL`` on
+the ``error_rel`` yardstick's scale (relative to the output's excursion along the original
+path, ``reports.verdicts.yardstick``), or the model must decline both ways.
+
+Reduced models run on every case (sweep cases are their base configuration at other spring
+constants / rest angles: the base is tried): 37 scenes, 333 applicable pairs, up to 2211
+encoded solves; a pair whose own solve costs more than ``CHEAP_S`` is tried in the combined
+encoding (and reversed) only.  The auto family, ``elastica-bvp``, ``fem-auto`` and the replay
+run on the sample ``SLOW`` (marked slow).  Measured 2026-11-27 on the shared 2-core machine:
+the whole file (both tiers, 622 tests: 599 passed, 21 listed) 2 min 51 s wall.
+
+Not compared: the approximate models of a mechanism member (linear-N, BCM, CBCM-N, PRB)
+describe the member in a frame at its end ``a`` (PRB pivots at gamma L from it, BCM's
+base): drawn from the other end, the same member gets another approximation -- a property of
+the formulation.  A single cantilever is always oriented from its clamp: reversal compared.
+Compared at a model's own stated tolerance: ``MODEL_RTOL``, ``SYNTHESIS_RTOL``.  Listed
+(expected to fail, ``KNOWN``): encoding-dependent answers found and not fixed here.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import pytest
+
+import cases
+from reduced_models.beam.single_beam import cantilever_of
+from reports import api
+from reports.verdicts.yardstick import yardstick
+from tests.scene_transforms import ENCODINGS, Encoding, length_scale
+
+RTOL = 1e-8
+CHEAP_S = 0.3  # CPU seconds of one solve below which every encoding is tried
+# fem-auto's Newton stops at a residual of 1e-9 of the force scale (fem_reference.statics.
+# newton): the same scene drawn rotated landed within ~2e-8 of an output's excursion of it
+# (cantilever-tip-load: 1.2e-8, DAS-2D Ex. 2: 2.2e-8) in one run, 1.7e-6 and 5e-7 in another
+# run of the same code on a busier machine (listed in FE_KNOWN: not diagnosed)
+# the thesis's force method stops as its listing does (norm(zero_load) < 1e-6 N, Appendix C;
+# reduced_models.thesis.force_method.PART2_TOL): compared at that tolerance
+MODEL_RTOL = {"fem-auto": 1e-7, "thesis-force-method": 1e-6}
+# a synthesis meets its target to its own tolerance (reduced_models.mechanism.synthesis.RTOL
+# on the target): the synthesised scene, and every output of it, is fixed only that closely
+# (DAS-2D stable-position synthesis drawn translated: 1.3e-8 .. 8e-8 of an excursion)
+SYNTHESIS_RTOL = 1e-6
+EXACT = ("elastica", "elastica-bvp", "kinetostatic", "thesis-force-method", "fem-auto", "replay")
+AUTO = ("linear-auto", "cbcm-auto", "prb-fsm-auto")  # each solve is 3+ solves of its family
+REDUCED = tuple(
+    m
+    for m in (*api.default_names(), "thesis-force-method")
+    if m not in ("elastica-bvp", "fem-auto", "replay", *AUTO)
+)
+CASES = tuple(n for n in cases.catalog_names() if "-sweep-" not in n)
+HOSTILE = (
+    "tests/fixtures/das2d-ex3-load-ramp.toml",
+    "tests/fixtures/das2d-ex4-bistable-driver.toml",
+    "tests/fixtures/das2d-ex5-past-reach.toml",
+    "tests/fixtures/flexure-parallel-guide-m.toml",
+)
+# the stated sample of the expensive models (marked slow): the cases where an encoding
+# dependence was found (auto N chosen per component: inclined loads) and one mechanism each
+SLOW = (
+    *((c, m) for m in AUTO for c in ("cantilever-inclined-compression", "fixed-guided-beam")),
+    ("cantilever-follower-load", "linear-auto"),
+    ("flexure-parallel-guide", "cbcm-auto"),
+    ("cantilever-tip-load", "elastica-bvp"),
+    ("cantilever-inclined-compression", "elastica-bvp"),
+    ("cantilever-tip-load", "fem-auto"),
+    ("das2d-ex2-parallelogram", "fem-auto"),
+    ("von-mises-spring-truss", "fem-auto"),
+    ("cantilever-tip-load", "replay"),
+)
+
+
+# encoding-dependent answers found and not fixed here (listed in issue 23's closing note)
+_SPURIOUS = (
+    "a spurious equilibrium of the distance analysis (the default run's error_rel of this "
+    "pair is 48-147 times the output's excursion): which one Newton lands on from the "
+    "unloaded start is decided by round-off"
+)
+_TIES = (
+    "the driver search returns the driver of the lowest barrier, the first of equal ones in "
+    "candidate order: mirror-image drivers (crank cw / ccw) tie, so the drawing's "
+    "orientation picks which one (and Step.factor's sign); the barriers are the same"
+)
+_NO_TIE = ("kinetostatic", "mixed", "thesis-force-method")  # decline the search or no tie
+KNOWN = {
+    **{("das2d-ex6-bistable-driver-search", m): _TIES for m in REDUCED if m not in _NO_TIE},
+    **{
+        (f"thesis-sixbar-config{k}", "thesis-force-method"): "mirrored, the thesis's "
+        "incremental force method drifts from its own path by 1e-7 at the first increments "
+        "to 1e-5 of the excursion at the end of Part 1 (not diagnosed: an orientation-"
+        "dependent angle convention of the Appendix C port, or its increments)"
+        for k in (2, 3, 6)
+    },
+    ("lee-frame", "elastica"): "members reversed, the assembler's elastica path of Lee's "
+    "frame reports states 3e-3 of the excursion apart past the limit points (not diagnosed: "
+    "where arc-length steps land, or the member's branch)",
+    ("das2d-ex3-bistable-switch", "prb-2r"): _SPURIOUS,
+    ("das2d-ex3-bistable-switch", "prb-3r"): _SPURIOUS,
+    ("das2d-ex3-bistable-switch", "prb-fsm-4"): _SPURIOUS,
+    ("das2d-ex3-bistable-switch", "linear-8"): "fails in one encoding, converges in another: "
+    "its path ends at a Newton failure near the driver's t = 12-15 (default run: failed)",
+}
+
+
+def directional(scene: cases.Scene, model: str) -> bool:
+    """The model describes a mechanism member in a frame at its end a (module docstring)."""
+    return model not in EXACT and isinstance(cantilever_of(scene), str)
+
+
+def mismatch(scene: cases.Scene, enc: Encoding, a, b, rtol: float = RTOL) -> str:
+    """Why the two solutions differ ('' when they agree to ``rtol`` on the yardstick)."""
+    if a.status != b.status:
+        return f"status {a.status} ({a.message}) vs {b.status} ({b.message})"
+    if a.status != "converged":
+        return ""
+    if len(a.steps) != len(b.steps):
+        return f"{len(a.steps)} steps vs {len(b.steps)}"
+    keys = [k for k in a.steps[0].outputs if k not in enc.skipped_keys(scene)]
+    ref = {k: np.array([s.outputs.get(k, np.nan) for s in a.steps]) for k in keys}
+    ref["factor"] = np.array([s.factor for s in a.steps])
+    ys = yardstick(ref, length_scale(scene))
+    for sa, sb in zip(a.steps, b.steps, strict=True):
+        back = enc.outputs_back(scene, dict(sb.outputs))
+        back["factor"] = enc.factor_back(scene, sb.factor)
+        for k in (*keys, "factor"):
+            v, w = (sa.factor if k == "factor" else sa.outputs[k]), back.get(k, math.nan)
+            if math.isfinite(v) != math.isfinite(w):
+                return f"{k} at factor {sa.factor:g}: {v} vs {w}"
+            if math.isfinite(v) and abs(v - w) > rtol * ys.scale[k]:
+                rel = abs(v - w) / ys.scale[k]
+                return f"{k} at factor {sa.factor:g}: {v!r} vs {w!r} ({rel:.2e} of its excursion)"
+    return ""
+
+
+def solve(scene: cases.Scene, model: str):
+    """The model's answer (without the report's post-processing: predicted error, the FE
+    re-solve of a synthesis)."""
+    return api.run_model(api.make_model(model, scene), scene, post=False)
+
+
+def check(scene: cases.Scene, model: str, every: bool = False) -> tuple[int, list[str]]:
+    """Solve ``scene`` and its encodings with ``model``: (encodings compared, mismatches).
+
+    A pair whose own solve costs more than ``CHEAP_S`` of CPU is tried in the combined
+    encoding and reversed only (unless ``every``): CI time stays near a minute."""
+    t0 = time.process_time()
+    a = solve(scene, model)
+    if a.status == "not-applicable":
+        return 0, []
+    cheap = every or time.process_time() - t0 <= CHEAP_S
+    n, bad = 0, []
+    for enc in (e.for_scene(scene) for e in ENCODINGS if cheap or e.name in ("all", "reverse")):
+        if enc.reverse and directional(scene, model):
+            continue
+        other = enc.scene(scene)
+        if other is None:
+            continue
+        n += 1
+        rtol = MODEL_RTOL.get(model, RTOL)
+        if scene.analysis.kind == "synthesis":
+            rtol = max(rtol, SYNTHESIS_RTOL)
+        why = mismatch(scene, enc, a, solve(other, model), rtol)
+        if why:
+            bad.append(f"{enc.name}: {why}")
+    return n, bad
+
+
+def pairs() -> list:
+    """(case, model) for every case and reduced model; the listed ones expected to fail."""
+    return [
+        pytest.param(c, m, marks=pytest.mark.xfail(reason=KNOWN[c, m], strict=False))
+        if (c, m) in KNOWN
+        else (c, m)
+        for m in REDUCED
+        for c in CASES + HOSTILE
+    ]
+
+
+@pytest.mark.parametrize("case,model", pairs())
+def test_reduced_models_answer_the_same_in_every_encoding(case, model):
+    n, bad = check(cases.load(case), model)
+    assert not bad, "\n".join(bad)
+
+
+FE_KNOWN = (
+    "fem-auto's answer differed by 1.2e-8 .. 1.7e-6 of the excursion between encodings, by "
+    "different amounts in two runs of the same code (not diagnosed: its step or mesh choice)"
+)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "case,model",
+    [
+        pytest.param(c, m, marks=pytest.mark.xfail(reason=FE_KNOWN, strict=False))
+        if m == "fem-auto" and c in ("cantilever-tip-load", "das2d-ex2-parallelogram")
+        else (c, m)
+        for c, m in SLOW
+    ],
+)
+def test_references_answer_the_same_in_every_encoding(case, model):
+    n, bad = check(cases.load(case), model, every=True)
+    assert n > 0
+    assert not bad, "\n".join(bad)
