@@ -72,10 +72,14 @@ class MechanismSystem:
         k = [abs(t.stiffness) for t in self.scene.torsion_springs]
         k += [ch.EI.max() / Lref for ch in self.chains]
         k += [abs(m.k or 0.0) * Lref**2 for m in self.scene.members if m.kind == "spring"]
-        for t in self.terms:  # joint springs: a PRB axial spring (force / length) as a
-            if isinstance(t, JointTerm) and t.K.size:  # moment stiffness, K Lref^2, like k
+        # joint springs: the torsion springs only.  A PRB axial spring (force / length, EA/L)
+        # is a near-rigid link: counted in moment units (K Lref^2) it sets a force scale
+        # (L/t)^2 too coarse for the bending the scene loads (Ex. 3's snap descent stopped
+        # short); counted raw it mixes units (the answer depended on the length unit)
+        for t in self.terms:
+            if isinstance(t, JointTerm) and t.K.size:
                 axial = kind[t.dofs[:, 0]] == "t"
-                k.append(float(np.max(t.K * np.where(axial, Lref**2, 1.0))))
+                k.append(float(np.max(np.where(axial, 0.0, t.K), initial=0.0)))
         self.Kref = max(k or [1.0])
         fl = 0.0
         for ld in self.scene.loads:
