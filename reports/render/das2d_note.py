@@ -18,11 +18,11 @@ the table shows by how much.
 
 from __future__ import annotations
 
-import json
 import math
 import sys
 from collections.abc import Mapping, Sequence
-from pathlib import Path
+
+from reports.run.tables import results_from_argv
 
 TITLE = "DAS-2D's PRB accuracy indicator against the measured error"
 ANCHOR = "das2d-indicator"
@@ -85,14 +85,10 @@ def blocks(payload: Mapping) -> list[tuple]:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Print the table of a run's ``results.json``."""
-    args = list(sys.argv[1:] if argv is None else argv)
-    if len(args) != 1:
-        print("usage: python -m reports.render.das2d_note OUT/results.json", file=sys.stderr)
-        return 2
-    try:
-        payload = json.loads(Path(args[0]).read_text())
-    except (OSError, ValueError) as exc:
-        print(f"{args[0]}: cannot read results: {exc}", file=sys.stderr)
+    payload = results_from_argv(
+        list(sys.argv[1:] if argv is None else argv), "reports.render.das2d_note"
+    )
+    if payload is None:
         return 2
     print(" | ".join(HEADERS))
     for row in table(rows(payload)):

@@ -21,13 +21,14 @@ prediction also exceeds 1 % (warned), and of those measured below, the fraction 
 
 from __future__ import annotations
 
-import json
 import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from reports.run.tables import results_from_argv
 
 KINDS = ("single beam", "mechanism")
 BAND = 3.0  # the factor a prediction is judged within
@@ -218,14 +219,10 @@ def blocks(payload: Mapping, out_dir: Path) -> list[tuple]:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Print the summary and the pairs of a run's ``results.json``."""
-    args = list(sys.argv[1:] if argv is None else argv)
-    if len(args) != 1:
-        print("usage: python -m reports.render.effectivity OUT/results.json", file=sys.stderr)
-        return 2
-    try:
-        payload = json.loads(Path(args[0]).read_text())
-    except (OSError, ValueError) as exc:
-        print(f"{args[0]}: cannot read results: {exc}", file=sys.stderr)
+    payload = results_from_argv(
+        list(sys.argv[1:] if argv is None else argv), "reports.render.effectivity"
+    )
+    if payload is None:
         return 2
     ps = pairs(payload)
     for p in sorted(ps, key=lambda p: (p["case"], p["model"])):

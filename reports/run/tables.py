@@ -113,6 +113,21 @@ def write_errors_csv(path: Path, payload: Mapping) -> Path:
     return path
 
 
+def results_from_argv(argv: list[str], module: str) -> dict | None:
+    """The ``results.json`` named by a module's one command-line argument, or None after
+    printing the usage or the reason it cannot be read (one line on stderr)."""
+    import sys
+
+    if len(argv) != 1:
+        print(f"usage: python -m {module} OUT/results.json", file=sys.stderr)
+        return None
+    try:
+        return json.loads(Path(argv[0]).read_text())
+    except (OSError, ValueError) as exc:
+        print(f"{argv[0]}: cannot read results: {exc}", file=sys.stderr)
+        return None
+
+
 def previous_records(path: Path) -> list[dict]:
     """Pair records of a finished run's ``results.json`` (resume after ``partial.jsonl`` was
     removed); empty when there is none or it is unreadable."""
