@@ -15,12 +15,13 @@ from __future__ import annotations
 
 import base64
 import io
-import math
 import re
 from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
+
+from reports.verdicts import recommendation as R
 
 LOAD_NAMES = {"force": "PL²/EI", "follower": "PL²/EI", "moment": "ML/EI"}
 
@@ -99,16 +100,9 @@ def reach_text(s: Mapping[str, Any] | None, fam: str) -> str:
 def verdict_table(rec: Any) -> dict[str, Any]:
     """The recommender's verdict as data for an HTML table (same content and order as
     ``reports.verdicts.recommendation.format_text``)."""
-    order = sorted(rec.candidates, key=lambda c: (not c.qualifies, c.cpu_s or math.inf))
     rows = []
-    for c in order:
-        verdict = "within" if c.qualifies else ("declines" if c.status == "not-applicable" else "")
-        if c.model == rec.recommended:
-            verdict = "recommended"
-        elif not verdict:
-            verdict = "exceeds" if c.status == "converged" else c.status
-        if c.warning:
-            verdict += " (validity warning)"
+    for c in R.ordered(rec):
+        verdict = R.verdict_word(c, rec.recommended)
         rows.append(
             [
                 c.model,

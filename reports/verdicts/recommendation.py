@@ -188,6 +188,25 @@ def _declines(cands: list[Candidate]) -> str:
     return "; ".join(f"{', '.join(dict.fromkeys(m))}: {r}" for r, m in reasons.items())
 
 
+def ordered(rec: Recommendation) -> list[Candidate]:
+    """The candidates as the verdict tables list them: qualifying first, cheapest first."""
+    return sorted(rec.candidates, key=lambda c: (not c.qualifies, c.cpu_s or math.inf))
+
+
+def verdict_word(c: Candidate, recommended: str | None) -> str:
+    """A candidate's one-word verdict in the tables: recommended, within, declines, exceeds
+    or its status, with a validity warning noted."""
+    if c.model == recommended:
+        verdict = "recommended"
+    elif c.qualifies:
+        verdict = "within"
+    elif c.status == "not-applicable":
+        verdict = "declines"
+    else:
+        verdict = "exceeds" if c.status == "converged" else c.status
+    return verdict + (" (validity warning)" if c.warning else "")
+
+
 def format_text(rec: Recommendation) -> str:
     """The evidence table and verdict printed by ``flexbench recommend``."""
     lines = [
@@ -206,21 +225,14 @@ def format_text(rec: Recommendation) -> str:
         f"{'model':<14} {'status':<15} {'worst error':>11} {'output':<12} {'at factor':>9} "
         f"{'CPU ms':>8} {'+/- ms':>7} {'unknowns':>8} {'x ref':>7}  verdict",
     ]
-    order = sorted(rec.candidates, key=lambda c: (not c.qualifies, c.cpu_s or math.inf))
-    for c in order:
+    for c in ordered(rec):
         err = "-" if c.worst_error is None else c.error_text()
         at = "-" if c.at_factor is None else f"{c.at_factor:.3g}"
         ms = "-" if c.cpu_s is None else f"{c.cpu_s * 1e3:.3g}"
         noise = "-" if c.cpu_s is None else f"{c.noise_s * 1e3:.2g}"
         unk = "-" if c.unknowns is None else str(c.unknowns)
         ratio = "-" if c.ratio_to_reference is None else f"{c.ratio_to_reference:.3g}"
-        verdict = "within" if c.qualifies else ("declines" if c.status == "not-applicable" else "")
-        if c.model == rec.recommended:
-            verdict = "RECOMMENDED"
-        elif not verdict:
-            verdict = "exceeds" if c.status == "converged" else c.status
-        if c.warning:
-            verdict += " (validity warning)"
+        verdict = verdict_word(c, rec.recommended).replace("recommended", "RECOMMENDED")
         lines.append(
             f"{c.model:<14} {c.status:<15} {err:>11} {c.worst_output or '-':<12} {at:>9} "
             f"{ms:>8} {noise:>7} {unk:>8} {ratio:>7}  {verdict}"
