@@ -19,6 +19,7 @@ from cases.schema import Scene
 from reduced_models.base import ModelCard, Solution, Step, load_factors, not_applicable
 from reduced_models.beam import single_beam
 from reduced_models.beam.chain import ChainProblem, SegmentLaw, chain_shape, local_coords
+from reduced_models.beam.chain_path import ChainPath
 from reduced_models.beam.chain_small import solve_single_segment
 from reduced_models.options import Option
 from reduced_models.paths.engine import minimize_path
@@ -175,8 +176,9 @@ class ChainModel:
         factors = load_factors(scene)
         if self.N == 1 and not beam.follower:  # a handful of unknowns: plain floats
             res = solve_single_segment(prob, factors)
-        else:
-            res = self._path(prob, factors)
+        else:  # dead loads: the condensed fast path where it applies (chain_path)
+            res = None if beam.follower else ChainPath(prob).follow(factors.tolist())
+            res = self._path(prob, factors) if res is None else res
         L, EI, N, k = beam.L, beam.EI, self.N, prob.k
         # every per-step quantity for all reported states at once: (m, N) segment arrays
         m = len(res.factors)
