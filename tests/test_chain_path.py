@@ -8,6 +8,7 @@
   the fast path must hand the path back to the general continuation.
 * The path tangent used by the predictor: its start saves Newton iterations against the
   general engine on the same path.
+* linear-1 (``chain_small.solve_linear_segment``): linear beam theory, one solve per path.
 """
 
 from __future__ import annotations
@@ -74,3 +75,17 @@ def test_fast_path_agrees_with_the_engine_in_fewer_iterations(name):
     assert res is not None and all(res.stable)
     assert np.abs(res.states - eng.states).max() < 1e-9
     assert res.iterations.sum() < 0.75 * eng.iterations.sum()
+
+
+@pytest.mark.parametrize("case", ["cantilever-tip-load", "fixed-guided-beam"])
+def test_linear_1_is_one_solve_and_linear_beam_theory(case):
+    """linear-1 under the catalog's dead loads: Y = F L^3/3EI (free) or F L^3/12EI (guided)
+    at every factor, from one solve for the whole path."""
+    scene = cases.load(case)
+    b = single_beam.cantilever_of(scene)
+    model = LinearChain(1)
+    sol = model.solve(scene)
+    assert sum(st.iterations for st in sol.steps) == 1
+    ey = abs(b.fy) * b.L**3 / ((12.0 if b.guided else 3.0) * b.EI)
+    for st in sol.steps:  # one segment: its largest transverse deflection is the tip's
+        assert st.info["max_segment_y"] * b.L == pytest.approx(st.factor * ey, rel=1e-12)

@@ -20,7 +20,7 @@ from reduced_models.base import ModelCard, Solution, Step, load_factors, not_app
 from reduced_models.beam import single_beam
 from reduced_models.beam.chain import ChainProblem, SegmentLaw, chain_shape, local_coords
 from reduced_models.beam.chain_path import ChainPath
-from reduced_models.beam.chain_small import solve_single_segment
+from reduced_models.beam.chain_small import solve_linear_segment, solve_single_segment
 from reduced_models.options import Option
 from reduced_models.paths.engine import minimize_path
 from reduced_models.paths.path_result import PathResult
@@ -174,7 +174,9 @@ class ChainModel:
         beam = single_beam.cantilever_of(scene)
         prob = self.problem(beam)
         factors = load_factors(scene)
-        if self.N == 1 and not beam.follower:  # a handful of unknowns: plain floats
+        if self.N == 1 and not beam.follower and not (self.law.P.any() or self.law.Q.any()):
+            res = solve_linear_segment(prob, factors)  # linear beam theory: one 2x2 solve
+        elif self.N == 1 and not beam.follower:  # a handful of unknowns: plain floats
             res = solve_single_segment(prob, factors)
         else:  # dead loads: the condensed fast path where it applies (chain_path)
             res = None if beam.follower else ChainPath(prob).follow(factors.tolist())

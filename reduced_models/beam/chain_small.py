@@ -13,6 +13,10 @@ written out below; stability is ``ChainProblem.stability``'s test for this case:
 which reduces to the transverse stiffness K = G + p P + p^2 Q being positive definite.
 A handful of floats per iteration instead of the band machinery of N segments: the path
 costs what its equations cost.
+
+With P = Q = 0 (``linear-1``: linear beam theory) those equations are linear in the load
+factor -- p = lam fX, G w = lam (fY, m), ux = k p -- so ``solve_linear_segment`` solves them
+once (one 2x2 factorisation for the whole path) and scales the solution by each factor.
 """
 
 from __future__ import annotations
@@ -102,4 +106,34 @@ def solve_single_segment(prob: ChainProblem, factors: np.ndarray) -> PathResult:
     return PathResult(
         res.factors, states, res.iterations, res.cuts, res.residuals, res.stable, res.ok,
         res.reason,
+    )  # fmt: skip
+
+
+def solve_linear_segment(prob: ChainProblem, factors: np.ndarray) -> PathResult:
+    """The path of a one-segment, dead-load chain whose law has P = Q = 0 (module
+    docstring): one 2x2 solve, every state proportional to its load factor.  States in the
+    chain's full layout (m, 8); one iteration for the path (the factorisation), stable iff
+    G is positive definite (``single_segment_functions``' test with p-independent K)."""
+    (g00, g01), (g10, g11) = np.asarray(prob.law.G, dtype=float).tolist()
+    fX, fY, m = (float(v) for v in prob.loads)
+    if prob.guided:  # the tip rotation is held: G00 Y = fY, the moment is a reaction
+        Y1, phi1, stable = fY / g00, 0.0, g00 > 0.0
+    else:
+        det = g00 * g11 - g01 * g10
+        Y1, phi1 = (g11 * fY - g01 * m) / det, (g00 * m - g10 * fY) / det
+        stable = g00 > 0.0 and det > 0.0
+    lam = np.asarray(factors, dtype=float)
+    n = lam.size
+    states = np.zeros((n, prob.n))
+    states[:, 4] = 1.0 + prob.k * fX * lam  # ux = k p
+    states[:, 5], states[:, 6], states[:, 7] = Y1 * lam, phi1 * lam, fX * lam
+    # the residual of the linear equations at the scaled states (round-off only)
+    r1 = max(
+        abs(g00 * Y1 + g01 * phi1 - fY), 0.0 if prob.guided else abs(g10 * Y1 + g11 * phi1 - m)
+    )
+    iterations = np.zeros(n, dtype=int)
+    iterations[:1] = 1
+    return PathResult(
+        lam, states, iterations, np.zeros(n, dtype=int), np.abs(lam) * r1, [stable] * n, True,
+        "",
     )  # fmt: skip

@@ -212,7 +212,9 @@ TARGETS = {
     "prb-1r": ("plain-float PRB path", 3.0, None),
     "prb-3r": ("plain-float PRB path", 3.0, None),
     "bcm": ("plain-float BCM path", 3.0, None),
+    "linear-1": ("none: absolute target", None, 0.2),
     "linear-8": ("none: absolute target", None, 0.2),
+    "cbcm-16": ("none: absolute target", None, 1.5),
     "fem-16": ("OpenSeesPy: the fem-N table", None, None),
 }
 
@@ -222,8 +224,16 @@ NOTES = {
     "linear-8": (
         "; linear-N with N > 1 is geometrically nonlinear (each segment turns with its "
         "predecessor's tip: at PL^2/EI = 10 its tip deflection is 0.82 L, the elastica's "
-        "0.81 L, linear-1's 3.3 L), so one factorisation cannot give its answers; "
-        "linear-1 is solved once per step in plain floats"
+        "0.81 L, linear-1's 3.3 L), so one factorisation cannot give its answers; it is "
+        "solved by Newton in the chain's own coordinates (reduced_models.beam.chain_path: "
+        "one tridiagonal dptsv per iteration, 2-3 iterations per step); ~100 numpy calls "
+        "on N-long arrays per iteration set its cost"
+    ),
+    "cbcm-16": (
+        "; Newton in the chain's own coordinates (reduced_models.beam.chain_path), 48 "
+        "iterations (2-3 per step, the floor with a 1e-10 update test and a verifying "
+        "iteration), each ~100 numpy calls on 16-long arrays (segment law, closed-form 3x3 "
+        "condensation, one dptsv): below 1.5 ms would need compiled per-iteration code"
     ),
 }
 

@@ -80,10 +80,9 @@ COST_NOTES = {
         "checks) and ~0.2 ms to the chain's arrays and Steps"
     ),
     "cbcm-16": (
-        "general banded continuation at 3-4 iterations per step (the axial forces' predictor "
-        "error sets the count); per iteration ~35 numpy calls on 16-segment arrays: segment "
-        "Hessians ~45 %, retraction ~14 %, banded LU ~9 %, per-step stability Cholesky ~8 % "
-        "(profiled); a p-condensed banded Cholesky Newton would save at most the last two"
+        "Newton in the chain's own coordinates (reduced_models.beam.chain_path) at 2-3 "
+        "iterations per step; per iteration ~100 numpy calls on 16-long arrays (segment "
+        "law, closed-form condensation of the 3x3 segment blocks, one tridiagonal dptsv)"
     ),
 }
 
