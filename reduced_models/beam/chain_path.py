@@ -42,17 +42,34 @@ counts are lower (cantilever-tip-load: 48 instead of 72 for cbcm-16).
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from scipy.linalg import lapack
 
 from reduced_models.beam.chain import NB, ChainProblem
 from reduced_models.paths.path_result import PathResult
 
-_dptsv, _dpttrs = lapack.dptsv, lapack.dpttrs
+_dptsv, _dpttrs, _dgtsv = lapack.dptsv, lapack.dpttrs, lapack.dgtsv
 _ZERO = np.zeros(1)
 _GRAD_ROWS = (0, 1, 3)  # dl/d(ux, y, p): the residual rows u, y, p of a segment
 # S and coupling entries of a segment block B (rows, columns): byy, byp, bpp, bya, bpa, baa
 _S_ENTRIES = ((1, 1, 3, 1, 3, 2), (1, 3, 3, 2, 2, 2))
+
+
+@functools.lru_cache(maxsize=64)
+def _hermite_weights(v: tuple[float, ...], at: float) -> tuple[list, list]:
+    """Weights of the values and of the slopes (times the step) at nodes ``v`` that give the
+    Hermite interpolant's value at ``at`` (all in units of the last step): the transposed
+    confluent Vandermonde system, exact for every polynomial of degree < 2 len(v).  Equal
+    steps hit the cache."""
+    n = 2 * len(v)
+    powers = np.arange(n)
+    V = np.empty((n, n))
+    V[0::2] = np.power.outer(v, powers)
+    V[1::2] = powers * np.power.outer(v, np.maximum(powers - 1, 0))
+    wts = np.linalg.solve(V.T, np.power(at, powers))
+    return wts[0::2].tolist(), wts[1::2].tolist()
 
 
 class ChainPath:
@@ -107,8 +124,7 @@ class ChainPath:
             g[3, -1] = 0.0
         res = float(np.abs(g).max())
         byy, byp, bpp, bya, bpa, baa = B[:, _S_ENTRIES[0], _S_ENTRIES[1]].T
-        if not (byy > 0.0).all():
-            return None
+        blocks_ok = float(byy.min()) > 0.0  # each segment block has one negative eigenvalue
         # right-hand sides [g, v, w, dW] by rows u, y, p; v, w: couplings of (u, y, p)_i to
         # phi_i and phi_{i-1} (w with the load's -d2(F . r_N)/d(u, y)_i dphi_{i-1})
         wu, wy = -lam * dW[1], lam * dW[0] - bya
@@ -131,7 +147,7 @@ class ChainPath:
         r[:-1] -= ws[0, 1:]
         rt = dW[3] - vs[3]
         rt[:-1] -= ws[3, 1:]
-        return sol, d, off, r, res, rt
+        return sol, d, off, r, res, rt, blocks_ok
 
     def _back(self, sol: np.ndarray, dphi: np.ndarray, col: int, sign: float) -> np.ndarray:
         """Update (N, 4) from the angle update dphi (N,): (u, y, p) from the segment blocks
@@ -143,21 +159,23 @@ class ChainPath:
         out[2] = dphi
         return out.T
 
-    def _solve_angles(self, d: np.ndarray, off: np.ndarray, r: np.ndarray) -> tuple | None:
-        """(factor, solution (N,)) of the angle system (a guided tip's angle held), or None
-        if it is not positive definite."""
+    def _solve_angles(self, d: np.ndarray, off: np.ndarray, r: np.ndarray) -> tuple:
+        """(factor or None, solution (N,)) of the angle system (a guided tip's angle held):
+        the L D L^T factor if it is positive definite, else None and the solution by
+        tridiagonal LU (an iterate on the way may be indefinite; a singular system gives a
+        non-finite solution)."""
         n = self.free
         out = np.zeros(self.N)
         if n == 1:  # LAPACK wants at least one off-diagonal entry
-            if not d[0] > 0.0:
-                return None
-            out[0] = r[0] / d[0]
-            return d[:1], out
+            out[0] = r[0] / d[0] if d[0] != 0.0 else np.inf
+            return (d[:1] if d[0] > 0.0 else None), out
         df, ef, x, info = _dptsv(d[:n], off[: n - 1], r[:n])
-        if info != 0:
-            return None
-        out[:n] = x
-        return (df, ef), out
+        if info == 0:
+            out[:n] = x
+            return (df, ef), out
+        x, info = _dgtsv(off[: n - 1], d[:n], off[: n - 1], r[:n])[3:]
+        out[:n] = x if info == 0 else np.inf
+        return None, out
 
     def _resolve_angles(self, factor: tuple | np.ndarray, r: np.ndarray) -> np.ndarray:
         """The angle system solved again with a factor of ``_solve_angles``."""
@@ -171,18 +189,15 @@ class ChainPath:
         iterations)."""
         xtol, w = self.xtol, self.w
         for it in range(1, self.max_iter + 1):
-            sysm = self._system(s, lam)
-            if sysm is None:
-                return None, it
-            sol, d, off, r, res, rt = sysm
+            sol, d, off, r, res, rt, blocks_ok = self._system(s, lam)
             ang = self._solve_angles(d, off, -r)
-            if ang is None:  # not positive definite: the general continuation decides
-                return None, it
             ds = self._back(sol, ang[1], 0, -1.0)
             size = float(np.abs(ds * w).max())
             if not size < 1e6:  # diverged or not finite
                 return None, it
             if size <= xtol:
+                if ang[0] is None or not blocks_ok:  # not stable: the general path decides
+                    return None, it
                 dphi = self._resolve_angles(ang[0], rt)
                 return (s, res, self._back(sol, dphi, 3, 1.0)), it
             geo = float(np.abs(ds[:, :3]).max())
@@ -208,17 +223,11 @@ class ChainPath:
         if len(hist) == 1:
             return x + hist[0][2] * (lam - lam0)
         h = lam0 - hist[-2][0]
-        # weights of the values and slopes that reproduce every polynomial of the degree at
-        # lam: the transposed confluent Vandermonde system in v = (factor - lam0) / h
-        v = [(f - lam0) / h for f, _, _ in hist]
-        n = 2 * len(hist)
-        powers = np.arange(n)
-        V = np.empty((n, n))
-        V[0::2] = np.power.outer(v, powers)
-        V[1::2] = powers * np.power.outer(v, np.maximum(powers - 1, 0)) / h
-        wts = np.linalg.solve(V.T, np.power((lam - lam0) / h, powers))
-        stack = np.array([a for _, xs, ts in hist for a in (xs, ts)])
-        poly = np.tensordot(wts, stack, 1) - x
+        v = tuple(round((f - lam0) / h, 12) for f, _, _ in hist)
+        wx, wt = _hermite_weights(v, round((lam - lam0) / h, 12))
+        poly = -x
+        for (_, xs, ts), a, b in zip(hist, wx, wt):
+            poly = poly + xs * a + ts * (b * h)
         secant = (x - hist[-2][1]) * ((lam - lam0) / h)
         if self.wdot(poly, poly) <= 9.0 * self.wdot(secant, secant):
             return x + poly
@@ -247,6 +256,9 @@ class ChainPath:
         hist = [(factors[0], conv[0], conv[2])]
         for target in factors[1:]:
             conv, its = self.newton(self.predict(hist, target), target)
+            if conv is None:  # the predictor can overshoot near a limit: from the last state
+                conv, more = self.newton(hist[-1][1], target)
+                its += more
             if conv is None:
                 return None
             x = hist[-1][1]
