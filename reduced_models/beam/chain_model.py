@@ -2,10 +2,14 @@
 
 A chained-segment model of a single clamped beam with tip loads: ``applies_to`` checks the
 scene, ``solve`` builds the normalised ``chain.ChainProblem`` (kinematics, mixed Lagrangian
-and its banded Hessian -- see ``reduced_models.beam.chain``), runs the load continuation
-(``paths.engine.minimize_path``) and turns the converged states into ``Step``s (tip outputs,
-energy, shapes, stress, validity warnings).  Subclasses (``linear.LinearChain``,
-``bcm.ChainedBCM``) supply the segment law, the local shape and the validity checks.
+and its banded Hessian -- see ``reduced_models.beam.chain``), follows the load path and
+turns the converged states into ``Step``s (tip outputs, energy, shapes, stress, validity
+warnings).  The path: for dead loads on N > 1 segments Newton in the chain's own coordinates
+(``chain_path.ChainPath``), on one segment plain floats (``chain_small``; with P = Q = 0,
+linear beam theory, one solve per path), and the general continuation
+(``paths.engine.minimize_path``) for follower loads and wherever the fast path hands back.
+Subclasses (``linear.LinearChain``, ``bcm.ChainedBCM``) supply the segment law, the local
+shape and the validity checks.
 """
 
 from __future__ import annotations
@@ -167,7 +171,7 @@ class ChainModel:
         return dataclasses.replace(sol, steps=steps)
 
     def solve(self, scene: Scene) -> Solution:
-        """Equilibrium path by load continuation (see ``paths.engine.minimize_path``)."""
+        """Equilibrium path by load continuation (module docstring: which path solver)."""
         reason = self.applies_to(scene)
         if reason:
             return not_applicable(scene, self.name, reason)
