@@ -94,14 +94,14 @@ class ChainPath:
         # scaled size of an update: geometry as it is, p per unit of the global force
         self.w = np.array([1.0, 1.0, 1.0, prob.N**2])
 
-    def _system(self, s: np.ndarray, lam: float) -> tuple | None:
-        """Residual pieces and the condensed angle system at state ``s`` (module docstring).
+    def _system(self, s: np.ndarray, lam: float) -> tuple:
+        """Residual and the condensed angle system at state ``s`` (module docstring).
 
         Returns the segment blocks' solutions S^-1 [g, v, w, dW] as rows (u, y, p), each
         (4, N) (dW: minus the load rate of g), the angle matrix (diagonal (N,),
-        off-diagonal (N - 1,)), the condensed angle residual (N,), the residual max |g| and
-        the condensed angle load rate (N,); or None if a segment block has no single
-        negative eigenvalue (K00 <= 0).
+        off-diagonal (N - 1,)), the condensed angle residual (N,), the residual g (4, N),
+        the condensed angle load rate (N,) and whether every segment block has exactly one
+        negative eigenvalue (K00 > 0).
         """
         N = self.N
         u, y, phi, p = s.T
@@ -122,7 +122,6 @@ class ChainPath:
         g -= lam * dW
         if self.free < N:
             g[3, -1] = 0.0
-        res = float(np.abs(g).max())
         byy, byp, bpp, bya, bpa, baa = B[:, _S_ENTRIES[0], _S_ENTRIES[1]].T
         blocks_ok = float(byy.min()) > 0.0  # each segment block has one negative eigenvalue
         # right-hand sides [g, v, w, dW] by rows u, y, p; v, w: couplings of (u, y, p)_i to
@@ -147,15 +146,16 @@ class ChainPath:
         r[:-1] -= ws[0, 1:]
         rt = dW[3] - vs[3]
         rt[:-1] -= ws[3, 1:]
-        return sol, d, off, r, res, rt, blocks_ok
+        return sol, d, off, r, g, rt, blocks_ok
 
     def _back(self, sol: np.ndarray, dphi: np.ndarray, col: int, sign: float) -> np.ndarray:
         """Update (N, 4) from the angle update dphi (N,): (u, y, p) from the segment blocks
         (``sol``: S^-1 [g, v, w, dW] by rows u, y, p), ``sign`` times column ``col`` their own
         part (-S^-1 g for Newton, col 0; S^-1 dW for the tangent, col 3)."""
-        prev = np.concatenate((_ZERO, dphi[:-1]))
         out = np.empty((NB, self.N))
-        out[_GRAD_ROWS, :] = sign * sol[:, col] - sol[:, 1] * dphi - sol[:, 2] * prev
+        seg = sign * sol[:, col] - sol[:, 1] * dphi
+        seg[:, 1:] -= sol[:, 2, 1:] * dphi[:-1]  # phi_{i-1}: none for the first segment
+        out[_GRAD_ROWS, :] = seg
         out[2] = dphi
         return out.T
 
@@ -189,7 +189,7 @@ class ChainPath:
         iterations)."""
         xtol, w = self.xtol, self.w
         for it in range(1, self.max_iter + 1):
-            sol, d, off, r, res, rt, blocks_ok = self._system(s, lam)
+            sol, d, off, r, g, rt, blocks_ok = self._system(s, lam)
             ang = self._solve_angles(d, off, -r)
             ds = self._back(sol, ang[1], 0, -1.0)
             size = float(np.abs(ds * w).max())
@@ -199,6 +199,7 @@ class ChainPath:
                 if ang[0] is None or not blocks_ok:  # not stable: the general path decides
                     return None, it
                 dphi = self._resolve_angles(ang[0], rt)
+                res = float(np.abs(g).max())
                 return (s, res, self._back(sol, dphi, 3, 1.0)), it
             geo = float(np.abs(ds[:, :3]).max())
             if geo > 0.5:  # the engine's damping: at most 0.5 per update in geometry
