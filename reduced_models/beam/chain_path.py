@@ -52,9 +52,7 @@ from reduced_models.paths.path_result import PathResult
 
 _dptsv, _dpttrs, _dgtsv = lapack.dptsv, lapack.dpttrs, lapack.dgtsv
 _ZERO = np.zeros(1)
-_GRAD_ROWS = (0, 1, 3)  # dl/d(ux, y, p): the residual rows u, y, p of a segment
-# S and coupling entries of a segment block B (rows, columns): byy, byp, bpp, bya, bpa, baa
-_S_ENTRIES = ((1, 1, 3, 1, 3, 2), (1, 3, 3, 2, 2, 2))
+_GRAD_ROWS = (0, 1, 3)  # state rows u, y, p (row 2: phi)
 
 
 @functools.lru_cache(maxsize=64)
@@ -81,8 +79,8 @@ class ChainPath:
     xtol, max_iter : the engine's convergence tolerance on the scaled update and Newton
         iterations per attempt.
 
-    States are (N, 4) arrays of ``(u, y, phi, p)`` per segment (phi: the segment's tip
-    node angle); ``nodes`` turns them into ``ChainProblem``'s layout.
+    States are (4, N) arrays, rows ``(u, y, phi, p)`` over the segments (phi: the segment's
+    tip node angle); ``nodes`` turns them into ``ChainProblem``'s layout.
     """
 
     def __init__(self, prob: ChainProblem, xtol: float = 1e-10, max_iter: int = 25) -> None:
@@ -92,10 +90,28 @@ class ChainPath:
         self.hF = complex(fX, fY) * prob.h
         self.free = prob.N - 1 if prob.guided else prob.N  # angles solved for
         # scaled size of an update: geometry as it is, p per unit of the global force
-        self.w = np.array([1.0, 1.0, 1.0, prob.N**2])
+        self.w = np.array([1.0, 1.0, 1.0, prob.N**2])[:, None]
+        self._coef = prob.N * prob.law.coefficients(prob.k).T  # (20, 18)
+        self._mono = np.ones((3, 6, prob.N))
+
+    def _law(self, u: np.ndarray, y: np.ndarray, a: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """``N SegmentLaw.block`` as rows: (20, N), row 5 r + c = entry (r, c) of the
+        segment's ``[d2l | dl]`` in (ux, y, a, p) (one matrix product, contiguous rows):
+        rows 4, 9, 19, 14 the gradient in (ux, y, p, a), rows 6, 8, 18, 7, 17, 12 the
+        segment block's entries (y, y), (y, p), (p, p), (y, a), (p, a), (a, a)."""
+        mono = self._mono  # p^i (1, y, a, y^2, y a, a^2), i = 0, 1, 2; row 0 holds ones
+        m0 = mono[0]
+        m0[1], m0[2] = y, a
+        np.multiply(y, m0[1:3], out=m0[3:5])
+        np.multiply(a, a, out=m0[5])
+        np.multiply(p, m0, out=mono[1])
+        np.multiply(p, mono[1], out=mono[2])
+        E = self._coef @ mono.reshape(18, -1)
+        E[19] += self.N * u  # dl/dp = ux + ...
+        return E
 
     def _system(self, s: np.ndarray, lam: float) -> tuple:
-        """Residual and the condensed angle system at state ``s`` (module docstring).
+        """Residual and the condensed angle system at state ``s`` (4, N) (module docstring).
 
         Returns the segment blocks' solutions S^-1 [g, v, w, dW] as rows (u, y, p), each
         (4, N) (dW: minus the load rate of g), the angle matrix (diagonal (N,),
@@ -104,9 +120,9 @@ class ChainPath:
         negative eigenvalue (K00 > 0).
         """
         N = self.N
-        u, y, phi, p = s.T
+        u, y, phi, p = s
         prev = np.concatenate((_ZERO, phi[:-1]))
-        B = N * self.prob.law.block(u, y, phi - prev, p, self.k)  # (N, 4, 5), (ux, y, a, p)
+        E = self._law(u, y, phi - prev, p)
         floc = self.hF * np.exp(-1j * prev)  # h F in each segment's base frame (lam = 1)
         work = floc * ((1.0 + u) - 1j * y)  # h F conj(segment vector)
         # load derivative of the residual (lam = 1), rows u, y, p, phi: minus the work rates
@@ -115,14 +131,12 @@ class ChainPath:
         dW[3, :-1] = work.imag[1:]  # d(F . r_N)/dphi_m = F . (i h e^{i phi_m} z_{m+1})
         dW[3, -1] = self.m
         g = np.empty((4, N))
-        g[:3] = B[:, _GRAD_ROWS, 4].T
-        ba = B[:, 2, 4]
-        g[3] = ba
-        g[3, :-1] -= ba[1:]
+        g[0], g[1], g[2], g[3] = E[4], E[9], E[19], E[14]  # dl/d(ux, y, p, a)
+        g[3, :-1] -= E[14, 1:]  # d/dphi_m = d/da_m - d/da_{m+1}
         g -= lam * dW
         if self.free < N:
             g[3, -1] = 0.0
-        byy, byp, bpp, bya, bpa, baa = B[:, _S_ENTRIES[0], _S_ENTRIES[1]].T
+        byy, byp, bpp, bya, bpa, baa = E[6], E[8], E[18], E[7], E[17], E[12]
         blocks_ok = float(byy.min()) > 0.0  # each segment block has one negative eigenvalue
         # right-hand sides [g, v, w, dW] by rows u, y, p; v, w: couplings of (u, y, p)_i to
         # phi_i and phi_{i-1} (w with the load's -d2(F . r_N)/d(u, y)_i dphi_{i-1})
@@ -149,15 +163,17 @@ class ChainPath:
         return sol, d, off, r, g, rt, blocks_ok
 
     def _back(self, sol: np.ndarray, dphi: np.ndarray, col: int, sign: float) -> np.ndarray:
-        """Update (N, 4) from the angle update dphi (N,): (u, y, p) from the segment blocks
+        """Update (4, N) from the angle update dphi (N,): (u, y, p) from the segment blocks
         (``sol``: S^-1 [g, v, w, dW] by rows u, y, p), ``sign`` times column ``col`` their own
         part (-S^-1 g for Newton, col 0; S^-1 dW for the tangent, col 3)."""
         out = np.empty((NB, self.N))
-        seg = sign * sol[:, col] - sol[:, 1] * dphi
-        seg[:, 1:] -= sol[:, 2, 1:] * dphi[:-1]  # phi_{i-1}: none for the first segment
-        out[_GRAD_ROWS, :] = seg
+        for row, part in zip(_GRAD_ROWS, sol):  # 1-D rows: numpy's fast path
+            o = out[row]
+            np.multiply(part[1], dphi, out=o)
+            np.subtract(part[col] * sign, o, out=o)
+            o[1:] -= part[2, 1:] * dphi[:-1]  # phi_{i-1}: none for the first segment
         out[2] = dphi
-        return out.T
+        return out
 
     def _solve_angles(self, d: np.ndarray, off: np.ndarray, r: np.ndarray) -> tuple:
         """(factor or None, solution (N,)) of the angle system (a guided tip's angle held):
@@ -201,7 +217,7 @@ class ChainPath:
                 dphi = self._resolve_angles(ang[0], rt)
                 res = float(np.abs(g).max())
                 return (s, res, self._back(sol, dphi, 3, 1.0)), it
-            geo = float(np.abs(ds[:, :3]).max())
+            geo = float(np.abs(ds[:3]).max())
             if geo > 0.5:  # the engine's damping: at most 0.5 per update in geometry
                 ds *= 0.5 / geo
             s = s + ds
@@ -235,22 +251,21 @@ class ChainPath:
         return x + secant
 
     def nodes(self, states: np.ndarray) -> np.ndarray:
-        """``ChainProblem`` layout (m, 4 (N + 1)) of states (m, N, 4) by forward kinematics."""
+        """``ChainProblem`` layout (m, 4 (N + 1)) of states (m, 4, N) by forward kinematics."""
         m, N = states.shape[0], self.N
-        phi = states[:, :, 2]
+        u, y, phi, p = states.transpose(1, 0, 2)
         prev = np.zeros((m, N))
         prev[:, 1:] = phi[:, :-1]
-        inc = self.h * np.exp(1j * prev) * (1.0 + states[:, :, 0] + 1j * states[:, :, 1])
-        r = np.cumsum(inc, axis=1)
+        r = np.cumsum(self.h * np.exp(1j * prev) * (1.0 + u + 1j * y), axis=1)
         out = np.zeros((m, N + 1, NB))
         out[:, 1:, 0], out[:, 1:, 1] = r.real, r.imag
-        out[:, 1:, 2], out[:, 1:, 3] = phi, states[:, :, 3]
+        out[:, 1:, 2], out[:, 1:, 3] = phi, p
         return out.reshape(m, -1)
 
     def follow(self, factors: list[float]) -> PathResult | None:
         """The path through ``factors``, one increment per reported factor; None where the
         fast path does not apply (module docstring)."""
-        conv, its = self.newton(np.zeros((self.N, NB)), factors[0])
+        conv, its = self.newton(np.zeros((NB, self.N)), factors[0])
         if conv is None:
             return None
         xs, its_all, res = [conv[0]], [its], [conv[1]]
