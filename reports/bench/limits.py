@@ -226,13 +226,13 @@ NOTES = {
         "predecessor's tip: at PL^2/EI = 10 its tip deflection is 0.82 L, the elastica's "
         "0.81 L, linear-1's 3.3 L), so one factorisation cannot give its answers; it is "
         "solved by Newton in the chain's own coordinates (reduced_models.beam.chain_path: "
-        "one tridiagonal dptsv per iteration, 2-3 iterations per step); ~100 numpy calls "
+        "one tridiagonal dptsv per iteration, 2-3 iterations per step); ~75 numpy calls "
         "on N-long arrays per iteration set its cost"
     ),
     "cbcm-16": (
         "; Newton in the chain's own coordinates (reduced_models.beam.chain_path), 48 "
         "iterations (2-3 per step, the floor with a 1e-10 update test and a verifying "
-        "iteration), each ~100 numpy calls on 16-long arrays (segment law, closed-form 3x3 "
+        "iteration), each ~75 numpy calls on 16-long arrays (segment law, closed-form 3x3 "
         "condensation, one dptsv): below 1.5 ms would need compiled per-iteration code"
     ),
 }

@@ -81,7 +81,7 @@ COST_NOTES = {
     ),
     "cbcm-16": (
         "Newton in the chain's own coordinates (reduced_models.beam.chain_path) at 2-3 "
-        "iterations per step; per iteration ~100 numpy calls on 16-long arrays (segment "
+        "iterations per step; per iteration ~75 numpy calls on 16-long arrays (segment "
         "law, closed-form condensation of the 3x3 segment blocks, one tridiagonal dptsv)"
     ),
 }
