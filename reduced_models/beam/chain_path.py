@@ -31,8 +31,10 @@ This path follows the load ramp one increment per reported factor, Newton from t
 polynomial through the last three converged states and their exact tangents (``predict``),
 with the engine's convergence test (scaled update <= xtol; here in these coordinates, u
 and y per segment length, p per unit global force: a bound on the node update) and its
-branch test.  The reported residual is max |g| in these coordinates.  Anything else -- a
-Newton failure, a state that is not stable, a path turning back -- returns None, and
+branch test.  The reported residual is max |g| in these coordinates.  Iterates on the way
+may be indefinite (solved by tridiagonal LU); anything else -- a Newton failure also from
+the last converged state, an accepted state that is not stable, a path turning back --
+returns None, and
 ``ChainModel`` follows the path with the general continuation
 (``paths.engine.minimize_path``) from the start: off this path, states, verdicts, critical
 points and messages are the general engine's.  On this path the equilibria are the same to
@@ -84,8 +86,8 @@ class ChainPath:
     """
 
     def __init__(self, prob: ChainProblem, xtol: float = 1e-10, max_iter: int = 25) -> None:
-        self.prob, self.xtol, self.max_iter = prob, xtol, max_iter
-        self.N, self.h, self.k = prob.N, prob.h, prob.k
+        self.xtol, self.max_iter = xtol, max_iter
+        self.N, self.h = prob.N, prob.h
         fX, fY, self.m = (float(v) for v in prob.loads)
         self.hF = complex(fX, fY) * prob.h
         self.free = prob.N - 1 if prob.guided else prob.N  # angles solved for
