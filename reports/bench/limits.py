@@ -10,7 +10,10 @@
   step: what a PRB path costs when nothing but its equations is computed.
 * ``plain_bcm_path``: Awtar's beam constraint model of one segment under a dead tip force:
   the axial load is the applied one, so each step is a 2x2 linear solve in plain floats, with
-  the tip, strain energy and end-moment stress.
+  the tip and strain energy; then the shapes the model draws (the exact beam-column through
+  each tip state, 49 points) and the stress of their largest curvature, for all steps at once
+  in numpy (until 2026-11-27 this limit left the shapes out and took the stress from the end
+  moments: 24 us against the model's shapes).
 
 ``limits_table`` measures each model against its limit in one process (``python -m
 reports.bench`` prints it first).
