@@ -81,6 +81,25 @@ class Step:
     max_stress: float | None = None
     info: Mapping[str, float] = field(default_factory=dict, compare=False)
 
+    def __init__(
+        self,
+        factor: float,
+        outputs: Mapping[str, float],
+        energy: float = float("nan"),
+        iterations: int = 0,
+        stable: bool | None = None,
+        shapes: Mapping[str, np.ndarray] | None = None,
+        max_stress: float | None = None,
+        info: Mapping[str, float] | None = None,
+    ) -> None:
+        # the frozen dataclass's own __init__ stores each field through object.__setattr__
+        # (1.6 us a step); a path of small-model steps is built in about that per step
+        d = self.__dict__
+        d["factor"], d["outputs"], d["energy"] = factor, outputs, energy
+        d["iterations"], d["stable"] = iterations, stable
+        d["shapes"] = {} if shapes is None else shapes
+        d["max_stress"], d["info"] = max_stress, {} if info is None else info
+
 
 @dataclass(frozen=True)
 class Solution:

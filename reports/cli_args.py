@@ -28,6 +28,20 @@ class _Parser(argparse.ArgumentParser):
         raise UsageError(message)
 
 
+class _Version(argparse.Action):
+    """``--version``: the version is looked up when asked for, not for every command
+    (``importlib.metadata`` costs a one-off solve 10-30 ms to import)."""
+
+    def __init__(self, option_strings: list[str], dest: str, **kwargs: object) -> None:
+        super().__init__(
+            option_strings, argparse.SUPPRESS, nargs=0, help="show the version and exit"
+        )
+
+    def __call__(self, parser: argparse.ArgumentParser, *args: object) -> None:
+        print(f"{PROG} {version()}")
+        parser.exit()
+
+
 def _memory_flag(p: argparse.ArgumentParser) -> None:
     from reports.run.limits import DEFAULT_MEMORY_LIMIT_MB
 
@@ -46,7 +60,7 @@ def build_parser(
     """The ``flexbench`` argument parser; each subcommand's ``func`` is ``commands[name]``
     (the ``cmd_*`` functions of ``reports.cli``)."""
     p = _Parser(prog=PROG, description="FEA-validated benchmark of reduced compliant-beam models")
-    p.add_argument("--version", action="version", version=f"{PROG} {version()}")
+    p.add_argument("--version", action=_Version)
     _debug_flag(p)
     sub = p.add_subparsers(dest="command", metavar="COMMAND", required=True)
     sub.add_parser("cases", help="list the case catalog").set_defaults(func=commands["cases"])

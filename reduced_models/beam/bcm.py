@@ -22,11 +22,15 @@ k p s - 1/2 int theta^2, corrected linearly to end at the BCM tip.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
 
-from reduced_models.base import ModelCard
+from cases.schema import Scene
+from reduced_models.base import ModelCard, Solution
+from reduced_models.beam import single_beam
+from reduced_models.beam.bcm_single import pd_interval, solve_direct, with_shapes
 from reduced_models.beam.chain import SegmentLaw
 from reduced_models.beam.chain_model import ChainModel
 from reduced_models.beam.linear import hermite_shape
@@ -61,6 +65,9 @@ def _cosh_sqrt(z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.nd
     closed forms lose digits to cancellation).
     """
     z = np.asarray(z, dtype=float)
+    if not z.any():  # no axial force (transverse loads only): the series' constant terms
+        one = np.ones_like(z)
+        return one, one, np.full_like(z, _INV_FACT[2]), np.full_like(z, _INV_FACT[3])
     small = np.abs(z) <= 1.0
     if np.all(small):
         c1, s1 = _series(z, 2), _series(z, 3)
@@ -271,3 +278,21 @@ class BCM(ChainedBCM):
             validity=self._card.validity,
             references=self._card.references,
         )
+
+    @staticmethod
+    @functools.cache
+    def pd_range(guided: bool) -> tuple[float, float]:
+        """Where the BCM stiffness K(p) is positive definite (``bcm_single.pd_interval``)."""
+        return pd_interval(BCM_LAW, guided)
+
+    def solve(self, scene: Scene) -> Solution:
+        """As ``ChainModel.solve``; under dead loads with K(p) positive definite on the whole
+        ramp each step is one 2x2 solve (``bcm_single``), not a continuation."""
+        beam = single_beam.cantilever_of(scene)
+        if isinstance(beam, str) or beam.follower or self.applies_to(scene):
+            return super().solve(scene)
+        return solve_direct(self, scene, beam) or super().solve(scene)
+
+    def postprocess(self, scene: Scene, sol: Solution) -> Solution:
+        """``ChainModel.postprocess`` for one segment, all steps at once."""
+        return with_shapes(self, scene, sol)

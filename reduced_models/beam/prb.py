@@ -11,6 +11,7 @@ picks its matrix (``setup``); the solve, shapes and stress are the shared
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 
@@ -119,16 +120,15 @@ class PRB1R(PRBModel):
         """As ``PRBModel.solve``; states past Howell's Theta_max get a validity warning
         (64.3 deg for forces -- tabulated for n = 0 -- and 124.4 deg / c_theta for a moment)."""
         sol = super().solve(scene)
-        theta = np.abs([q[0] for q in sol.extras.get("prb_states", ())])
+        theta = [math.degrees(abs(q[0])) for q in sol.extras.get("prb_states", ())]  # deg
         moment = sol.extras.get("tip_angle_factor") == T.HOWELL_MOMENT["c_theta"]
         p = T.HOWELL_MOMENT if moment else T.HOWELL_N0
         limit = p["Theta_max_deg"] / (p["c_theta"] if moment else 1.0)
-        past = np.flatnonzero(np.degrees(theta) > limit)
-        if past.size == 0:
+        j = next((j for j, t in enumerate(theta) if t > limit), None)
+        if j is None:
             return sol
-        j = int(past[0])
         warn = (
-            f"PRB angle Theta {np.degrees(theta.max()):.1f} deg > Howell's {limit:.1f} deg "
+            f"PRB angle Theta {max(theta):.1f} deg > Howell's {limit:.1f} deg "
             f"(from factor {sol.steps[j].factor:.4g})"
         )
         extras = {**sol.extras, "validity_warning": True, "validity_message": warn}

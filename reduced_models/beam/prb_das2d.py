@@ -32,7 +32,6 @@ from __future__ import annotations
 import numpy as np
 
 from cases.schema import Scene
-from reduced_models.beam.elastica import ElasticaError, equilibrium
 from reduced_models.beam.prb_chain import PRBChain
 from reduced_models.beam.single_beam import Cantilever
 from reduced_models.options import Option
@@ -57,6 +56,9 @@ def euler_states(beam: Cantilever, loads: np.ndarray) -> tuple[np.ndarray, np.nd
     tips : (m, 3) tip x, y and rotation theta (rad); NaN rows where the elastica has no
         reachable state under those loads.
     """
+    # here, not at the top: scipy.special (0.1-0.2 s to import) only when the option is on
+    from reduced_models.beam.elastica import ElasticaError, equilibrium
+
     L, EI = beam.L, beam.EI
     s = np.linspace(0.0, L, N_POINTS)
     shapes = np.full((len(loads), N_POINTS, 3), np.nan)

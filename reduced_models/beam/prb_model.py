@@ -116,10 +116,9 @@ class PRBModel:
         steps = []
         failed = "" if path.ok else path.reason
         # residual max |grad V| in EI/L (forces times L); the path already demanded it
-        res = path.residuals * (chain.L / chain.EI)
-        bad = np.flatnonzero(~(res <= RESIDUAL_TOL))
-        m = len(path.factors) if bad.size == 0 else int(bad[0])
-        if bad.size:
+        res = (path.residuals * (chain.L / chain.EI)).tolist()
+        m = next((j for j, r in enumerate(res) if not r <= RESIDUAL_TOL), len(res))
+        if m < len(res):
             failed = (
                 f"residual {res[m]:.2e} EI/L above {RESIDUAL_TOL:g} at factor {path.factors[m]:.6g}"
             )
@@ -133,7 +132,7 @@ class PRBModel:
             energy,
             path.iterations[:m].tolist(),
             path.stable,
-            res[:m].tolist(),
+            res[:m],
             path.cuts[:m].astype(float).tolist(),
         )
         outputs = output_map(scene, beam)

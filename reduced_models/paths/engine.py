@@ -5,8 +5,9 @@ Used by every energy-based single-beam reduced model (linear chains, BCM, chaine
 PRB family).  One algorithm, two arithmetics: the state ``x0`` handed in decides which --
 a numpy array (``linalg.Arrays``: dense LAPACK, ``Banded`` or sparse tangents) or, for a few
 unknowns (at most ``floats.MAX_N``), a list of plain floats (``floats.Floats``: a tridiagonal
-``L D L^T`` or a closed-form solve) or one bare float (``floats.Scalar``), where a numpy call
-would cost more than the arithmetic it does.  Every step of the algorithm below is the same
+``L D L^T`` or a closed-form solve) or one bare float (``floats.Scalar``, its operations
+written in place by ``_ScalarPath``), where a numpy call would cost more than the arithmetic
+it does.  Every step of the algorithm below is the same
 code for all of them.
 
 API
@@ -288,6 +289,84 @@ class _Path:
         return True, ""
 
 
+class _ScalarPath(_Path):
+    """``_Path`` on one bare float (``floats.Scalar``) with the arithmetic written in place:
+    the same steps, the same floating-point operations in the same order, without the
+    method call per operation that costs a one-unknown path (``prb-1r``) more than its
+    equation."""
+
+    def solve(self, x: float, lam: float) -> tuple[tuple | None, int, str]:
+        """``_Path.solve``: Newton on g(x) = 0 with h = dg/dx."""
+        gh, xtol, gtol, update = self.gh, self.xtol, self.gtol, self.update
+        w, cap, isfinite = self.A.w, self.A.cap, math.isfinite
+        prev_res = math.inf
+        for it in range(1, self.max_iter + 1):
+            g, h = gh(x, lam)
+            res = abs(g)
+            if not isfinite(res):
+                return None, it, "non-finite residual"
+            if h == 0.0:
+                return None, it, "singular tangent (singular matrix)"
+            sol = g / h
+            size = abs(sol) if w is None else abs(sol * w)
+            if not isfinite(size):
+                return None, it, "singular tangent"
+            if size <= xtol:
+                if gtol is None or res <= gtol:
+                    return (x, res, self._stable(x, lam, h, h > 0.0), h), it, ""
+                if res > 0.5 * prev_res:
+                    return None, it, f"residual {res:.3g} stalls above gtol {gtol:.3g}"
+            elif size > 1e6:
+                return None, it, "Newton diverged"
+            elif cap is not None:
+                over = abs(sol) * cap
+                sol = sol / over if over > 1.0 else sol
+            prev_res = res
+            x = x - sol if update is None else update(x, -sol)
+        return None, self.max_iter, f"no convergence in {self.max_iter} its"
+
+    def tangent(self, c: tuple, lam: float) -> float | None:
+        """``_Path.tangent``: -(dg/dlam) / h."""
+        if self.load_gradient is None:
+            return None
+        t = -(self.load_gradient(c[0], lam) / c[3])
+        return t if math.isfinite(t) else None
+
+    def _wdot(self, a: float, b: float) -> float:
+        w = self.A.w
+        return a * b if w is None else (a * w) * (b * w)
+
+    def predict(self, x: float, x_prev: float | None, t: float | None, t_prev: float | None,
+                s: float, lam: float, lam_prev: Any) -> float | None:  # fmt: skip
+        """``_Path.predict``."""
+        if x_prev is None or lam == lam_prev:
+            return None if t is None else x + t * s
+        h = lam - lam_prev
+        back = x_prev - x
+        secant = back * (-s / h)
+        if t is not None:
+            u = s / h
+            c2 = u * u
+            c3 = c2 + c2 * u if t_prev is not None else 0.0
+            a1, a2 = s + h * (c2 + c3), c2 + 2.0 * c3
+            poly = t * a1 + back * a2 if t_prev is None else t * a1 + back * a2 + t_prev * (h * c3)
+            if self._wdot(poly, poly) <= 9.0 * self._wdot(secant, secant):
+                return x + poly
+        return x + secant if self.update is None else self.update(x, secant)
+
+    def branch_jump(self, cur: tuple, conv: tuple, x: float, x_prev: float | None, lam: float,
+                    lam_prev: Any) -> str:  # fmt: skip
+        """``_Path.branch_jump``."""
+        if not self.keep_branch:
+            return ""
+        if cur[2] is True and conv[2] is False:
+            return "the step left the stable branch"
+        if x_prev is not None and lam != lam_prev:
+            if self._wdot(conv[0] - x, x - x_prev) < 0:
+                return "the path turned back (branch jump)"
+        return ""
+
+
 def _arithmetic(x0: Any, n: int, fixed: Any, scale: Any, max_step: Any) -> Any:
     """``Scalar`` for a bare float, ``Floats`` for a list of floats, else ``linalg.Arrays``
     (the common options -- unit scales, no damping, nothing fixed -- without numpy calls:
@@ -361,5 +440,6 @@ def minimize_path(
         xtol=xtol, gtol=gtol, max_iter=max_iter, update=update, stability=stability,
         keep_branch=keep_branch, load_gradient=load_gradient, symmetric=symmetric,
     )  # fmt: skip
-    path = _Path(A, grad_hess, opts, x, factors[0] if factors else 0.0)
+    kind = _ScalarPath if isinstance(A, Scalar) else _Path
+    path = kind(A, grad_hess, opts, x, factors[0] if factors else 0.0)
     return path.result(*path.follow(x, factors, max_cuts))

@@ -10,7 +10,10 @@
   step: what a PRB path costs when nothing but its equations is computed.
 * ``plain_bcm_path``: Awtar's beam constraint model of one segment under a dead tip force:
   the axial load is the applied one, so each step is a 2x2 linear solve in plain floats, with
-  the tip, strain energy and end-moment stress.
+  the tip and strain energy; then the shapes the model draws (the exact beam-column through
+  each tip state, 49 points) and the stress of their largest curvature, for all steps at once
+  in numpy (until 2026-11-27 this limit left the shapes out and took the stress from the end
+  moments: 24 us against the model's shapes).
 
 ``limits_table`` measures each model against its limit in one process (``python -m
 reports.bench`` prints it first).
@@ -164,13 +167,15 @@ def _plain_one_pivot(matrix: np.ndarray, L: float, EI: float, f1, factors, t_E: 
 
 def plain_bcm_path(
     L: float, EI: float, EA: float, f1: tuple[float, float, float], factors: list[float],
-    t_E: float,
+    t_E: float, points: int = 49,
 ) -> list[tuple]:  # fmt: skip
     """One BCM segment's path (Awtar et al. 2007) in plain floats: per factor (tip x, y,
-    rotation, strain energy, larger end-moment stress).  With a dead force in the clamp frame
-    p = F_x L^2/EI is known, so [f, m] = (G + p P + p^2 Q) [y, a] is a 2x2 linear solve."""
+    rotation, strain energy, largest bending stress, shape (points, 2)).  With a dead force in
+    the clamp frame p = F_x L^2/EI is known, so [f, m] = (G + p P + p^2 Q) [y, a] is a 2x2
+    linear solve; the shapes (the exact beam-column through each tip state, as the model
+    draws them) and the stress (largest curvature along them) of all steps at once."""
     k = EI / (EA * L * L) if math.isfinite(EA) else 0.0
-    out = []
+    tips = []
     for t in factors:
         f, p, m = t * f1[1] * L * L / EI, t * f1[0] * L * L / EI, t * f1[2] * L / EI
         a11 = 12.0 + p * 6.0 / 5.0 - p * p / 700.0
@@ -183,10 +188,51 @@ def plain_bcm_path(
         vGv = 12.0 * y * y - 12.0 * y * a + 4.0 * a * a
         ux = k * p - 0.5 * vPv - p * vQv
         energy = EI / L * (0.5 * vGv + 0.5 * p * p * (k - vQv))
-        m_root = m + f * (1.0 + ux) - p * y
-        stress = t_E * EI / L * max(abs(m_root), abs(m))
-        out.append((L * (1.0 + ux), L * y, a, energy, stress))
-    return out
+        tips.append((ux, y, a, p, energy))
+    ux, y, a, p, energy = np.array(tips).T
+    xy, kmax = _beam_column_shapes(ux, y, a, p, k, points)
+    stress = t_E * EI / L * kmax
+    return list(zip((L * (1.0 + ux)).tolist(), (L * y).tolist(), a.tolist(), energy.tolist(),
+                    stress.tolist(), xy * L))  # fmt: skip
+
+
+def _beam_column_shapes(
+    ux: np.ndarray, y: np.ndarray, a: np.ndarray, p: np.ndarray, k: float, points: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Segment-normalised shapes (m, points, 2) and largest |curvature| (m,) of clamped
+    beam-columns (axial force p, tension +) through tip states (y, a): the tip loads (f, m)
+    from the tip compliance, u(s) = k11 f + k12 m, theta(s) = k21 f + k22 m, in closed form
+    (complex sqrt(p): cosh/sinh in tension, cos/sin in compression; the cubic where p = 0),
+    axial position from the stretch and the trapezoid of theta^2."""
+    s = np.linspace(0.0, 1.0, points)
+    zero = p == 0.0
+    if zero.all():  # no axial force: the cantilever cubic
+        k11, k12 = s * s / 2.0 - s**3 / 6.0, s * s / 2.0
+        k21, k22 = s - s * s / 2.0, s
+        c11, c12, c21, c22 = 1.0 / 3.0, 0.5, 0.5, 1.0
+    else:
+        pc = np.where(zero, 1.0, p)[:, None] + 0j
+        r = np.sqrt(pc)
+        C1, T = np.cosh(r), np.tanh(r) / r
+        ch, sh = np.cosh(r * s), np.sinh(r * s) / r
+        k11 = ((T * (ch - 1.0) - sh + s) / pc).real
+        k12 = ((ch - 1.0) / (pc * C1)).real
+        k21 = (-(ch - 1.0) / pc + T * sh).real
+        k22 = (sh / C1).real
+        cubic = (s * s / 2.0 - s**3 / 6.0, s * s / 2.0, s - s * s / 2.0, s)
+        closed = (k11, k12, k21, k22)
+        k11, k12, k21, k22 = (np.where(zero[:, None], c, v) for c, v in zip(cubic, closed))
+        c11, c12, c21, c22 = k11[:, -1], k12[:, -1], k21[:, -1], k22[:, -1]
+    det = c11 * c22 - c12 * c21
+    f, m = ((c22 * y - c12 * a) / det)[:, None], ((c11 * a - c21 * y) / det)[:, None]
+    yl, th = k11 * f + k12 * m, k21 * f + k22 * m
+    kappa = m + f * (1.0 - s) - p[:, None] * (y[:, None] - yl)
+    t2 = th * th
+    short = np.zeros_like(t2)
+    np.cumsum(0.5 * (t2[:, 1:] + t2[:, :-1]) * np.diff(s), axis=1, out=short[:, 1:])
+    xl = s * (1.0 + k * p[:, None]) - 0.5 * short
+    xl += s * ((1.0 + ux)[:, None] - xl[:, -1:])
+    return np.stack([xl, yl], axis=-1), np.abs(kappa).max(axis=1)
 
 
 def cpu_wall(call: Callable[[], object], rounds: int) -> tuple[float, float]:

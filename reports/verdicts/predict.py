@@ -124,8 +124,11 @@ def lookup(
         coords = [ia, _index(t["betas"], np.degrees(np.arctan2(m, p))), ir]
     grids = _channels(model, "follower" if follower else "dead")
     k = ia.size  # one call for the four channels: the channel is an exact integer coordinate
-    coords = [np.repeat(np.arange(4.0), k)] + [np.tile(c, 4) for c in coords]
-    out = map_coordinates(grids, coords, order=1, mode="nearest", prefilter=False).reshape(4, k)
+    at = np.empty((len(coords) + 1, 4, k))
+    at[0] = np.arange(4.0)[:, None]
+    at[1:] = np.array(coords)[:, None, :]
+    at = at.reshape(len(coords) + 1, 4 * k)
+    out = map_coordinates(grids, at, order=1, mode="nearest", prefilter=False).reshape(4, k)
     out[:2] = 10.0 ** out[:2]
     return out
 
@@ -162,7 +165,7 @@ class States:
             parts.append((self.values[1], self.values[3]))
         out = []
         for err, motion in parts:
-            top = np.nanmax(motion) if np.isfinite(motion).any() else np.nan
+            top = np.fmax.reduce(motion)  # NaN only where every entry is (as nanmax)
             w = motion / top if top > 0 else np.ones_like(motion)
             out.append(err * np.fmin(w, 1.0))
         return np.max(out, axis=0)
@@ -334,9 +337,10 @@ def predict(name: str, scene: Scene, sol: Solution) -> dict[str, object]:
                 f"PL^2/EI = {w['PL^2/EI']:.3g}, alpha = {w['alpha_deg']:g} deg, "
                 f"ML/EI = {w['ML/EI']:.3g}: no prediction there"
             )
-        if np.isfinite(err).any() and np.nanmax(err) > best:
+        top = np.fmax.reduce(err)
+        if np.isfinite(err).any() and top > best:
             j = int(live[np.nanargmax(err)])
-            best, at = float(np.nanmax(err)), _where(st, j)
+            best, at = float(top), _where(st, j)
     result: dict[str, object] = {"predicted_error": best if at else None, "warnings": warnings}
     if at is None:
         result["predicted_error_note"] = "; ".join(notes) or "no member state to look up"
