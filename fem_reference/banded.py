@@ -163,7 +163,9 @@ def inverse_iteration(
     return math.nan, None
 
 
-def band_stability(up: np.ndarray, bw: int, warm: dict | None = None) -> dict | None:
+def band_stability(
+    up: np.ndarray, bw: int, warm: dict | None = None, chol: tuple | None = None
+) -> dict | None:
     """Inertia and lowest eigenvalue of a symmetric band matrix (upper storage (bw + 1, n)).
 
     ``stable`` = positive definite = ``dpbtrf`` succeeds; then ``min_eig`` by inverse
@@ -173,11 +175,13 @@ def band_stability(up: np.ndarray, bw: int, warm: dict | None = None) -> dict | 
     ``-tol``, ``min_eig`` = the lowest (a matrix that is only semi-definite to round-off is
     reported unstable with ``n_neg = 0``, as a zero pivot of the LDL^T path did).
 
+    ``chol``: ``dpbtrf(up, lower=0)``'s result when the caller has it already.
+
     Returns ``{'stable': bool, 'min_eig': float, 'n_neg': int}``, or None for an indefinite
     matrix larger than ``EIG_BANDED_MAX`` (the caller uses a sparse method).
     """
     n = up.shape[1]
-    chol, info = _dpbtrf(up, lower=0)
+    chol, info = chol if chol is not None else _dpbtrf(up, lower=0)
     if info == 0:
         x0 = None if warm is None else warm.get("x")
 

@@ -451,10 +451,18 @@ class FEMSystem:
         kap = cr.end_curvatures(self.beams, st)
         return max(m.E * m.thickness * float(np.max(kap[m.elements])) / 2.0 for m in ms)
 
-    def step(self, u: np.ndarray, lam: float, iterations: int, stable: bool | None) -> Step:
-        """Outputs, shapes, strain energy and max stress of state u as a ``Step``."""
+    def step(
+        self,
+        u: np.ndarray,
+        lam: float,
+        iterations: int,
+        stable: bool | None,
+        local: cr.LocalState | None = None,
+    ) -> Step:
+        """Outputs, shapes, strain energy and max stress of state u as a ``Step`` (``local``:
+        the element state of u when the solver has it, ``Evaluation.st``)."""
         d = self.full(u)  # one full vector and one element state for every quantity
-        st = cr.local_state(self.beams, d[self.beam_dofs])
+        st = local if local is not None else cr.local_state(self.beams, d[self.beam_dofs])
         return Step(
             factor=float(lam),
             outputs=self._outputs(d),

@@ -29,6 +29,7 @@ from fem_reference.assembly import FEMSystem, ModelError, build
 from fem_reference.statics import static as S
 from fem_reference.statics.bifurcation import Watch, is_conservative
 from fem_reference.statics.driver_post import post_process
+from fem_reference.statics.inertia import state_stability
 from fem_reference.statics.integrity import violation
 from reduced_models.base import ModelCard, Solution, Step, load_factors, not_applicable
 
@@ -61,6 +62,13 @@ FEM_OPTIONS: dict[str, tuple] = {
 _OPTION_KEYS = tuple(FEM_OPTIONS)
 
 
+def _local(st: S.State) -> object | None:
+    """Element state of ``st`` from the solver's own last evaluation there (bit-identical to
+    recomputing it), or None."""
+    ev = st.ev
+    return ev.st if ev is not None and ev.u is st.u and ev.lam == st.lam else None
+
+
 def _rec(
     system: FEMSystem,
     st: S.State,
@@ -69,15 +77,16 @@ def _rec(
     extra_out: dict | None = None,
     info: dict | None = None,
 ) -> Step:
-    step = system.step(st.u, st.lam, st.iterations, None if stab is None else stab["stable"])
+    local = _local(st)
+    step = system.step(st.u, st.lam, st.iterations, None if stab is None else stab["stable"], local)
     inf = {
         "iterations": float(st.iterations),
         "cuts": float(st.cuts),
         "residual": float(st.residual),
         "load_factor": float(st.lam),
     }
-    if stab is not None:
-        inf["min_eig"] = stab["min_eig"]
+    if stab is not None:  # min_pivot (stable) or min_eig (not positive definite)
+        inf.update({k: float(stab[k]) for k in ("min_pivot", "min_eig") if k in stab})
         inf["n_neg"] = float(stab["n_neg"])
     inf.update(st.info or {})
     inf.update(info or {})
@@ -118,9 +127,7 @@ class Runner:
             return None
         if exclude is None and self.watch is not None:
             return self.watch.stability(st)  # computed once for the watch and the report
-        return S.stability(
-            self.system, st.u, st.lam, int(self.o.get("dense_max", 60)), exclude=exclude
-        )
+        return state_stability(self.system, st, int(self.o.get("dense_max", 60)), exclude)
 
     def initial(self, constraint: tuple | None = None) -> S.State:
         """Equilibrium at factor 0 (preloaded springs, constant loads); ramps the preload and
@@ -197,7 +204,9 @@ class Runner:
         exclude: int | None = None,
         info: dict | None = None,
     ) -> None:
-        why = violation(self.system, st.u)  # rigid links stretched, strains beyond the model
+        why = violation(
+            self.system, st.u, _local(st)
+        )  # rigid links stretched, strains beyond the model
         if why:
             raise S.SolveError(f"at factor {st.lam:.6g}: {why}")
         self.states.append(st)

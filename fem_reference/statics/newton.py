@@ -60,7 +60,10 @@ class State:
 
     ``lu``: a factorised tangent near the state (from the last Newton iteration), reused by
     predictors; ``prev``: the previous converged point ``(lam, u)`` of the same load-controlled
-    branch (quadratic predictor); ``h_next``: the load step the stepping would try next."""
+    branch (quadratic predictor); ``h_next``: the load step the stepping would try next;
+    ``ev``: the solver's own evaluation at exactly ``(u, lam)`` (its element state and
+    residual), so the stability test and the record need not evaluate the state again
+    (``statics.inertia.evaluation``; valid only while ``ev.u is u``)."""
 
     u: np.ndarray
     lam: float
@@ -71,6 +74,7 @@ class State:
     info: dict = field(default_factory=dict)
     prev: tuple[float, np.ndarray] | None = field(default=None, repr=False)
     h_next: float | None = None
+    ev: object | None = field(default=None, repr=False)
 
 
 # -- residual / tangent access ---------------------------------------------------------------
@@ -251,9 +255,9 @@ def newton(
         gok = constraint is None or abs(g) <= gtol
         # convergence is decided on the residual alone: no tangent at the converged state
         if it > 0 and gok and converged(rn, tol, e, e0, dun, opts.etol):
-            return State(u, lam, it, 0, rn, lu)
+            return State(u, lam, it, 0, rn, lu, ev=ev)
         if it == 0 and rn <= tol * 1e-3 and gok:
-            return State(u, lam, 0, 0, rn, None)
+            return State(u, lam, 0, 0, rn, None, ev=ev)
         if it == opts.max_iter:
             break
         try:
