@@ -104,9 +104,11 @@ class BeamSet:
         )
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class LocalState:
-    """Local (chord-frame) quantities of all elements, each (ne,)."""
+    """Local (chord-frame) quantities of all elements, each (ne,).  Not frozen: a frozen
+    dataclass sets its ten fields through ``object.__setattr__``, a measurable part of a
+    16-element residual evaluation; nothing writes to it."""
 
     ln: np.ndarray
     c: np.ndarray

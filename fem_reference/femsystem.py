@@ -38,7 +38,7 @@ class ModelError(ValueError):
     """The scene cannot be represented (message names the member/node and the reason)."""
 
 
-@dataclass
+@dataclass(slots=True)
 class Evaluation:
     """Residual at ``(u, lam)`` and what the tangent there needs (fast path).
 
@@ -230,7 +230,8 @@ class FEMSystem:
         families (beams, springs, torsion springs, followers), with band maps when the
         half-bandwidth is at most ``banded.BAND_MAX``; ``dead``/``dead_const`` on free DOFs
         (``dead`` and ``dead_const`` are constants of the built system); ``follow``: some
-        follower force scales with lam.
+        follower force scales with lam; ``uext`` (ndof + 1,) the gather buffer of
+        ``evaluate`` (last entry 0, read by the fixed DOFs).
         """
         n = self.ndof
         fi = self.free[self.beam_dofs].T
@@ -247,16 +248,15 @@ class FEMSystem:
             follow=bool(np.any(self.fol_group == 0)),
             dead=self._full_to_free(self.dead),
             dead_const=self._full_to_free(self.dead_const),
+            uext=np.zeros(n + 1),
         )
 
     def evaluate(self, u: np.ndarray, lam: float) -> Evaluation:
         """Residual ``r(u, lam)`` and the element state behind it (no tangent work)."""
         fx = self.fast
-        n = self.ndof
-        uext = np.empty(n + 1)
-        uext[:n] = u
-        uext[n] = 0.0
-        dT = uext[fx.uidx]
+        uext = fx.uext  # (ndof + 1,) whose last entry stays 0: the fixed DOFs read it
+        uext[: self.ndof] = u
+        dT = uext[fx.uidx]  # a new array: the buffer is free again
         if fx.ucoef is not None:
             dT *= fx.ucoef
         fT, st = cr.kernel_forces(self.beams, dT)

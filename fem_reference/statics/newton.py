@@ -203,7 +203,8 @@ class Scaler:
         """``(damped du, largest |rotation| of du)``: du scaled so that no rotation exceeds
         ``max_rot_step`` and no translation ``max_trans_step * L``; the largest rotation is
         computed exactly only when it could exceed pi (else a bound below pi is returned)."""
-        m = float(np.max(np.abs(du) * self._inv_limits(opts), initial=0.0))
+        # ndarray.max: np.max's wrapper cost a microsecond per Newton iteration
+        m = float((np.abs(du) * self._inv_limits(opts)).max()) if du.size else 0.0
         mr = m * opts.max_rot_step  # >= every |rotation|
         if mr > math.pi:
             mr = self.max_rot(du)
@@ -241,6 +242,7 @@ def newton(
     if constraint is not None:
         i, c, v = constraint
         gtol = 1e-12 * (abs(v) + system.length_scale())
+    tol = sc.ftol(lam, opts)  # lam moves only under a constraint
     for it in range(opts.max_iter + 1):
         ev = o.evaluate(u, lam)
         r = ev.r
@@ -248,9 +250,11 @@ def newton(
         rref = max(rref, rn) if it <= 1 else rref
         if it >= 3 and rn > 1e3 * rref:  # early exit: the step will be cut anyway
             raise SolveError(f"Newton diverging (|r| grew {rn / rref:.1e}x)", iterations=it)
-        g = 0.0 if constraint is None else c * u[i] - v
-        tol = sc.ftol(lam, opts)
-        if not np.isfinite(rn):
+        g = 0.0
+        if constraint is not None:
+            g = c * u[i] - v
+            tol = sc.ftol(lam, opts)
+        if not math.isfinite(rn):
             raise SolveError("non-finite residual", iterations=it)
         gok = constraint is None or abs(g) <= gtol
         # convergence is decided on the residual alone: no tangent at the converged state
