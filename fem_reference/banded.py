@@ -15,6 +15,7 @@ zero by bisection (``scipy.linalg.eig_banded``, LAPACK ``dsbevx``).
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -105,11 +106,24 @@ def symmetric_upper_band(ab: np.ndarray, bw: int, scale: np.ndarray) -> np.ndarr
     """
     n = ab.shape[1]
     up = np.zeros((bw + 1, n), order="F")
-    for k in range(min(bw, n - 1) + 1):
-        up[bw - k, k:] = (ab[2 * bw - k, k:] + ab[2 * bw + k, : n - k]) * (
-            0.5 * scale[: n - k] * scale[k:]
-        )
+    if n == 0:
+        return up
+    dst, a, b, i, j = _sym_index(bw, n)  # all diagonals at once: one gather per operand
+    up.T.flat[dst] = (ab.T.flat[a] + ab.T.flat[b]) * (0.5 * scale[i] * scale[j])
     return up
+
+
+@functools.lru_cache(maxsize=64)
+def _sym_index(bw: int, n: int) -> tuple[np.ndarray, ...]:
+    """Flat (Fortran-order) positions for ``symmetric_upper_band``: destination ``[bw - k,
+    j]`` in the (bw + 1, n) band, sources ``[2 bw - k, j]`` and ``[2 bw + k, j - k]`` in the
+    (3 bw + 1, n) band, and the scale indices ``i = j - k``, ``j``, for every entry (i, j) of
+    the upper band."""
+    k = np.concatenate([np.full(n - kk, kk) for kk in range(min(bw, n - 1) + 1)])
+    j = np.concatenate([np.arange(kk, n) for kk in range(min(bw, n - 1) + 1)])
+    i = j - k
+    ld = 3 * bw + 1
+    return (j * (bw + 1) + bw - k, j * ld + 2 * bw - k, i * ld + 2 * bw + k, i, j)
 
 
 def inf_norm(up: np.ndarray, bw: int) -> float:

@@ -458,17 +458,23 @@ class FEMSystem:
         iterations: int,
         stable: bool | None,
         local: cr.LocalState | None = None,
+        extra_out: dict | None = None,
+        info: dict | None = None,
     ) -> Step:
-        """Outputs, shapes, strain energy and max stress of state u as a ``Step`` (``local``:
-        the element state of u when the solver has it, ``Evaluation.st``)."""
+        """Outputs (and ``extra_out``), shapes, strain energy and max stress of state u as a
+        ``Step`` with factor ``lam`` and ``info`` (``local``: the element state of u when the
+        solver has it, ``Evaluation.st``)."""
         d = self.full(u)  # one full vector and one element state for every quantity
         st = local if local is not None else cr.local_state(self.beams, d[self.beam_dofs])
+        outputs = self._outputs(d)
+        outputs.update(extra_out or {})
         return Step(
             factor=float(lam),
-            outputs=self._outputs(d),
+            outputs=outputs,
             energy=self._strain_energy(d, st),
             iterations=int(iterations),
             stable=stable,
             shapes=self._shapes(d),
             max_stress=self._max_stress(d, st),
+            info=info or {},
         )

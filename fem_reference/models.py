@@ -20,8 +20,6 @@ and runs the scene's analysis with the solvers of ``static.py``:
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 
 from cases.schema import Scene
@@ -77,8 +75,6 @@ def _rec(
     extra_out: dict | None = None,
     info: dict | None = None,
 ) -> Step:
-    local = _local(st)
-    step = system.step(st.u, st.lam, st.iterations, None if stab is None else stab["stable"], local)
     inf = {
         "iterations": float(st.iterations),
         "cuts": float(st.cuts),
@@ -90,9 +86,8 @@ def _rec(
         inf["n_neg"] = float(stab["n_neg"])
     inf.update(st.info or {})
     inf.update(info or {})
-    outs = dict(step.outputs)
-    outs.update(extra_out or {})
-    return replace(step, factor=float(factor), outputs=outs, info=inf)
+    stable = None if stab is None else stab["stable"]
+    return system.step(st.u, factor, st.iterations, stable, _local(st), extra_out, inf)
 
 
 class Runner:
