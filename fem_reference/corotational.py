@@ -290,21 +290,42 @@ def _mass(u, v, w):  # noqa: ANN001, ANN202
 
 def line_mesh(s: np.ndarray) -> skfem.MeshLine1:
     """A ``MeshLine1`` on sorted arc-length coordinates ``s`` (n,) (1-D coordinates only)."""
-    mesh = skfem.MeshLine1.init_tensor(np.asarray(s, dtype=float))
-    if not mesh.is_valid():  # pragma: no cover - guards the 2-D-points pitfall
+    s = np.asarray(s, dtype=float)
+    # the 2-D-points pitfall, checked on the coordinates (``Mesh.is_valid`` cost a tenth of
+    # building a 16-element system)
+    if s.ndim != 1 or s.size < 2 or not bool(np.all(s[1:] > s[:-1])):  # pragma: no cover
         raise ValueError("invalid MeshLine1 (arc-length coordinates must be 1-D, increasing)")
-    return mesh
+    return skfem.MeshLine1.init_tensor(s)
 
 
 _BASES: dict[bytes, tuple[skfem.CellBasis, skfem.CellBasis]] = {}
 BASES_KEPT = 32  # meshes whose bases are kept (a run solves each case's few meshes many times)
 
 
+# element matrices per (mesh, material): assembling the scikit-fem forms cost as much as
+# building the bases, and every solve of a case assembles the same ones again; read-only so a
+# caller cannot change a kept copy
+_MATS: dict[tuple, tuple[np.ndarray, ...]] = {}
+
+
+def _mesh_key(mesh: skfem.MeshLine1) -> bytes:
+    return mesh.p.tobytes() + mesh.t.tobytes()
+
+
+def _keep(key: tuple, arrays: tuple[np.ndarray, ...]) -> tuple[np.ndarray, ...]:
+    if len(_MATS) >= 4 * BASES_KEPT:
+        del _MATS[next(iter(_MATS))]  # the oldest
+    for a in arrays:
+        a.setflags(write=False)
+    _MATS[key] = arrays
+    return arrays
+
+
 def _bases(mesh: skfem.MeshLine1) -> tuple[skfem.CellBasis, skfem.CellBasis]:
     """Hermite and P1 bases of a line mesh, built once per mesh geometry: building a
     ``CellBasis`` (element maps, quadrature, shape functions) cost a fifth of a 16-element
     solve, and every solve of a case meshes the same arc lengths again."""
-    key = mesh.p.tobytes() + mesh.t.tobytes()
+    key = _mesh_key(mesh)
     got = _BASES.get(key)
     if got is None:
         if len(_BASES) >= BASES_KEPT:
@@ -329,12 +350,16 @@ def local_matrices(
     -------
     ka : (ne,) axial stiffness; kb : (ne, 2, 2) bending stiffness; L0 : (ne,) lengths.
     """
-    hb, pb = _bases(mesh)
-    Kb = _bending.coo_data(hb, EI=EI).tolocal()  # (ne, 4, 4)
-    Ka = _axial.coo_data(pb, EA=EA).tolocal()  # (ne, 2, 2)
-    kb = Kb[:, [1, 3]][:, :, [1, 3]]
-    L0 = mesh.p[0, mesh.t[1]] - mesh.p[0, mesh.t[0]]
-    return Ka[:, 0, 0].copy(), np.ascontiguousarray(kb), L0
+    key = ("k", _mesh_key(mesh), float(EA), float(EI))
+    got = _MATS.get(key)
+    if got is None:
+        hb, pb = _bases(mesh)
+        Kb = _bending.coo_data(hb, EI=EI).tolocal()  # (ne, 4, 4)
+        Ka = _axial.coo_data(pb, EA=EA).tolocal()  # (ne, 2, 2)
+        kb = Kb[:, [1, 3]][:, :, [1, 3]]
+        L0 = mesh.p[0, mesh.t[1]] - mesh.p[0, mesh.t[0]]
+        got = _keep(key, (Ka[:, 0, 0].copy(), np.ascontiguousarray(kb), L0))
+    return got
 
 
 def local_mass(mesh: skfem.MeshLine1, rho_line: float) -> np.ndarray:
@@ -344,5 +369,8 @@ def local_mass(mesh: skfem.MeshLine1, rho_line: float) -> np.ndarray:
     Linear interpolation keeps the mass matrix constant and frame-invariant under large
     rotations (Le, Battini & Hjiaj 2011, Comput. Mech. 48:153-161).
     """
-    pb = _bases(mesh)[1]
-    return _mass.coo_data(pb, rho=rho_line).tolocal()
+    key = ("m", _mesh_key(mesh), float(rho_line))
+    got = _MATS.get(key)
+    if got is None:
+        got = _keep(key, (_mass.coo_data(_bases(mesh)[1], rho=rho_line).tolocal(),))
+    return got[0]
