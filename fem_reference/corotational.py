@@ -76,8 +76,7 @@ class BeamSet:
         and the scaled column/row sums ``c1, c2`` (``sum_i kb_ij``), ``r1, r2``
         (``sum_j kb_ij``), the same four stacked as ``cr`` (4, ne), ``kpp`` (4, ne) the kb
         entries (11, 12, 21, 22), ``X21T`` (2, ne) and ``X21T2 = 2 X21T``, the kb columns
-        ``kcol1 = (k11, k21)``, ``kcol2 = (k12, k22)``, ``beta0`` the undeformed chord
-        angles; ``sym`` is True when every kb is
+        ``kcol1 = (k11, k21)``, ``kcol2 = (k12, k22)``; ``sym`` is True when every kb is
         symmetric (then c = r)."""
         kb_all, kb_col, kb_row = self.kb_sums
         c = np.ascontiguousarray
@@ -98,7 +97,6 @@ class BeamSet:
             sym=bool(np.array_equal(self.kb[:, 0, 1], self.kb[:, 1, 0])),
             cr=np.stack([kb_col[:, 0], kb_col[:, 1], kb_row[:, 0], kb_row[:, 1]]),
             X21T=np.ascontiguousarray(self.X21.T),
-            beta0=np.arctan2(self.X21[:, 1], self.X21[:, 0]),
             X21T2=np.ascontiguousarray(2.0 * self.X21.T),
             kcol1=np.ascontiguousarray(self.kb[:, :, 0].T),  # (k11, k21)
             kcol2=np.ascontiguousarray(self.kb[:, :, 1].T),  # (k12, k22)
@@ -134,13 +132,14 @@ def _chord(p: SimpleNamespace, dT: np.ndarray) -> LocalState:
     x21 = p.X21T + d21
     ln = np.hypot(x21[0], x21[1])
     cs = x21 / ln
-    # rigid chord rotation alpha = beta - beta0 (chord angles now and undeformed; the wrap
-    # below removes any whole turn): one arctan2 of the chord, not of cross and dot products
-    ba = p.beta0 - np.arctan2(x21[1], x21[0])
+    # rigid chord rotation from the undeformed chord (atan2 of cross and dot products)
+    xy = p.X21T * x21
+    yx = p.X21T * x21[::-1]
+    alpha = np.arctan2(yx[0] - yx[1], xy[0] + xy[1])
     # ln - L0 without cancellation: (ln^2 - L0^2) / (ln + L0), ln^2 - L0^2 = (2 X21 + d21).d21
     t = (p.X21T2 + d21) * d21
     ul = (t[0] + t[1]) / (ln + p.L0)
-    th = wrap_angle(dT[2::3] + ba)  # rows 2 and 5: the two end rotations, minus alpha
+    th = wrap_angle(dT[2::3] - alpha)  # rows 2 and 5: the two end rotations
     M = p.kcol1 * th[0] + p.kcol2 * th[1]  # (2, ne): kb @ (th1, th2)
     return LocalState(ln, cs[0], cs[1], ul, th[0], th[1], p.ka * ul, M[0], M[1], cs)
 
