@@ -75,10 +75,12 @@ class BeamSet:
         the hot loop works on unit-stride vectors: ``X, Y, L0, ka, k11, k12, k21, k22, kb_all``
         and the scaled column/row sums ``c1, c2`` (``sum_i kb_ij``), ``r1, r2``
         (``sum_j kb_ij``), the same four stacked as ``cr`` (4, ne), ``kpp`` (4, ne) the kb
-        entries (11, 12, 21, 22), ``X21T`` (2, ne) and ``X21T2 = 2 X21T``, the kb columns
+        entries (11, 12, 21, 22), ``kbase`` the work array of ``kernel_tangent`` (its last
+        four rows are ``kpp``), ``X21T`` (2, ne) and ``X21T2 = 2 X21T``, the kb columns
         ``kcol1 = (k11, k21)``, ``kcol2 = (k12, k22)``; ``sym`` is True when every kb is
         symmetric (then c = r)."""
         kb_all, kb_col, kb_row = self.kb_sums
+        kpp = self.kb.reshape(-1, 4).T.copy()
         c = np.ascontiguousarray
         return SimpleNamespace(
             X=c(self.X21[:, 0]),
@@ -100,7 +102,8 @@ class BeamSet:
             X21T2=np.ascontiguousarray(2.0 * self.X21.T),
             kcol1=np.ascontiguousarray(self.kb[:, :, 0].T),  # (k11, k21)
             kcol2=np.ascontiguousarray(self.kb[:, :, 1].T),  # (k12, k22)
-            kpp=self.kb.reshape(-1, 4).T.copy(),
+            kpp=kpp,
+            kbase=np.concatenate([np.zeros((2 * len(_K_BASE), self.L0.shape[0])), kpp]),
         )
 
 
@@ -232,7 +235,9 @@ def kernel_tangent(beams: BeamSet, st: LocalState) -> np.ndarray:
     g = (st.M1 + st.M2) * (inv_l * inv_l)
     g2cs = 2.0 * g * csx
     nb = len(_K_BASE)
-    base = np.empty((2 * nb + 4, ne))
+    base = p.kbase  # kept between calls (the result below is a new array): K_pp rows preset
+    if base.shape[1] != ne:  # pragma: no cover - a BeamSet has one element count
+        raise ValueError("kernel_tangent: local state of another element set")
     # (T00, T11) = ka (c^2, s^2) + czz (s^2, c^2) -+ 2 g c s
     np.multiply(p.ka, sq, out=base[0:2])
     base[0:2] += czz * sq[::-1]
@@ -247,7 +252,6 @@ def kernel_tangent(beams: BeamSet, st: LocalState) -> np.ndarray:
     if not p.sym:  # base rows 3..10 are c1s c2s r1s r2s c1c c2c r1c r2c: reorder to _K_BASE
         base[3:11] = base[[3, 4, 7, 8, 5, 6, 9, 10]]
     np.negative(base[:nb], out=base[nb : 2 * nb])
-    base[2 * nb :] = p.kpp
     return base[_K_ROWS[p.sym]]
 
 

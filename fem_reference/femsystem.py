@@ -260,22 +260,31 @@ class FEMSystem:
         if fx.ucoef is not None:
             dT *= fx.ucoef
         fT, st = cr.kernel_forces(self.beams, dT)
-        d = self.full(u) if fx.others else None
-        blocks = {0: fT}
-        if fx.others:
-            if self.spring_dofs.shape[0]:
-                blocks[1] = self._springs(d, False)[0].T
-            if self.tors_dofs.shape[0]:
-                blocks[2] = self._torsion(d)[0].T
-            if self.fol_dofs.shape[0]:
-                blocks[3] = -self._load_blocks(d, lam)[0].T
-            if self.con_dofs.shape[0]:
-                blocks[4] = self._constraints(d, False).T
-        r = fx.scatter.vector([blocks[i] for i in fx.scatter.active])
+        if not fx.others:  # beams alone: one scatter, no full vector
+            r = fx.scatter.vector([fT])
+            d = None
+        else:
+            d = self.full(u)
+            r = self._other_blocks(fT, d, lam)
         r -= lam * fx.dead
         if self.const_factor != 0.0:
             r -= self.const_factor * fx.dead_const
         return Evaluation(u, lam, r, st, d)
+
+    def _other_blocks(self, fT: np.ndarray, d: np.ndarray, lam: float) -> np.ndarray:
+        """Internal forces of beams (``fT``), springs, followers and rigid links on the free
+        DOFs at the full state ``d``."""
+        fx = self.fast
+        blocks = {0: fT}
+        if self.spring_dofs.shape[0]:
+            blocks[1] = self._springs(d, False)[0].T
+        if self.tors_dofs.shape[0]:
+            blocks[2] = self._torsion(d)[0].T
+        if self.fol_dofs.shape[0]:
+            blocks[3] = -self._load_blocks(d, lam)[0].T
+        if self.con_dofs.shape[0]:
+            blocks[4] = self._constraints(d, False).T
+        return fx.scatter.vector([blocks[i] for i in fx.scatter.active])
 
     def _tangent_blocks(self, ev: Evaluation) -> dict[int, np.ndarray]:
         """Entry-major tangent blocks {family: (k*k, nb)} at the evaluated point."""
@@ -299,6 +308,8 @@ class FEMSystem:
         """Tangent at the evaluated point in ``dgbtrf`` band storage (3 bw + 1, ndof),
         Fortran order (only when ``bandwidth <= banded.BAND_MAX``)."""
         sc = self.fast.scatter
+        if ev.d is None:  # beams alone
+            return sc.band([cr.kernel_tangent(self.beams, ev.st)])
         mats = self._tangent_blocks(ev)
         return sc.band([mats[i] for i in sc.active])
 
