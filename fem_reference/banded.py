@@ -105,12 +105,13 @@ def symmetric_upper_band(ab: np.ndarray, bw: int, scale: np.ndarray) -> np.ndarr
     operation per diagonal, bw + 1 of them).
     """
     n = ab.shape[1]
-    up = np.zeros((bw + 1, n), order="F")
     if n == 0:
-        return up
+        return np.zeros((bw + 1, 0), order="F")
     dst, a, b, i, j = _sym_index(bw, n)  # all diagonals at once: one gather per operand
-    up.T.flat[dst] = (ab.T.flat[a] + ab.T.flat[b]) * (0.5 * scale[i] * scale[j])
-    return up
+    flat = ab.ravel(order="F")  # a view of the Fortran-ordered band (a copy otherwise)
+    up = np.zeros((bw + 1) * n)
+    up[dst] = (flat[a] + flat[b]) * (0.5 * scale[i] * scale[j])
+    return up.reshape(n, bw + 1).T  # Fortran order
 
 
 @functools.lru_cache(maxsize=64)
