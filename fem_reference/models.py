@@ -359,8 +359,9 @@ class FEM:
             "rigid links = exact constraints (rigid bodies, Lagrange multipliers; option "
             "rigid_links = 'stiff': one stiff element, relative compliance ~1e-6, stretch "
             "checked <= 1e-4 at every state)",
-            "stability from the lowest eigenvalue of the symmetric tangent (conservative loads "
-            "only; under follower loads the verdict is None)",
+            "stability from the inertia of the symmetric tangent (banded Cholesky of its "
+            "Jacobi-scaled band; negative eigenvalues counted where it is indefinite; "
+            "conservative loads only; under follower loads the verdict is None)",
         ),
         validity="any planar scene of the case format; discretisation error O(h^2) in "
         "displacements (use fem-auto for an error estimate)",
