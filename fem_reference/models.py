@@ -199,9 +199,8 @@ class Runner:
         exclude: int | None = None,
         info: dict | None = None,
     ) -> None:
-        why = violation(
-            self.system, st.u, _local(st)
-        )  # rigid links stretched, strains beyond the model
+        # rigid links stretched, strains beyond the model
+        why = violation(self.system, st.u, _local(st))
         if why:
             raise S.SolveError(f"at factor {st.lam:.6g}: {why}")
         self.states.append(st)
