@@ -205,6 +205,7 @@ class Runner:
             raise S.SolveError(f"at factor {st.lam:.6g}: {why}")
         self.states.append(st)
         self.steps.append(_rec(self.system, st, factor, self.stab(st, exclude), extra_out, info))
+        st.ev = None  # recorded and judged: a kept path need not hold every element state
 
     def run_load(self) -> None:
         st = self.initial()
