@@ -15,6 +15,7 @@ zero by bisection (``scipy.linalg.eig_banded``, LAPACK ``dsbevx``).
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -104,12 +105,26 @@ def symmetric_upper_band(ab: np.ndarray, bw: int, scale: np.ndarray) -> np.ndarr
     operation per diagonal, bw + 1 of them).
     """
     n = ab.shape[1]
-    up = np.zeros((bw + 1, n), order="F")
-    for k in range(min(bw, n - 1) + 1):
-        up[bw - k, k:] = (ab[2 * bw - k, k:] + ab[2 * bw + k, : n - k]) * (
-            0.5 * scale[: n - k] * scale[k:]
-        )
-    return up
+    if n == 0:
+        return np.zeros((bw + 1, 0), order="F")
+    dst, a, b, i, j = _sym_index(bw, n)  # all diagonals at once: one gather per operand
+    flat = ab.ravel(order="F")  # a view of the Fortran-ordered band (a copy otherwise)
+    up = np.zeros((bw + 1) * n)
+    up[dst] = (flat[a] + flat[b]) * (0.5 * scale[i] * scale[j])
+    return up.reshape(n, bw + 1).T  # Fortran order
+
+
+@functools.lru_cache(maxsize=64)
+def _sym_index(bw: int, n: int) -> tuple[np.ndarray, ...]:
+    """Flat (Fortran-order) positions for ``symmetric_upper_band``: destination ``[bw - k,
+    j]`` in the (bw + 1, n) band, sources ``[2 bw - k, j]`` and ``[2 bw + k, j - k]`` in the
+    (3 bw + 1, n) band, and the scale indices ``i = j - k``, ``j``, for every entry (i, j) of
+    the upper band."""
+    k = np.concatenate([np.full(n - kk, kk) for kk in range(min(bw, n - 1) + 1)])
+    j = np.concatenate([np.arange(kk, n) for kk in range(min(bw, n - 1) + 1)])
+    i = j - k
+    ld = 3 * bw + 1
+    return (j * (bw + 1) + bw - k, j * ld + 2 * bw - k, i * ld + 2 * bw + k, i, j)
 
 
 def inf_norm(up: np.ndarray, bw: int) -> float:
@@ -163,7 +178,9 @@ def inverse_iteration(
     return math.nan, None
 
 
-def band_stability(up: np.ndarray, bw: int, warm: dict | None = None) -> dict | None:
+def band_stability(
+    up: np.ndarray, bw: int, warm: dict | None = None, chol: tuple | None = None
+) -> dict | None:
     """Inertia and lowest eigenvalue of a symmetric band matrix (upper storage (bw + 1, n)).
 
     ``stable`` = positive definite = ``dpbtrf`` succeeds; then ``min_eig`` by inverse
@@ -173,11 +190,13 @@ def band_stability(up: np.ndarray, bw: int, warm: dict | None = None) -> dict | 
     ``-tol``, ``min_eig`` = the lowest (a matrix that is only semi-definite to round-off is
     reported unstable with ``n_neg = 0``, as a zero pivot of the LDL^T path did).
 
+    ``chol``: ``dpbtrf(up, lower=0)``'s result when the caller has it already.
+
     Returns ``{'stable': bool, 'min_eig': float, 'n_neg': int}``, or None for an indefinite
     matrix larger than ``EIG_BANDED_MAX`` (the caller uses a sparse method).
     """
     n = up.shape[1]
-    chol, info = _dpbtrf(up, lower=0)
+    chol, info = chol if chol is not None else _dpbtrf(up, lower=0)
     if info == 0:
         x0 = None if warm is None else warm.get("x")
 

@@ -75,10 +75,12 @@ class BeamSet:
         the hot loop works on unit-stride vectors: ``X, Y, L0, ka, k11, k12, k21, k22, kb_all``
         and the scaled column/row sums ``c1, c2`` (``sum_i kb_ij``), ``r1, r2``
         (``sum_j kb_ij``), the same four stacked as ``cr`` (4, ne), ``kpp`` (4, ne) the kb
-        entries (11, 12, 21, 22), ``X21T`` (2, ne) and ``X21T2 = 2 X21T``, the kb columns
+        entries (11, 12, 21, 22), ``kbase`` the work array of ``kernel_tangent`` (its last
+        four rows are ``kpp``), ``X21T`` (2, ne) and ``X21T2 = 2 X21T``, the kb columns
         ``kcol1 = (k11, k21)``, ``kcol2 = (k12, k22)``; ``sym`` is True when every kb is
         symmetric (then c = r)."""
         kb_all, kb_col, kb_row = self.kb_sums
+        kpp = self.kb.reshape(-1, 4).T.copy()
         c = np.ascontiguousarray
         return SimpleNamespace(
             X=c(self.X21[:, 0]),
@@ -100,13 +102,16 @@ class BeamSet:
             X21T2=np.ascontiguousarray(2.0 * self.X21.T),
             kcol1=np.ascontiguousarray(self.kb[:, :, 0].T),  # (k11, k21)
             kcol2=np.ascontiguousarray(self.kb[:, :, 1].T),  # (k12, k22)
-            kpp=self.kb.reshape(-1, 4).T.copy(),
+            kpp=kpp,
+            kbase=np.concatenate([np.zeros((2 * len(_K_BASE), self.L0.shape[0])), kpp]),
         )
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class LocalState:
-    """Local (chord-frame) quantities of all elements, each (ne,)."""
+    """Local (chord-frame) quantities of all elements, each (ne,).  Not frozen: a frozen
+    dataclass sets its ten fields through ``object.__setattr__``, a measurable part of a
+    16-element residual evaluation; nothing writes to it."""
 
     ln: np.ndarray
     c: np.ndarray
@@ -230,7 +235,9 @@ def kernel_tangent(beams: BeamSet, st: LocalState) -> np.ndarray:
     g = (st.M1 + st.M2) * (inv_l * inv_l)
     g2cs = 2.0 * g * csx
     nb = len(_K_BASE)
-    base = np.empty((2 * nb + 4, ne))
+    base = p.kbase  # kept between calls (the result below is a new array): K_pp rows preset
+    if base.shape[1] != ne:  # pragma: no cover - a BeamSet has one element count
+        raise ValueError("kernel_tangent: local state of another element set")
     # (T00, T11) = ka (c^2, s^2) + czz (s^2, c^2) -+ 2 g c s
     np.multiply(p.ka, sq, out=base[0:2])
     base[0:2] += czz * sq[::-1]
@@ -245,7 +252,6 @@ def kernel_tangent(beams: BeamSet, st: LocalState) -> np.ndarray:
     if not p.sym:  # base rows 3..10 are c1s c2s r1s r2s c1c c2c r1c r2c: reorder to _K_BASE
         base[3:11] = base[[3, 4, 7, 8, 5, 6, 9, 10]]
     np.negative(base[:nb], out=base[nb : 2 * nb])
-    base[2 * nb :] = p.kpp
     return base[_K_ROWS[p.sym]]
 
 
@@ -288,21 +294,42 @@ def _mass(u, v, w):  # noqa: ANN001, ANN202
 
 def line_mesh(s: np.ndarray) -> skfem.MeshLine1:
     """A ``MeshLine1`` on sorted arc-length coordinates ``s`` (n,) (1-D coordinates only)."""
-    mesh = skfem.MeshLine1.init_tensor(np.asarray(s, dtype=float))
-    if not mesh.is_valid():  # pragma: no cover - guards the 2-D-points pitfall
+    s = np.asarray(s, dtype=float)
+    # the 2-D-points pitfall, checked on the coordinates (``Mesh.is_valid`` cost a tenth of
+    # building a 16-element system)
+    if s.ndim != 1 or s.size < 2 or not bool(np.all(s[1:] > s[:-1])):  # pragma: no cover
         raise ValueError("invalid MeshLine1 (arc-length coordinates must be 1-D, increasing)")
-    return mesh
+    return skfem.MeshLine1.init_tensor(s)
 
 
 _BASES: dict[bytes, tuple[skfem.CellBasis, skfem.CellBasis]] = {}
 BASES_KEPT = 32  # meshes whose bases are kept (a run solves each case's few meshes many times)
 
 
+# element matrices per (mesh, material): assembling the scikit-fem forms cost as much as
+# building the bases, and every solve of a case assembles the same ones again; read-only so a
+# caller cannot change a kept copy
+_MATS: dict[tuple, tuple[np.ndarray, ...]] = {}
+
+
+def _mesh_key(mesh: skfem.MeshLine1) -> bytes:
+    return mesh.p.tobytes() + mesh.t.tobytes()
+
+
+def _keep(key: tuple, arrays: tuple[np.ndarray, ...]) -> tuple[np.ndarray, ...]:
+    if len(_MATS) >= 4 * BASES_KEPT:
+        del _MATS[next(iter(_MATS))]  # the oldest
+    for a in arrays:
+        a.setflags(write=False)
+    _MATS[key] = arrays
+    return arrays
+
+
 def _bases(mesh: skfem.MeshLine1) -> tuple[skfem.CellBasis, skfem.CellBasis]:
     """Hermite and P1 bases of a line mesh, built once per mesh geometry: building a
     ``CellBasis`` (element maps, quadrature, shape functions) cost a fifth of a 16-element
     solve, and every solve of a case meshes the same arc lengths again."""
-    key = mesh.p.tobytes() + mesh.t.tobytes()
+    key = _mesh_key(mesh)
     got = _BASES.get(key)
     if got is None:
         if len(_BASES) >= BASES_KEPT:
@@ -327,12 +354,16 @@ def local_matrices(
     -------
     ka : (ne,) axial stiffness; kb : (ne, 2, 2) bending stiffness; L0 : (ne,) lengths.
     """
-    hb, pb = _bases(mesh)
-    Kb = _bending.coo_data(hb, EI=EI).tolocal()  # (ne, 4, 4)
-    Ka = _axial.coo_data(pb, EA=EA).tolocal()  # (ne, 2, 2)
-    kb = Kb[:, [1, 3]][:, :, [1, 3]]
-    L0 = mesh.p[0, mesh.t[1]] - mesh.p[0, mesh.t[0]]
-    return Ka[:, 0, 0].copy(), np.ascontiguousarray(kb), L0
+    key = ("k", _mesh_key(mesh), float(EA), float(EI))
+    got = _MATS.get(key)
+    if got is None:
+        hb, pb = _bases(mesh)
+        Kb = _bending.coo_data(hb, EI=EI).tolocal()  # (ne, 4, 4)
+        Ka = _axial.coo_data(pb, EA=EA).tolocal()  # (ne, 2, 2)
+        kb = Kb[:, [1, 3]][:, :, [1, 3]]
+        L0 = mesh.p[0, mesh.t[1]] - mesh.p[0, mesh.t[0]]
+        got = _keep(key, (Ka[:, 0, 0].copy(), np.ascontiguousarray(kb), L0))
+    return got
 
 
 def local_mass(mesh: skfem.MeshLine1, rho_line: float) -> np.ndarray:
@@ -342,5 +373,8 @@ def local_mass(mesh: skfem.MeshLine1, rho_line: float) -> np.ndarray:
     Linear interpolation keeps the mass matrix constant and frame-invariant under large
     rotations (Le, Battini & Hjiaj 2011, Comput. Mech. 48:153-161).
     """
-    pb = _bases(mesh)[1]
-    return _mass.coo_data(pb, rho=rho_line).tolocal()
+    key = ("m", _mesh_key(mesh), float(rho_line))
+    got = _MATS.get(key)
+    if got is None:
+        got = _keep(key, (_mass.coo_data(_bases(mesh)[1], rho=rho_line).tolocal(),))
+    return got[0]

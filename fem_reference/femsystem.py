@@ -38,7 +38,7 @@ class ModelError(ValueError):
     """The scene cannot be represented (message names the member/node and the reason)."""
 
 
-@dataclass
+@dataclass(slots=True)
 class Evaluation:
     """Residual at ``(u, lam)`` and what the tangent there needs (fast path).
 
@@ -230,7 +230,8 @@ class FEMSystem:
         families (beams, springs, torsion springs, followers), with band maps when the
         half-bandwidth is at most ``banded.BAND_MAX``; ``dead``/``dead_const`` on free DOFs
         (``dead`` and ``dead_const`` are constants of the built system); ``follow``: some
-        follower force scales with lam.
+        follower force scales with lam; ``uext`` (ndof + 1,) the gather buffer of
+        ``evaluate`` (last entry 0, read by the fixed DOFs).
         """
         n = self.ndof
         fi = self.free[self.beam_dofs].T
@@ -247,35 +248,43 @@ class FEMSystem:
             follow=bool(np.any(self.fol_group == 0)),
             dead=self._full_to_free(self.dead),
             dead_const=self._full_to_free(self.dead_const),
+            uext=np.zeros(n + 1),
         )
 
     def evaluate(self, u: np.ndarray, lam: float) -> Evaluation:
         """Residual ``r(u, lam)`` and the element state behind it (no tangent work)."""
         fx = self.fast
-        n = self.ndof
-        uext = np.empty(n + 1)
-        uext[:n] = u
-        uext[n] = 0.0
-        dT = uext[fx.uidx]
+        uext = fx.uext  # (ndof + 1,) whose last entry stays 0: the fixed DOFs read it
+        uext[: self.ndof] = u
+        dT = uext[fx.uidx]  # a new array: the buffer is free again
         if fx.ucoef is not None:
             dT *= fx.ucoef
         fT, st = cr.kernel_forces(self.beams, dT)
-        d = self.full(u) if fx.others else None
-        blocks = {0: fT}
-        if fx.others:
-            if self.spring_dofs.shape[0]:
-                blocks[1] = self._springs(d, False)[0].T
-            if self.tors_dofs.shape[0]:
-                blocks[2] = self._torsion(d)[0].T
-            if self.fol_dofs.shape[0]:
-                blocks[3] = -self._load_blocks(d, lam)[0].T
-            if self.con_dofs.shape[0]:
-                blocks[4] = self._constraints(d, False).T
-        r = fx.scatter.vector([blocks[i] for i in fx.scatter.active])
+        if not fx.others:  # beams alone: one scatter, no full vector
+            r = fx.scatter.vector([fT])
+            d = None
+        else:
+            d = self.full(u)
+            r = self._other_blocks(fT, d, lam)
         r -= lam * fx.dead
         if self.const_factor != 0.0:
             r -= self.const_factor * fx.dead_const
         return Evaluation(u, lam, r, st, d)
+
+    def _other_blocks(self, fT: np.ndarray, d: np.ndarray, lam: float) -> np.ndarray:
+        """Internal forces of beams (``fT``), springs, followers and rigid links on the free
+        DOFs at the full state ``d``."""
+        fx = self.fast
+        blocks = {0: fT}
+        if self.spring_dofs.shape[0]:
+            blocks[1] = self._springs(d, False)[0].T
+        if self.tors_dofs.shape[0]:
+            blocks[2] = self._torsion(d)[0].T
+        if self.fol_dofs.shape[0]:
+            blocks[3] = -self._load_blocks(d, lam)[0].T
+        if self.con_dofs.shape[0]:
+            blocks[4] = self._constraints(d, False).T
+        return fx.scatter.vector([blocks[i] for i in fx.scatter.active])
 
     def _tangent_blocks(self, ev: Evaluation) -> dict[int, np.ndarray]:
         """Entry-major tangent blocks {family: (k*k, nb)} at the evaluated point."""
@@ -299,6 +308,8 @@ class FEMSystem:
         """Tangent at the evaluated point in ``dgbtrf`` band storage (3 bw + 1, ndof),
         Fortran order (only when ``bandwidth <= banded.BAND_MAX``)."""
         sc = self.fast.scatter
+        if ev.d is None:  # beams alone
+            return sc.band([cr.kernel_tangent(self.beams, ev.st)])
         mats = self._tangent_blocks(ev)
         return sc.band([mats[i] for i in sc.active])
 
@@ -451,16 +462,30 @@ class FEMSystem:
         kap = cr.end_curvatures(self.beams, st)
         return max(m.E * m.thickness * float(np.max(kap[m.elements])) / 2.0 for m in ms)
 
-    def step(self, u: np.ndarray, lam: float, iterations: int, stable: bool | None) -> Step:
-        """Outputs, shapes, strain energy and max stress of state u as a ``Step``."""
+    def step(
+        self,
+        u: np.ndarray,
+        lam: float,
+        iterations: int,
+        stable: bool | None,
+        local: cr.LocalState | None = None,
+        extra_out: dict | None = None,
+        info: dict | None = None,
+    ) -> Step:
+        """Outputs (and ``extra_out``), shapes, strain energy and max stress of state u as a
+        ``Step`` with factor ``lam`` and ``info`` (``local``: the element state of u when the
+        solver has it, ``Evaluation.st``)."""
         d = self.full(u)  # one full vector and one element state for every quantity
-        st = cr.local_state(self.beams, d[self.beam_dofs])
+        st = local if local is not None else cr.local_state(self.beams, d[self.beam_dofs])
+        outputs = self._outputs(d)
+        outputs.update(extra_out or {})
         return Step(
             factor=float(lam),
-            outputs=self._outputs(d),
+            outputs=outputs,
             energy=self._strain_energy(d, st),
             iterations=int(iterations),
             stable=stable,
             shapes=self._shapes(d),
             max_stress=self._max_stress(d, st),
+            info=info or {},
         )

@@ -20,8 +20,6 @@ and runs the scene's analysis with the solvers of ``static.py``:
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 
 from cases.schema import Scene
@@ -29,6 +27,7 @@ from fem_reference.assembly import FEMSystem, ModelError, build
 from fem_reference.statics import static as S
 from fem_reference.statics.bifurcation import Watch, is_conservative
 from fem_reference.statics.driver_post import post_process
+from fem_reference.statics.inertia import state_stability
 from fem_reference.statics.integrity import violation
 from reduced_models.base import ModelCard, Solution, Step, load_factors, not_applicable
 
@@ -61,6 +60,13 @@ FEM_OPTIONS: dict[str, tuple] = {
 _OPTION_KEYS = tuple(FEM_OPTIONS)
 
 
+def _local(st: S.State) -> object | None:
+    """Element state of ``st`` from the solver's own last evaluation there (bit-identical to
+    recomputing it), or None."""
+    ev = st.ev
+    return ev.st if ev is not None and ev.u is st.u and ev.lam == st.lam else None
+
+
 def _rec(
     system: FEMSystem,
     st: S.State,
@@ -69,21 +75,19 @@ def _rec(
     extra_out: dict | None = None,
     info: dict | None = None,
 ) -> Step:
-    step = system.step(st.u, st.lam, st.iterations, None if stab is None else stab["stable"])
     inf = {
         "iterations": float(st.iterations),
         "cuts": float(st.cuts),
         "residual": float(st.residual),
         "load_factor": float(st.lam),
     }
-    if stab is not None:
-        inf["min_eig"] = stab["min_eig"]
+    if stab is not None:  # min_pivot (stable) or min_eig (not positive definite)
+        inf.update({k: float(stab[k]) for k in ("min_pivot", "min_eig") if k in stab})
         inf["n_neg"] = float(stab["n_neg"])
     inf.update(st.info or {})
     inf.update(info or {})
-    outs = dict(step.outputs)
-    outs.update(extra_out or {})
-    return replace(step, factor=float(factor), outputs=outs, info=inf)
+    stable = None if stab is None else stab["stable"]
+    return system.step(st.u, factor, st.iterations, stable, _local(st), extra_out, inf)
 
 
 class Runner:
@@ -118,9 +122,7 @@ class Runner:
             return None
         if exclude is None and self.watch is not None:
             return self.watch.stability(st)  # computed once for the watch and the report
-        return S.stability(
-            self.system, st.u, st.lam, int(self.o.get("dense_max", 60)), exclude=exclude
-        )
+        return state_stability(self.system, st, int(self.o.get("dense_max", 60)), exclude)
 
     def initial(self, constraint: tuple | None = None) -> S.State:
         """Equilibrium at factor 0 (preloaded springs, constant loads); ramps the preload and
@@ -197,11 +199,13 @@ class Runner:
         exclude: int | None = None,
         info: dict | None = None,
     ) -> None:
-        why = violation(self.system, st.u)  # rigid links stretched, strains beyond the model
+        # rigid links stretched, strains beyond the model
+        why = violation(self.system, st.u, _local(st))
         if why:
             raise S.SolveError(f"at factor {st.lam:.6g}: {why}")
         self.states.append(st)
         self.steps.append(_rec(self.system, st, factor, self.stab(st, exclude), extra_out, info))
+        st.ev = None  # recorded and judged: a kept path need not hold every element state
 
     def run_load(self) -> None:
         st = self.initial()
@@ -355,8 +359,9 @@ class FEM:
             "rigid links = exact constraints (rigid bodies, Lagrange multipliers; option "
             "rigid_links = 'stiff': one stiff element, relative compliance ~1e-6, stretch "
             "checked <= 1e-4 at every state)",
-            "stability from the lowest eigenvalue of the symmetric tangent (conservative loads "
-            "only; under follower loads the verdict is None)",
+            "stability from the inertia of the symmetric tangent (banded Cholesky of its "
+            "Jacobi-scaled band; negative eigenvalues counted where it is indefinite; "
+            "conservative loads only; under follower loads the verdict is None)",
         ),
         validity="any planar scene of the case format; discretisation error O(h^2) in "
         "displacements (use fem-auto for an error estimate)",

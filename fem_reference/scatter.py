@@ -27,10 +27,13 @@ class Scatter:
 
     def __init__(self, free: np.ndarray, coef: np.ndarray, families: list[np.ndarray], n: int):
         self.n = n
-        rows_v, w_v, sel_v, rows_m, cols_m, w_m, sel_m = [], [], [], [], [], [], []
+        i0, f0 = np.zeros(0, np.int64), np.zeros(0)  # so that no family at all concatenates
+        rows_v, w_v, sel_v, rows_m, cols_m, w_m, sel_m = [i0], [f0], [i0], [i0], [i0], [f0], [i0]
         off_v = off_m = 0
         for edofs in families:
             nb, k = edofs.shape
+            if nb == 0:  # contributes nothing (and its offsets do not move)
+                continue
             fi, w = free[edofs], coef[edofs]
             ok = (fi >= 0) & (w != 0.0)
             sel_v.append(off_v + np.flatnonzero(ok.ravel()))

@@ -77,7 +77,7 @@ class ArcLength:
                 and rn <= self.sc.ftol(lam, opts)
                 and (abs(vdot(dr, r)) <= opts.etol * e0 or self.sc.unorm(dr) < 1e-12)
             ):
-                return State(u, lam, it, 0, rn, lu)
+                return State(u, lam, it, 0, rn, lu, ev=ev)
             dt = lu.solve(sys.external(u))
             a = self._dot(dt, dt)
             b = 2.0 * self._dot(Du + dr, dt)

@@ -50,9 +50,9 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.optimize import brentq
 
-from fem_reference.banded import BAND_MAX, symmetric_upper_band
 from fem_reference.rigid import stability_view
 from fem_reference.statics import static as S
+from fem_reference.statics.inertia import jacobi_verdict, state_stability
 
 KIND_TOL = 1e-3
 SWITCH_AMPLITUDE = 1e-2
@@ -108,7 +108,7 @@ class Watch:
         self.active = is_conservative(system)
         self._cache: tuple = (None, None, None)  # (id, stability dict, state kept alive)
         self.dense_max = 60
-        self._fast: tuple = (None, False)  # (state, positive definite) of the last fast check
+        self._fast: tuple = (None, None)  # (state, jacobi_verdict) of the last fast check
         self._step: tuple | None = None  # (|du|_W, |dlam|) of the last load step
 
     def _eig(self, st: S.State, scale: np.ndarray | None = None) -> float:
@@ -117,27 +117,27 @@ class Watch:
     def stable(self, st: S.State) -> bool:
         """Positive definiteness of the symmetric tangent: Cholesky (LAPACK ``dpbtrf``) of
         its Jacobi-scaled band (well conditioned even for EA L^2/EI ~ 1e8, where the
-        length-scaled matrix lets round-off pass an indefinite one); the full
-        ``static.stability`` when it is cached anyway or there is no band fast path."""
+        length-scaled matrix lets round-off pass an indefinite one; ``inertia.jacobi_verdict``,
+        from the solver's own evaluation of the state); ``static.stability`` when there is
+        no band fast path.  The band and verdict are kept for ``stability`` of the same
+        state (the runner's record)."""
         if self._cache[2] is st:
-            return bool(self._cache[1]["stable"])
+            return bool(self._cache[1]["jacobi_pd"])
         if self._fast[0] is st:  # the previous step's current state
-            return self._fast[1]
-        bw = getattr(self.sys, "bandwidth", None)
-        if not hasattr(self.sys, "tangent_band") or bw is None or bw > BAND_MAX:
+            return self._fast[1][1] is not None
+        pre = jacobi_verdict(self.sys, st)
+        if pre[0] is None:
             return bool(self.stability(st)["stable"])
-        with stability_view(self.sys):
-            ab = self.sys.tangent_band(self.sys.evaluate(st.u, st.lam))
-        d = np.abs(ab[2 * bw])
-        up = symmetric_upper_band(ab, bw, 1.0 / np.sqrt(np.where(d > 0.0, d, 1.0)))
-        self._fast = (st, bool(sla.lapack.dpbtrf(up, lower=0)[1] == 0))
-        return self._fast[1]
+        self._fast = (st, pre)
+        return pre[1] is not None
 
     def stability(self, st: S.State) -> dict:
-        """``static.stability`` of ``st`` (cached for the last state asked: the runner
+        """``inertia.state_stability`` of ``st`` (cached for the last state asked: the runner
         reports the same dict instead of computing it twice)."""
         if self._cache[0] != id(st) or self._cache[2] is not st:
-            self._cache = (id(st), S.stability(self.sys, st.u, st.lam, self.dense_max), st)
+            pre = self._fast[1] if self._fast[0] is st else None
+            res = state_stability(self.sys, st, self.dense_max, pre=pre)
+            self._cache = (id(st), res, st)
         return self._cache[1]
 
     def check(self, prev: S.State, cur: S.State, target: float, path: bool = False) -> S.State:

@@ -24,10 +24,16 @@ from fem_reference import corotational as cr
 LINK_ERROR_MAX = 1e-9  # exact links: far above round-off, far below any output tolerance
 
 
-def strains(system: object, u: np.ndarray) -> dict[str, tuple[str, float]]:
-    """``{member id: (kind, largest |axial strain| of its elements)}`` of state ``u``."""
-    d = system.full(u)
-    st = cr.local_state(system.beams, d[system.beam_dofs])
+def strains(
+    system: object, u: np.ndarray, local: cr.LocalState | None = None
+) -> dict[str, tuple[str, float]]:
+    """``{member id: (kind, largest |axial strain| of its elements)}`` of state ``u``
+    (``local``: the element state of ``u`` when the caller has it)."""
+    st = (
+        local
+        if local is not None
+        else cr.local_state(system.beams, system.full(u)[system.beam_dofs])
+    )
     eps = np.abs(st.ln / system.beams.L0 - 1.0)
     return {
         m.id: (m.kind, float(np.max(eps[m.elements], initial=0.0)))
@@ -36,14 +42,15 @@ def strains(system: object, u: np.ndarray) -> dict[str, tuple[str, float]]:
     }
 
 
-def violation(system: object, u: np.ndarray) -> str | None:
-    """None, or why state ``u`` is outside what the FE model represents."""
+def violation(system: object, u: np.ndarray, local: cr.LocalState | None = None) -> str | None:
+    """None, or why state ``u`` is outside what the FE model represents (``local``: its
+    element state, if known)."""
     if not hasattr(system, "beams") or not hasattr(system, "members"):
         return None
     link = system.max_link_error(u) / system.length_scale()
     if link > LINK_ERROR_MAX:
         return f"rigid links off by {link:.2g} L (bound {LINK_ERROR_MAX:g}): not an equilibrium"
-    for mid, (kind, e) in strains(system, u).items():
+    for mid, (kind, e) in strains(system, u, local).items():
         if kind == "rigid" and e > RIGID_STRETCH_MAX:
             return (
                 f"rigid link {mid!r} stretched by {e:.2g} (bound {RIGID_STRETCH_MAX:g}): the "

@@ -86,7 +86,7 @@ def load_control(
     sc = Scaler.of(system)
     sgn = 1.0 if target > lam else -1.0
     h = min(st.h_next if st.h_next else h0, total)
-    iters, cuts, streak, res = 0, 0, 0, st.residual
+    iters, cuts, streak, res, ev = 0, 0, 0, st.residual, st.ev
     while abs(target - lam) > 1e-14 * max(abs(target), 1.0):
         dl = sgn * min(h, abs(target - lam))
         lt = target if abs(target - (lam + dl)) < 1e-12 * max(1.0, abs(target)) else lam + dl
@@ -114,10 +114,10 @@ def load_control(
         iters += new.iterations
         streak = 0
         prev = (lam, u)
-        u, lam, lu, res = new.u, lt, new.lu, new.residual
+        u, lam, lu, res, ev = new.u, lt, new.lu, new.residual, new.ev
         if new.iterations <= 6:
             h = min(h * opts.grow, total)
-    return State(u, lam, iters, cuts, res, lu, prev=prev, h_next=h)
+    return State(u, lam, iters, cuts, res, lu, prev=prev, h_next=h, ev=ev)
 
 
 def displacement_control(
@@ -139,7 +139,7 @@ def displacement_control(
         return replace(st, iterations=0, cuts=0)
     sgn = 1.0 if target > v else -1.0
     u, lam, h, iters, cuts, streak = st.u, st.lam, min(h0, total), 0, 0, 0
-    res = st.residual
+    res, ev = st.residual, st.ev
     while abs(target - v) > 1e-13 * (abs(target) + system.length_scale()):
         dv = sgn * min(h, abs(target - v))
         vt = target if abs(target - (v + dv)) < 1e-12 * (abs(target) + 1.0) else v + dv
@@ -168,10 +168,10 @@ def displacement_control(
             continue
         iters += new.iterations
         streak = 0
-        u, lam, v, res = new.u, new.lam, vt, new.residual
+        u, lam, v, res, ev = new.u, new.lam, vt, new.residual, new.ev
         if new.iterations <= 6:
             h = min(h * opts.grow, total)
-    return State(u, lam, iters, cuts, res)
+    return State(u, lam, iters, cuts, res, ev=ev)
 
 
 def unwrap(system: DiscreteSystem, st: State, ref: np.ndarray, opts: Options) -> State:
@@ -259,11 +259,13 @@ def stability(
     lam: float,
     dense_max: int = 60,
     exclude: int | None = None,
+    ab: np.ndarray | None = None,
 ) -> dict:
     """``_stability`` on the system's stability tangent (for exact rigid links the augmented
-    Lagrangian Hessian, ``rigid.stability_view``; otherwise the tangent itself)."""
+    Lagrangian Hessian, ``rigid.stability_view``; otherwise the tangent itself); ``ab``: that
+    tangent at ``(u, lam)`` in ``dgbtrf`` band storage when the caller has assembled it."""
     with stability_view(system):
-        return _stability(system, u, lam, dense_max, exclude)
+        return _stability(system, u, lam, dense_max, exclude, ab)
 
 
 def _stability(
@@ -272,6 +274,7 @@ def _stability(
     lam: float,
     dense_max: int = 60,
     exclude: int | None = None,
+    ab: np.ndarray | None = None,
 ) -> dict:
     """Stability of the state from the symmetric part of the tangent on the free DOFs.
 
@@ -294,16 +297,17 @@ def _stability(
     bw = getattr(system, "bandwidth", None)
     fast = hasattr(system, "tangent_band") and hasattr(system, "evaluate")
     if bw is not None and bw <= BAND_MAX:
-        if fast:
+        if ab is None and fast:
             ab = system.tangent_band(system.evaluate(u, lam))
-        else:
+        elif ab is None:
             ab = csr_to_band(system.residual_and_tangent(u, lam)[1].tocsr(), bw)
         up = symmetric_upper_band(ab, bw, scale)
         if exclude is not None:  # decoupled, above every eigenvalue: inertia of the rest
             hold_dof(up, bw, exclude, 2.0 * inf_norm(up, bw) + 1.0)
         # up to dense_max DOFs the band Cholesky decides only a positive definite tangent (a
         # dense eigvalsh cost half of a 16-element solve); any other keeps the dense test
-        if n > dense_max or _dpbtrf(up, lower=0)[1] == 0:
+        chol = _dpbtrf(up, lower=0)
+        if n > dense_max or chol[1] == 0:
             warm = getattr(system, "_flex_eig_warm", None)
             if warm is None:
                 warm = {}
@@ -311,7 +315,7 @@ def _stability(
                     system._flex_eig_warm = warm
                 except AttributeError:  # pragma: no cover
                     pass
-            res = band_stability(up, bw, warm)
+            res = band_stability(up, bw, warm, chol)
             if res is not None:
                 return res
     _, K = system.residual_and_tangent(u, lam)
