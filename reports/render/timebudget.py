@@ -1,17 +1,16 @@
 """Where the run's CPU time went: per model family, the references, the atlases, rendering.
 
-From the run's own records: each pair's ``timing`` (the first solve, the timing repeats,
-post-processing) and ``cost`` (the samples of the pick's cost estimate, when not taken
-from the cache; a solve slower than ``cost.BUDGET_S`` is its own estimate, no sample);
-reference pairs an earlier run solved (``"cached"``, ``reports.run.refcache``) cost this
-run nothing and are counted apart; the runner's ``stats["cpu"]`` (``reports.run.runner``: CPU of every process
-of the local pool over the solving stage, the teaching atlases computed in this run, the
-per-case figures drawn while solving, and writing the teaching page, which only the run
-itself knows: a re-render with ``flexbench report`` does not show that row); and the CPU of
-rendering this report
-(``figures["_render"]``, measured by ``reports.render.render_report``).  What the solving
-stage spent outside the timed parts (exports, serialisation, the pool, imports) is shown as
-the rest, so the rows add up to what was measured.
+From the run's own records: each pair's ``timing`` (the first solve, the timing repeats, post-
+processing) and ``cost`` (the samples of the pick's cost estimate, when not taken from the
+cache; a solve slower than ``cost.BUDGET_S`` is its own estimate, no sample); reference pairs an
+earlier run solved (``"cached"``, ``reports.run.refcache``) cost this run nothing and are
+counted apart; the runner's ``stats["cpu"]`` (``reports.run.runner``: CPU of every process of
+the local pool over the solving stage, the teaching atlases computed in this run, the per-case
+figures drawn while solving, and writing the teaching page, which only the run itself knows: a
+re-render with ``flexbench report`` does not show that row); and the CPU of rendering this
+report (``figures["_render"]``, measured by ``reports.render.render_report``). What the solving
+stage spent outside the timed parts (exports, serialisation, the pool, imports) is shown as the
+rest, so the rows add up to what was measured.
 """
 
 from __future__ import annotations
