@@ -27,6 +27,9 @@ def test_pair_cpu_counts_first_solve_repeats_post_and_uncached_estimate():
     assert solve == pytest.approx(0.010 + 5 * 0.002)
     assert post == 0.001
     assert est == pytest.approx(3 * timebudget.SAMPLE_S)  # a sample is at least 1 ms
+    slow = {"first_s": 0.5, "first_cpu_s": 0.4, "total_s": 0.5}
+    one = {"cpu_s": 0.4, "noise_s": 0.0, "n": 1, "cached": False}  # cost.measure: the first
+    assert timebudget.pair_cpu({"timing": slow, "cost": one}) == (0.4, 0.0, 0.0)
     rec["timing"]["total_s"] = rec["timing"]["first_s"]  # not repeated: the first call alone
     rec["cost"]["cached"] = True
     assert timebudget.pair_cpu(rec) == (0.010, 0.001, 0.0)
@@ -89,7 +92,9 @@ def test_time_panel_rows_from_hand_made_records():
         "results": [
             rec("prb-1r", 0.2, 0.1, {"cpu_s": 0.01, "n": 10, "cached": False}),
             rec("prb-3r", 0.3, 0.0),
-            rec("fem-auto", 2.0, 0.0),
+            # a solve past the sampling budget is its own estimate: no sample to add
+            rec("fem-auto", 2.0, 0.0, {"cpu_s": 2.0, "n": 1, "cached": False}),
+            rec("replay", 5.0, 0.0) | {"cached": True},  # an earlier run's solve: 0 s here
             {"model": "bcm", "status": "not-applicable"},  # no timing: not a row
         ],
         "stats": {
@@ -106,6 +111,7 @@ def test_time_panel_rows_from_hand_made_records():
     assert got == {
         "reference: finite elements (fem-N, fem-auto)": ("1", 2.0),
         "PRB models": ("2", 0.2 + 0.1 + 10 * 0.01 + 0.3),
+        "reference pairs reused from the cache": ("1", 0.0),
         "validity atlases (teaching page)": ("", 4.0),
         "rest of the solving stage": ("", 10.0 - 2.0 - 0.7 - 4.0 - 1.0),
         "per-case figures drawn while solving": ("", 1.0),

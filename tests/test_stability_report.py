@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import cases
-from reports.render import stability_maps
+from reports.render import stability_maps, textcheck
 from reports.render.md import to_markdown
 from reports.run import runner
 
@@ -27,7 +27,10 @@ def test_report_has_verdicts_and_maps(tmp_path):
         render=False,
         progress=False,
     )
-    md = to_markdown(stability_maps.blocks(res.payload, tmp_path))
+    with textcheck.checking() as found:  # margins fixed in inches: nothing cut or overlapping
+        md = to_markdown(stability_maps.blocks(res.payload, tmp_path))
+    maps = {k: v for k, v in found.items() if "stability-thesis-sixbar" in k}
+    assert len(maps) == 2 and not any(maps.values()), maps
     assert "stability verdicts side by side" in md
     assert "Sweep thesis-sixbar-config4-sweep-rest: 8 points" in md
     assert "reduced Hessian" in md and "basis" in md

@@ -183,12 +183,16 @@ def sweep_figures(parent: str, pts: Mapping, by_case: Mapping, fig_dir: Path) ->
     out = []
     if X.shape[1] >= 2:
         third = sorted(set(X[:, 2])) if X.shape[1] > 2 else [None]
+        w, h = 2.2 * len(third) + 1, 2.1 * len(METHODS)
+        # shared axes label only the outer ones; margins fixed in inches instead of
+        # tight_layout (which draws every tick label once more to measure it)
         fig, axes = plt.subplots(
-            len(METHODS),
-            len(third),
-            squeeze=False,
-            figsize=(2.2 * len(third) + 1, 2.1 * len(METHODS)),
+            len(METHODS), len(third), squeeze=False, figsize=(w, h), sharex=True, sharey=True
         )
+        fig.subplots_adjust(
+            left=0.7 / w, right=1 - 0.15 / w, bottom=0.45 / h, top=1 - 0.4 / h,
+            wspace=0.25, hspace=0.45,
+        )  # fmt: skip
         for (i, (model, label)), (j, z) in itertools.product(enumerate(METHODS), enumerate(third)):
             ax = axes[i, j]
             sel = [k for k in range(len(names)) if z is None or X[k, 2] == z]
@@ -208,7 +212,6 @@ def sweep_figures(parent: str, pts: Mapping, by_case: Mapping, fig_dir: Path) ->
                 ax.set_ylabel(short[1], fontsize=7)
             if i == len(METHODS) - 1:
                 ax.set_xlabel(short[0], fontsize=7)
-        fig.tight_layout()
         p = fig_dir / f"stability-{_slug(parent)}-slices.png"
         fig.savefig(p, dpi=80)
         plt.close(fig)
@@ -234,7 +237,7 @@ def sweep_figures(parent: str, pts: Mapping, by_case: Mapping, fig_dir: Path) ->
             a.set_ylabel(short[1], fontsize=7)
             a.set_zlabel(short[2], fontsize=7)
             a.tick_params(labelsize=6)
-        fig.tight_layout()
+        fig.subplots_adjust(left=0.0, right=0.97, bottom=0.04, top=0.94, wspace=0.08)
         p = fig_dir / f"stability-{_slug(parent)}-3d.png"
         fig.savefig(p, dpi=80)
         plt.close(fig)

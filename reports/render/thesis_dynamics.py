@@ -126,16 +126,22 @@ def animation(name: str, th: Mapping, path: Path) -> Path:
     pad = 0.05 * max(np.ptp(xs), np.ptp(ys))
     picks = np.unique(np.linspace(0, len(th["t"]) - 1, GIF_FRAMES).round().astype(int))
     fig, ax = plt.subplots(figsize=(3.2, 3.0))
+    ax.set_xlim(xs.min() - pad, xs.max() + pad)
+    ax.set_ylim(ys.min() - pad, ys.max() + pad)
+    ax.set_aspect("equal")
+    ax.set_xticks([])
+    ax.set_yticks([])
+    # the lines are made once and moved per frame: clearing the axes re-built them, their
+    # limits and ticks 30 times per GIF
+    bars = [(a, b, ax.plot([], [], color="k", lw=1.5)[0]) for a, b in th["members"]]
+    bars += [(a, b, ax.plot([], [], color="tab:orange", lw=3)[0]) for a, b in th["booms"]]
+    title = ax.set_title("", fontsize=7)
 
     def draw(i: int) -> list:
-        ax.clear()
-        ax.set_xlim(xs.min() - pad, xs.max() + pad)
-        ax.set_ylim(ys.min() - pad, ys.max() + pad)
-        ax.set_aspect("equal")
-        ax.set_xticks([])
-        ax.set_yticks([])
-        _draw(ax, th, int(picks[i]))
-        ax.set_title(f"{name}\nt = {th['t'][picks[i]]:.3f} s", fontsize=7)
+        xy = _frame(th, int(picks[i]))
+        for a, b, line in bars:
+            line.set_data(*zip(xy[a], xy[b]))
+        title.set_text(f"{name}\nt = {th['t'][picks[i]]:.3f} s")
         return []
 
     FuncAnimation(fig, draw, frames=len(picks)).save(path, writer=PillowWriter(fps=8), dpi=50)

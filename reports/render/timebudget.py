@@ -1,15 +1,16 @@
 """Where the run's CPU time went: per model family, the references, the atlases, rendering.
 
-From the run's own records: each pair's ``timing`` (the first solve, the timing repeats,
-post-processing) and ``cost`` (the samples of the pick's cost estimate, when not taken
-from the cache); the runner's ``stats["cpu"]`` (``reports.run.runner``: CPU of every process
-of the local pool over the solving stage, the teaching atlases computed in this run, the
-per-case figures drawn while solving, and writing the teaching page, which only the run
-itself knows: a re-render with ``flexbench report`` does not show that row); and the CPU of
-rendering this report
-(``figures["_render"]``, measured by ``reports.render.render_report``).  What the solving
-stage spent outside the timed parts (exports, serialisation, the pool, imports) is shown as
-the rest, so the rows add up to what was measured.
+From the run's own records: each pair's ``timing`` (the first solve, the timing repeats, post-
+processing) and ``cost`` (the samples of the pick's cost estimate, when not taken from the
+cache; a solve slower than ``cost.BUDGET_S`` is its own estimate, no sample); reference pairs an
+earlier run solved (``"cached"``, ``reports.run.refcache``) cost this run nothing and are
+counted apart; the runner's ``stats["cpu"]`` (``reports.run.runner``: CPU of every process of
+the local pool over the solving stage, the teaching atlases computed in this run, the per-case
+figures drawn while solving, and writing the teaching page, which only the run itself knows: a
+re-render with ``flexbench report`` does not show that row); and the CPU of rendering this
+report (``figures["_render"]``, measured by ``reports.render.render_report``). What the solving
+stage spent outside the timed parts (exports, serialisation, the pool, imports) is shown as the
+rest, so the rows add up to what was measured.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 from reports.render import frontpage as FP
+from reports.verdicts.cost import BUDGET_S, SAMPLE_S
 
 GROUPS = (  # model-name prefix -> row of the panel (first match)
     ("fem-", "reference: finite elements (fem-N, fem-auto)"),
@@ -30,7 +32,6 @@ GROUPS = (  # model-name prefix -> row of the panel (first match)
     ("mixed", "mechanism assembler (kinetostatic, mixed)"),
     ("thesis", "thesis force method"),
 )
-SAMPLE_S = 1e-3  # reports.verdicts.cost.SAMPLE_S: a cost sample is at least this long
 
 
 def group(model: str) -> str:
@@ -41,21 +42,27 @@ def group(model: str) -> str:
 def pair_cpu(rec: Mapping) -> tuple[float, float, float]:
     """(solve, post-processing, cost estimate) CPU s of one pair: the first solve plus its
     timing repeats (median x count), the post-processing, and the cost estimate's samples
-    (none when the estimate came from the cache)."""
+    (none when the estimate came from the cache, or is the first solve itself: a solve of
+    ``BUDGET_S`` or more is not sampled, ``cost.measure``)."""
     t = rec.get("timing") or {}
     first = t.get("first_cpu_s") or 0.0
     repeated = (t.get("total_s") or 0.0) > (t.get("first_s") or 0.0)
     solve = first + ((t.get("cpu_median_s") or 0.0) * (t.get("n_repeats") or 0) if repeated else 0)
     est = rec.get("cost") or {}
-    sample = 0.0 if est.get("cached") else est.get("n", 0) * max(est.get("cpu_s", 0), SAMPLE_S)
+    sampled = not est.get("cached") and first < BUDGET_S
+    sample = est.get("n", 0) * max(est.get("cpu_s", 0), SAMPLE_S) if sampled else 0.0
     return solve, t.get("post_cpu_s") or 0.0, sample
 
 
 def rows(payload: Mapping, figures: Mapping) -> tuple[list[list], float]:
     """Rows ``[what, pairs, CPU s, share]`` and the total CPU s they add up to."""
     by: dict[str, list[float]] = {}
+    reused = 0
     for r in payload["results"]:
         if not r.get("timing"):
+            continue
+        if r.get("cached"):  # an earlier run's solve, copied from the cache
+            reused += 1
             continue
         acc = by.setdefault(group(r["model"]), [0, 0.0, 0.0, 0.0])
         acc[0] += 1
@@ -68,6 +75,9 @@ def rows(payload: Mapping, figures: Mapping) -> tuple[list[list], float]:
         n, solve, post, est = by[label]
         detail = f"solves {solve:.3g} s, post-processing {post:.3g} s, cost estimates {est:.3g} s"
         items.append((label, str(n), solve + post + est, detail))
+    if reused:
+        what = "solved by an earlier run of this code ($FLEXBENCH_CACHE)"
+        items.append(("reference pairs reused from the cache", str(reused), 0.0, what))
     atlases = cpu.get("atlases_s") or {}
     if atlases:
         parts = ", ".join(f"{k} {v:.3g} s" for k, v in sorted(atlases.items()))
