@@ -27,6 +27,7 @@ from cases.schema import Scene
 from fem_reference.replay import events
 from fem_reference.replay import honesty as honest
 from fem_reference.replay import integrator as ev
+from fem_reference.replay.sweep import RAMP_NEWTON, ContinuousRamp
 from fem_reference.statics.bifurcation import is_conservative
 from fem_reference.statics.integrity import violation
 from reduced_models.base import Solution, Step
@@ -126,10 +127,17 @@ class _Run:
         h.t.append(s.t)
         h.factor.append(s.lam)
         h.kinetic.append(0.5 * float(s.v @ (self.M @ s.v)))
-        h.strain.append(float(self.sys.strain_energy(s.q)))
+        h.strain.append(None)  # on demand (``strain``): a full element pass per time step
         h.dissipated.append(self.D)
         h.external_work.append(self.W)
         h.q.append(s.q)
+
+    def strain(self, i: int) -> float:
+        """Strain energy of history state ``i`` (computed once, when first asked for)."""
+        h = self.hist
+        if h.strain[i] is None:
+            h.strain[i] = float(self.sys.strain_energy(h.q[i]))
+        return h.strain[i]
 
     def advance(
         self,
@@ -140,11 +148,14 @@ class _Run:
         hmax: float | None = None,
         lte: float | None = None,
         steady: bool = False,
+        through: bool = False,
     ) -> tuple[ev.State, object]:
         """Integrate to ``t_stop`` (or until ``until(state)`` returns non-None); steps at most
         ``hmax`` (default ``dt_max`` T1), local error per step at most ``lte`` L (default
         ``lte_tol``).  ``steady``: keep the step while the error test would change it by
-        less than x0.8 .. x1.5 (so a kept factorisation stays valid)."""
+        less than x0.8 .. x1.5 (so a kept factorisation stays valid).  ``through``: the
+        motion goes on smoothly past ``t_stop`` (a sample of a continuous ramp), so the step
+        cut short to land on it does not shrink the next one."""
         o, integ, hmin = self.o, self.integ, 1e-10 * self.T1
         hmax = o.dt_max * self.T1 if hmax is None else hmax
         lte = o.lte_tol if lte is None else lte
@@ -155,7 +166,8 @@ class _Run:
                     f"time limit {self.deadline.seconds:g} s reached at t = {s.t:.4g} "
                     f"(factor {s.lam:.6g}, step {self.h:.2g}): the replay stalled"
                 )
-            h = min(self.h, hmax, t_stop - s.t)
+            h_want = min(self.h, hmax)
+            h = min(h_want, t_stop - s.t)
             s1 = integ.step(s, h, lam_of_t(s.t + h))
             err = math.inf if s1 is None else integ.error(s, s1, h)
             if err > lte:
@@ -188,6 +200,8 @@ class _Run:
                 self._record(s)
             grow = min(2.0, 0.9 * (lte / max(err, 1e-300)) ** (1 / 3))
             self.h = h if steady and 0.8 <= grow < 1.5 else h * grow
+            if through and h < h_want:  # cut short by t_stop: says nothing of h_want
+                self.h = max(self.h, h_want)
             if until is not None:
                 res = until(s)
                 if res is not None:
@@ -254,7 +268,7 @@ class _Run:
         """
         h, (i0, W0, U0, D0, q_prev) = self.hist, mark
         dD = self.D - self.D_impact - D0
-        scale = max(abs(self.W - W0), abs(h.strain[-1] - U0), 1e-300)
+        scale = max(abs(self.W - W0), abs(self.strain(-1) - U0), 1e-300)
         if dD <= self.o.jump_dissipation * scale:
             return None
         dist = np.max(np.abs(self.w * (h.q[-1] - q_prev))) / self.L
@@ -319,7 +333,7 @@ class _Run:
         c = float(mode @ (self.integ.damping(s) @ mode)) / float(mode @ (M @ mode))
         tau = max(1.0 / om, c / om**2)
         integ, q0 = self.integ, s.q
-        saved = [p.locked for p in integ.pairs], self.h
+        saved = [p.locked for p in integ.pairs], self.h, self.s  # s: not always the run's
         start = integ.start(s.t, s.lam, s.q, s.v + v0)
         peak, rest = [0.0], []
 
@@ -358,7 +372,7 @@ class _Run:
             integ.keep_lu = None
             for p, lk in zip(integ.pairs, saved[0]):
                 p.locked = lk
-            self.s, self.h = s, saved[1]
+            self.h, self.s = saved[1:]
         d_end = float(np.max(np.abs(self.w * (end.q - q0)))) / self.L
         stable = {"returned": True, "departed": False}.get(verdict)
         out = dict(stable=stable, peak=peak[0] / self.L, final=d_end, time=end.t - s.t)
@@ -374,13 +388,20 @@ def _reach(run: _Run, lam: float) -> tuple[ev.State, dict]:
     """Ramp the load factor to ``lam`` (over ``ramp_periods`` T1) and hold until settled."""
     if run.s.lam != lam or run.s.t == 0.0 and lam != 0.0:
         la, t0, Tr = run.s.lam, run.s.t, run.o.ramp_periods * run.T1
-        run.advance(t0 + Tr, ev.ramp_path(la, lam, t0, Tr))
+        integ, tight = run.integ, run.integ.newton_tol
+        # the ramp is a transient: Newton to a fraction of the step's own error suffices (the
+        # settled state's tolerance is checked on the state itself, by ``static_check``)
+        integ.newton_tol = max(tight, RAMP_NEWTON * run.o.lte_tol)
+        try:
+            run.advance(t0 + Tr, ev.ramp_path(la, lam, t0, Tr))
+        finally:
+            integ.newton_tol = tight
     return run.hold(lam)
 
 
 def _stability(run: _Run, s: ev.State, chk: dict, want: bool, scene: Scene | None) -> tuple:
     """Tangent test and (if ``want``) impulse probe of the settled state ``s``: (eig, probe)."""
-    eig, mode = ev.tangent_test(chk["K"], chk["G"], run.M)
+    eig, mode = chk.get("tangent") or ev.tangent_test(chk["K"], chk["G"], run.M)
     pr = run.probe(s, eig, mode, scene) if want else {"stable": None, "verdict": "skipped"}
     return eig, pr
 
@@ -402,7 +423,7 @@ def replay_system(
     case: str = "",
     options: ReplayOptions | None = None,
     stability: Callable = _stability,
-    reach: Callable = _reach,
+    reach: Callable | None = None,
 ) -> Solution:
     """Replay ``system`` through the load ``factors`` (the heart of the ``replay`` model).
 
@@ -415,7 +436,8 @@ def replay_system(
     stability : ``(run, state, static_check, want_probe, scene) -> (eigenvalue, probe dict)``
         at each settled state (a servo replay tests the load-controlled system instead).
     reach : ``(run, factor) -> (settled state, static_check)``: how a report point is
-        reached (default: ramp and hold; a servo replay aims its coordinate).
+        reached (default: one continuous ramp through ``factors``, ``sweep.ContinuousRamp``;
+        a servo replay aims its coordinate).
 
     Returns
     -------
@@ -424,6 +446,7 @@ def replay_system(
     animation), ``settle`` (timing/damping figures).
     """
     o = options or ReplayOptions()
+    reach = reach or ContinuousRamp(factors)
     steps: list[Step] = []
     jumps: list[dict] = []
     probes: list[dict] = []
@@ -438,7 +461,7 @@ def replay_system(
     verdict = is_conservative(system)
     for k, lam in enumerate(np.asarray(factors, dtype=float)):
         it0, h = run.integ.newton_iterations, run.hist
-        mark = (len(h.t), run.W, h.strain[-1], run.D - run.D_impact, prev_q)
+        mark = (len(h.t), run.W, run.strain(-1), run.D - run.D_impact, prev_q)
         try:
             s, chk = reach(run, float(lam))
             want = verdict and (o.probe == "all" or o.probe == "last" and k == len(factors) - 1)
@@ -473,8 +496,9 @@ def replay_system(
     idx = ev.downsample(len(h.t), o.history_samples)
     history = {
         key: [float(getattr(h, key)[i]) for i in idx]
-        for key in ("t", "factor", "kinetic", "strain", "dissipated", "external_work")
+        for key in ("t", "factor", "kinetic", "dissipated", "external_work")
     }
+    history["strain"] = [run.strain(i) for i in idx]
     out_of = getattr(system, "outputs", None)  # FE systems: outputs without shapes (cheaper)
     if getattr(system, "outputs_need_factor", False):  # a prescribed coordinate: q alone is not
         outs = [out_of(h.q[i], h.factor[i]) for i in idx]  # the state
@@ -486,7 +510,7 @@ def replay_system(
     for key in outs[0] if outs else ():
         history[key] = [float(d.get(key, math.nan)) for d in outs]
     fi = ev.downsample(len(h.t), o.frames)
-    W, U, T, D = h.external_work[-1], h.strain[-1] - run.U0, h.kinetic[-1], h.dissipated[-1]
+    W, U, T, D = h.external_work[-1], run.strain(-1) - run.U0, h.kinetic[-1], h.dissipated[-1]
     frames = dict(t=np.array(h.t)[fi], factor=np.array(h.factor)[fi], q=np.array(h.q)[fi])
     frames["n_elements"] = getattr(system, "n_elements", None)
     settle = dict(T1=run.T1, omega1=run.w1, damping=run.damping_note, time_steps=len(h.t) - 1)
