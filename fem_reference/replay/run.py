@@ -121,6 +121,11 @@ class _Run:
         self.s = self.integ.start(0.0, 0.0, np.zeros(n), np.zeros(n))
         self._record(self.s)
         self.deadline = honest.Deadline(o.time_limit_s)
+        self.warm: dict = {}  # the last tangent test's mode (band.lowest_mode's start)
+
+    def tangent_test(self, chk: dict) -> tuple[float, np.ndarray]:
+        """Lowest eigenpair of the settled state's tangent (``static_check``'s K, G)."""
+        return ev.tangent_test(chk["K"], chk["G"], self.M, self.integ.bw, self.warm)
 
     def _record(self, s: ev.State) -> None:
         h = self.hist
@@ -401,7 +406,7 @@ def _reach(run: _Run, lam: float) -> tuple[ev.State, dict]:
 
 def _stability(run: _Run, s: ev.State, chk: dict, want: bool, scene: Scene | None) -> tuple:
     """Tangent test and (if ``want``) impulse probe of the settled state ``s``: (eig, probe)."""
-    eig, mode = chk.get("tangent") or ev.tangent_test(chk["K"], chk["G"], run.M)
+    eig, mode = chk.get("tangent") or run.tangent_test(chk)
     pr = run.probe(s, eig, mode, scene) if want else {"stable": None, "verdict": "skipped"}
     return eig, pr
 

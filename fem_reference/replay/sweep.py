@@ -124,7 +124,7 @@ def settle(
     if chk is None:
         return None
     if is_conservative(run.sys):  # a damped motion does not come to rest at an unstable one
-        eig, mode = ev.tangent_test(chk["K"], chk["G"], run.M)
+        eig, mode = run.tangent_test(chk)
         if not eig > 0.0:
             return None
         chk["tangent"] = (eig, mode)
