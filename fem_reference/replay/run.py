@@ -75,6 +75,8 @@ class ReplayOptions:
 
 
 SOFT_AFTER = 20.0  # T1 of holding after which a soft mode gets its own critical damping
+PROBE_NEWTON = 1e-2
+PROBE_NEWTON = 0.1  # Newton tolerance of a probe / settle_tol
 PROBE_LTE = 0.1  # local error per step of a probe / the kick's excursion (lte_tol: ~0.3 of 1e-3 L)
 
 
@@ -367,6 +369,8 @@ class _Run:
         hmax = max(o.dt_max * self.T1, tau / 10)
         lte = min(o.lte_tol, PROBE_LTE * d_ref / self.L)
         integ.keep_lu = {}  # modified Newton across steps: the tangent barely changes
+        tight = integ.newton_tol
+        integ.newton_tol = PROBE_NEWTON * o.settle_tol
         try:
             end, verdict = self.advance(
                 s.t + 60.0 * tau, lambda t: s.lam, watch, False, hmax, lte, steady=True
@@ -374,7 +378,7 @@ class _Run:
         except ev.ReplayError:
             end, verdict = start, None
         finally:
-            integ.keep_lu = None
+            integ.keep_lu, integ.newton_tol = None, tight
             for p, lk in zip(integ.pairs, saved[0]):
                 p.locked = lk
             self.h, self.s = saved[1:]
