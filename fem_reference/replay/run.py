@@ -501,6 +501,8 @@ def replay_system(
                 jumps.append(jp)
         steps.append(st)
         prev_q, prev_step = s.q, st
+        if getattr(reach, "ended", False):  # the reach ended the path (a servo at factor_end)
+            break
     h = run.hist
     idx = ev.downsample(len(h.t), o.history_samples)
     history = {
