@@ -495,8 +495,3 @@ def soft_frequency(system: object, integ: GenAlpha, s: State) -> float | None:
     except (ValueError, np.linalg.LinAlgError, RuntimeError, spla.ArpackError):
         return None
     return math.sqrt(lam) if lam > 0.0 else None
-
-
-def downsample(n: int, cap: int) -> np.ndarray:
-    """At most ``cap`` indices of range(n), evenly spread, first and last included."""
-    return np.arange(n) if n <= cap else np.unique(np.linspace(0, n - 1, cap).round().astype(int))

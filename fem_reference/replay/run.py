@@ -24,7 +24,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from cases.schema import Scene
-from fem_reference.replay import events
+from fem_reference.replay import events, records
 from fem_reference.replay import honesty as honest
 from fem_reference.replay import integrator as ev
 from fem_reference.replay.sweep import RAMP_NEWTON, ContinuousRamp
@@ -264,60 +264,6 @@ class _Run:
             raise ev.ReplayError(f"did not settle at factor {lam:.6g} within {self.o.max_hold} T1")
         return s, chk
 
-    # -- snap-through -------------------------------------------------------------------------
-    def jump(self, mark: tuple, prev: Step | None, after: Step) -> dict | None:
-        """Report the increment since ``mark`` (history index, W, U, D, q at its start) as a
-        jump if it was dissipative.
-
-        The onset is the last history state (before the kinetic-energy peak) whose tangent is
-        still positive definite (bisection on the lowest eigenvalue), i.e. where the trajectory
-        left the stable branch: the limit point, up to the quasi-static lag.
-        """
-        h, (i0, W0, U0, D0, q_prev) = self.hist, mark
-        dD = self.D - self.D_impact - D0
-        scale = max(abs(self.W - W0), abs(self.strain(-1) - U0), 1e-300)
-        if dD <= self.o.jump_dissipation * scale:
-            return None
-        dist = np.max(np.abs(self.w * (h.q[-1] - q_prev))) / self.L
-        if dist < honest.JUMP_MIN_DISTANCE:  # a settling move, not a snap
-            return None
-        kin = np.asarray(h.kinetic[i0:])
-        ipk = i0 + int(np.argmax(kin))
-
-        def eig(i: int) -> float:
-            r, K, *_ = self.integ.forces(h.q[i], h.factor[i], h.t[i])
-            return float(ev.lowest_modes(K, self.M, k=1)[0][0])
-
-        # the first of ~12 samples up to the peak that is unstable, then bisection
-        grid = np.unique(np.linspace(max(i0 - 1, 0), ipk, 12).round().astype(int))
-        neg = [i for i in grid if eig(i) < 0.0]
-        if neg:
-            hi = neg[0]
-            lo = int(grid[max(int(np.searchsorted(grid, hi)) - 1, 0)])
-            while hi - lo > 1:
-                mid = (lo + hi) // 2
-                lo, hi = (mid, hi) if eig(mid) > 0.0 else (lo, mid)
-        else:  # never visibly left the stable region: first rise of kinetic energy
-            lo = i0 + int(np.argmax(kin >= 0.01 * kin.max()))
-        before = self.sys.step(h.q[lo], h.factor[lo], 0, None)
-        # load factor that holds the onset shape in static equilibrium (least squares)
-        f = np.asarray(self.sys.external(h.q[lo]), dtype=float)
-        r0 = np.asarray(self.sys.residual(h.q[lo], 0.0), dtype=float)
-        lam_eq = float(r0 @ f / (f @ f)) if f @ f > 0 else math.nan
-        # reported at the static path's stability loss; the dynamic onset alongside
-        lam_s = None
-        if prev is not None:
-            lam_s = honest.static_limit(self.sys, q_prev, float(prev.factor), after.factor)
-        lam_d = float(h.factor[lo])
-        out = dict(factor=lam_d if lam_s is None else lam_s, factor_dynamic=lam_d)
-        out.update(factor_static=lam_s, factor_equilibrium=lam_eq, t=float(h.t[lo]))
-        out.update(from_factor=float(prev.factor) if prev else math.nan, to_factor=after.factor)
-        out.update(dissipated=float(dD), dissipated_ratio=float(dD / scale))
-        out.update(peak_kinetic=float(kin.max()), jump_distance=float(dist))
-        out.update(before=dict(before.outputs), after=dict(after.outputs))
-        out["settled_before"] = dict(prev.outputs) if prev else {}
-        return out
-
     # -- stability -----------------------------------------------------------------------------
     def probe(self, s: ev.State, eig: float, mode: np.ndarray, scene: Scene | None) -> dict:
         """Kick the settled state ``s`` and watch: returns (stable), departs (unstable).
@@ -496,41 +442,14 @@ def replay_system(
         st = system.step(s.q, s.lam, run.integ.newton_iterations - it0, pr["stable"])
         st = replace(st, info={**dict(st.info), **info}, stable=pr["stable"])
         if k > 0:
-            jp = run.jump(mark, prev_step, st)
+            jp = records.jump(run, mark, prev_step, st)
             if jp is not None:
                 jumps.append(jp)
         steps.append(st)
         prev_q, prev_step = s.q, st
         if getattr(reach, "ended", False):  # the reach ended the path (a servo at factor_end)
             break
-    h = run.hist
-    idx = ev.downsample(len(h.t), o.history_samples)
-    history = {
-        key: [float(getattr(h, key)[i]) for i in idx]
-        for key in ("t", "factor", "kinetic", "dissipated", "external_work")
-    }
-    history["strain"] = [run.strain(i) for i in idx]
-    out_of = getattr(system, "outputs", None)  # FE systems: outputs without shapes (cheaper)
-    if getattr(system, "outputs_need_factor", False):  # a prescribed coordinate: q alone is not
-        outs = [out_of(h.q[i], h.factor[i]) for i in idx]  # the state
-    else:
-        outs = [
-            out_of(h.q[i]) if out_of else system.step(h.q[i], h.factor[i], 0, None).outputs
-            for i in idx
-        ]
-    for key in outs[0] if outs else ():
-        history[key] = [float(d.get(key, math.nan)) for d in outs]
-    fi = ev.downsample(len(h.t), o.frames)
-    W, U, T, D = h.external_work[-1], run.strain(-1) - run.U0, h.kinetic[-1], h.dissipated[-1]
-    frames = dict(t=np.array(h.t)[fi], factor=np.array(h.factor)[fi], q=np.array(h.q)[fi])
-    frames["n_elements"] = getattr(system, "n_elements", None)
-    settle = dict(T1=run.T1, omega1=run.w1, damping=run.damping_note, time_steps=len(h.t) - 1)
-    settle["newton_iterations"] = run.integ.newton_iterations
-    settle["factorizations"] = run.integ.factorizations
-    settle["point_masses_added"] = run.point_masses
-    settle["energy_balance_error"] = (W - U - T - D) / max(abs(W), abs(U), 1e-300)
-    extras = dict(history=history, jumps=jumps, events=run.events, probes=probes)
-    extras.update(frames=frames, settle=settle)
+    extras = records.extras(run, system, jumps, probes)
     if status == "converged":
         res = max(s.info["residual"] for s in steps)
         message = f"settled {len(steps)} states; max residual {res:.2e}; {len(jumps)} jump(s)"
