@@ -56,7 +56,8 @@ class Replay:
         name="replay",
         family="replay",
         summary="damped dynamics replay (MSC-ADAMS style) of the corotational FE scene: "
-        "generalised-alpha, load ramped and held until settled, impulse stability probes",
+        "generalised-alpha, one continuous load ramp settled at each reported factor, "
+        "impulse stability probes",
         assumptions=(
             "same corotational discretisation as fem-N; consistent mass from Member.density "
             "(default 7850 kg/m^3, 7.85e-9 t/mm^3, 7.35e-4 lbf s^2/in^4, 1 nondim)",

@@ -2,12 +2,15 @@
 
 The FE discretisation the static reference solves (``assembly.build``) gets mass and damping
 and is integrated by generalised-alpha (``integrator.GenAlpha``): the load factor is ramped
-(C2 ramp over ``ramp_periods`` lowest periods T1) to each reported factor and held until
-settled -- max|w v|/omega_1, max|w qdd|/omega_1^2 and the static distance max|w K^-1 r| all
-below ``settle_tol * L`` (w: 1 for translations, L for rotations).  The equation of motion
-holds exactly at every step, so a state at rest is an exact static equilibrium: the settled
-states equal the static FE ones to the settling tolerance, whatever the step, density or
-damping (those shape only the transient, and so which branch a snap lands on).  Each settled
+through the reported factors in one continuous ramp (``ramp_periods`` lowest periods T1 per
+increment, ``sweep.ContinuousRamp``) and each sample settled -- directly when it is
+quasi-static (Newton to the stable equilibrium it comes to rest at), else by holding the load
+until max|w v|/omega_1, max|w qdd|/omega_1^2 and the static distance max|w K^-1 r| are all
+below ``settle_tol * L`` (w: 1 for translations, L for rotations); a settled state passes
+that same test.  The equation of motion holds exactly at every step, so a state at rest is an
+exact static equilibrium: the settled states equal the static FE ones to the settling
+tolerance, whatever the step, density or damping (those shape only the transient, and so
+which branch a snap lands on).  Each settled
 state is kicked (lowest mode, or a nodal impulse as the thesis did with 1 N pulses in ADAMS)
 and watched: returns = stable, departs = unstable; the tangent test is recorded beside it.
 """
