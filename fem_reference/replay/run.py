@@ -342,7 +342,7 @@ class _Run:
 NO_VERDICT = "stable = None: no static stability verdict under follower (non-conservative) loads"
 
 
-def _reach(run: _Run, lam: float) -> tuple[ev.State, dict]:
+def ramp_and_hold(run: _Run, lam: float) -> tuple[ev.State, dict]:
     """Ramp the load factor to ``lam`` (over ``ramp_periods`` T1) and hold until settled."""
     if run.s.lam != lam or run.s.t == 0.0 and lam != 0.0:
         la, t0, Tr = run.s.lam, run.s.t, run.o.ramp_periods * run.T1

@@ -237,12 +237,12 @@ class _Aim:
     def _land(self, run: object, a: tuple, b: tuple) -> tuple[ev.State, dict]:
         """Settle at the servo position between ``a`` and ``b`` ((servo DOF, load factor),
         on either side of factor_end) where the load factor is factor_end (Illinois)."""
-        from fem_reference.replay.run import _reach
+        from fem_reference.replay.run import ramp_and_hold
 
         (p0, g0), (p1, g1) = (a[0], a[1] - self.end), (b[0], b[1] - self.end)
         for _ in range(self.MAX_SETTLES):
             p = p1 - g1 * (p1 - p0) / (g1 - g0)
-            s, chk = _reach(run, p)
+            s, chk = ramp_and_hold(run, p)
             g = self.sv.full_state(s.q, s.lam)[1] - self.end
             if abs(g) <= self.END_RTOL * abs(self.end):
                 self.ended, self.last = True, (p, g + self.end)
@@ -256,11 +256,11 @@ class _Aim:
 
     def _aim(self, run: object, T: float) -> tuple[ev.State, dict]:
         """Settle with the target coordinate at report value ``T`` (class docstring)."""
-        from fem_reference.replay.run import _reach
+        from fem_reference.replay.run import ramp_and_hold
 
         T = (T - self.off) / self.c  # in the units of q[j]
         if self.sv.i == self.j:
-            return _reach(run, T)
+            return ramp_and_hold(run, T)
         y1, p1 = self.seen[-1]
         y0, p0 = self.seen[-2] if len(self.seen) > 1 else (y1, p1)
         slope = (p1 - p0) / (y1 - y0) if y1 != y0 else 1.0
@@ -282,7 +282,7 @@ class _Aim:
                 p_new = p + float(np.clip(p_new - p, -cap, cap))
             else:
                 p_new = p + float(np.clip(slope * (T - y), -cap, cap))
-            s, chk = _reach(run, p_new)
+            s, chk = ramp_and_hold(run, p_new)
             y_new = float(self.sv.full_state(s.q, s.lam)[0][self.j])
             if abs(y_new - T) <= self.tol:
                 if (y_new, p_new) != self.seen[-1]:
