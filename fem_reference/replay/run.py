@@ -30,7 +30,7 @@ from cases.schema import Scene
 from fem_reference.replay import events, records
 from fem_reference.replay import honesty as honest
 from fem_reference.replay import integrator as ev
-from fem_reference.replay.sweep import RAMP_NEWTON, ContinuousRamp
+from fem_reference.replay.sweep import ContinuousRamp
 from fem_reference.statics.bifurcation import is_conservative
 from fem_reference.statics.integrity import violation
 from reduced_models.base import Solution, Step
@@ -346,14 +346,7 @@ def ramp_and_hold(run: _Run, lam: float) -> tuple[ev.State, dict]:
     """Ramp the load factor to ``lam`` (over ``ramp_periods`` T1) and hold until settled."""
     if run.s.lam != lam or run.s.t == 0.0 and lam != 0.0:
         la, t0, Tr = run.s.lam, run.s.t, run.o.ramp_periods * run.T1
-        integ, tight = run.integ, run.integ.newton_tol
-        # the ramp is a transient: Newton to a fraction of the step's own error suffices (the
-        # settled state's tolerance is checked on the state itself, by ``static_check``)
-        integ.newton_tol = max(tight, RAMP_NEWTON * run.o.lte_tol)
-        try:
-            run.advance(t0 + Tr, ev.ramp_path(la, lam, t0, Tr))
-        finally:
-            integ.newton_tol = tight
+        run.advance(t0 + Tr, ev.ramp_path(la, lam, t0, Tr))
     return run.hold(lam)
 
 
