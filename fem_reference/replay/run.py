@@ -78,7 +78,6 @@ class ReplayOptions:
 
 
 SOFT_AFTER = 20.0  # T1 of holding after which a soft mode gets its own critical damping
-PROBE_NEWTON = 1e-2
 PROBE_NEWTON = 0.1  # Newton tolerance of a probe / settle_tol
 PROBE_LTE = 0.1  # local error per step of a probe / the kick's excursion (lte_tol: ~0.3 of 1e-3 L)
 

@@ -58,7 +58,6 @@ class ContinuousRamp:
         self.sched: np.ndarray | None = None  # [start factor, factors...]
         self.k = 0  # schedule index of the next report factor
         self.j0, self.t0 = 0, 0.0  # the ramp runs from rest at schedule index j0, time t0
-        self.settled = 0  # samples settled directly (the rest were held)
         self.q_last: np.ndarray | None = None  # the last settled state's DOFs
 
     def lam_of_t(self, Tr: float) -> Callable[[float], float]:
@@ -76,7 +75,7 @@ class ContinuousRamp:
                 self.k, self.j0 = 2, 1
                 return run.hold(lam)
         j, self.k = self.k, self.k + 1
-        if not np.isclose(self.sched[j], lam, rtol=0.0, atol=0.0):
+        if self.sched[j] != lam:
             raise ev.ReplayError(f"continuous ramp: factor {lam:g} asked out of order")
         Tr = run.o.ramp_periods * run.T1
         t_j = self.t0 + Tr * (j - self.j0 + 0.5)  # _ease(x) = j - j0 (j > j0)
@@ -91,9 +90,7 @@ class ContinuousRamp:
         # the last factor is held: the run's history ends at rest on its last answer
         last = j == self.sched.size - 1
         out = None if last else settle(run, run.s, lam, self.q_last)
-        if out is not None:
-            self.settled += 1
-        else:  # held on the ramp itself: it starts again from rest
+        if out is None:  # held on the ramp itself: it starts again from rest
             out = run.hold(lam)
             self.j0, self.t0 = j, out[0].t
         self.q_last = out[0].q
