@@ -317,7 +317,7 @@ class _Run:
         hmax = max(o.dt_max * self.T1, tau / 10)
         lte = min(o.lte_tol, PROBE_LTE * d_ref / self.L)
         integ.keep_lu = {}  # modified Newton across steps: the tangent barely changes
-        tight = integ.newton_tol
+        tight = integ.newton_tol  # a probe's Newton: 1/10 of its at-rest test, not 1/100
         integ.newton_tol = PROBE_NEWTON * o.settle_tol
         try:
             end, verdict = self.advance(
