@@ -9,6 +9,10 @@ of a step and again only when the updates stop contracting fast (an update above
 probe: small motion about a settled state, steps of one size) the factorisation also
 carries over to the next step of the same size.  Convergence is judged by the same update test as
 ``GenAlpha.step``; the converged state is the same to that tolerance.
+
+The tangent test of a settled state in band storage too (``lowest_mode``): banded Cholesky
+and inverse iteration warm-started from the previous state's mode, where a dense
+generalised eigensolver costs ~1 ms at 100 DOFs.
 """
 
 from __future__ import annotations
@@ -18,14 +22,19 @@ from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
+import scipy.sparse as sp
 from scipy.linalg.blas import dgbmv as _dgbmv
+from scipy.linalg.lapack import dpbtrf as _dpbtrf
+from scipy.linalg.lapack import dpbtrs as _dpbtrs
 
-from fem_reference.banded import BAND_MAX, BandedLU, csr_to_band
+from fem_reference.banded import BAND_MAX, BandedLU, csr_to_band, symmetric_upper_band
 
 if TYPE_CHECKING:
     from fem_reference.replay.integrator import GenAlpha, State
 
 REFRESH = 0.1  # modified Newton: refactorise when an update is above this ratio of the last
+EIG_RTOL = 1e-12  # inverse iteration: estimated relative error of the lowest eigenvalue
+EIG_MAX_IT = 60
 
 
 def band_mass(integ: GenAlpha) -> np.ndarray | None:
@@ -107,3 +116,39 @@ def step_band(integ: GenAlpha, s: State, h: float, lam: float) -> State | None:
     # the tangent for current-stiffness damping of the next step, only when it is used
     K = integ.sys.tangent_csr(ev_) if integ.a1 != 0.0 and integ.K0 is None else None
     return replace(s, t=s.t + h, lam=lam, q=q, v=v, acc=acc, a=a, mu=s.mu.copy(), f_ext=fe_new, K=K)
+
+
+def lowest_mode(
+    K: sp.csr_matrix, M: sp.csr_matrix, bw: int, warm: dict
+) -> tuple[float, np.ndarray] | None:
+    """Lowest eigenpair of the symmetric part of (K, M) when it is positive definite: the
+    banded Cholesky (``dpbtrf``) succeeds, then inverse iteration x <- K^-1 M x with Rayleigh
+    quotients, warm-started from ``warm["x"]`` (the previous settled state's mode; replaced
+    by the new one).  Stops when the error estimated from the convergence rate is below
+    ``EIG_RTOL``; the mode is M-normalised, its largest component positive.  None when K is
+    not positive definite or does not fit the band, or the iteration is too slow (close
+    eigenvalues): the dense test decides."""
+    n = K.shape[0]
+    rows = np.repeat(np.arange(n), np.diff(K.indptr))
+    if not K.nnz or int(np.abs(rows - K.indices).max()) > bw:
+        return None
+    chol, info = _dpbtrf(symmetric_upper_band(csr_to_band(K, bw), bw, np.ones(n)), lower=0)
+    if info != 0:
+        return None
+    x = warm.get("x")
+    x = np.cos(np.arange(n) * 0.7071) + 0.5 if x is None or x.shape != (n,) else x
+    lam, diff = math.nan, math.nan  # the last eigenvalue and its last change
+    for _ in range(EIG_MAX_IT):
+        y = _dpbtrs(chol, M @ x, lower=0)[0]  # K y = M x
+        My = M @ y
+        new = float(y @ (M @ x)) / float(y @ My)  # Rayleigh quotient y K y / y M y
+        x = y / math.sqrt(float(y @ My))
+        d = abs(new - lam)
+        # linear convergence: the error left is ~ d rate / (1 - rate) (a rate once two changes
+        # are known; an exact repeat has converged)
+        rate = d / diff if diff > 0.0 else 0.0 if diff == 0.0 else math.inf
+        lam, diff = new, d
+        if rate < 1.0 and d * rate <= EIG_RTOL * abs(lam) * (1.0 - rate):
+            warm["x"] = x if x[np.argmax(np.abs(x))] > 0 else -x
+            return lam, warm["x"]
+    return None

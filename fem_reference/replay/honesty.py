@@ -27,20 +27,26 @@ from fem_reference.statics import static as S
 JUMP_MIN_DISTANCE = 1e-4  # fraction of the length scale
 
 
-def mesh_error(scene: Scene, n: int) -> dict[str, float] | None:
+def mesh_error(
+    scene: Scene, n: int, fine: dict[str, float] | None = None
+) -> dict[str, float] | None:
     """Estimate (``richardson.gci``) of the n-element discretisation error of every output at
     the last load factor, from static FE solves on n and n // 2 elements (None if either
-    fails)."""
+    fails).  ``fine``: the n-element outputs there, when known (the replay's own last
+    settled state: the static FE one of that mesh to the settling tolerance), so that only
+    the coarse mesh is solved."""
     from fem_reference.models import FEM
 
     if n < 2:
         return None
     a = dataclasses.replace(scene.analysis, steps=max(1, min(scene.analysis.steps, 4)))
     sc = dataclasses.replace(scene, analysis=a)
-    runs = [FEM(m, stability=False, bifurcation=False).solve(sc) for m in (n // 2, n)]
+    meshes = (n // 2,) if fine is not None else (n // 2, n)
+    runs = [FEM(m, stability=False, bifurcation=False).solve(sc) for m in meshes]
     if any(r.status != "converged" or not r.steps for r in runs):
         return None
-    coarse, fine = runs[0].steps[-1].outputs, runs[1].steps[-1].outputs
+    coarse = runs[0].steps[-1].outputs
+    fine = runs[1].steps[-1].outputs if fine is None else fine
     return {k: float(gci(coarse[k], fine[k], n / (n // 2))) for k in fine if k in coarse}
 
 

@@ -47,7 +47,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from fem_reference.banded import BAND_MAX, BandedLU, csr_to_band
-from fem_reference.replay.band import band_mass, step_band
+from fem_reference.replay.band import band_mass, lowest_mode, step_band
 
 if TYPE_CHECKING:
     from fem_reference.replay.events import LockPair
@@ -444,9 +444,17 @@ def rayleigh(K0: sp.spmatrix, M: sp.spmatrix, zeta: float) -> tuple[float, float
     return a0, a1, w1, f"Rayleigh a0={a0:.4g}, a1={a1:.4g} (current tangent)"
 
 
-def tangent_test(K: sp.spmatrix, G: np.ndarray, M: sp.spmatrix) -> tuple[float, np.ndarray]:
+def tangent_test(
+    K: sp.spmatrix, G: np.ndarray, M: sp.spmatrix, bw: int | None = None, warm: dict | None = None
+) -> tuple[float, np.ndarray]:
     """Lowest eigenvalue of the tangent K (on the null space of the constraint rows G) against
-    M, and its mode (ndof,): the static stability test at a settled state."""
+    M, and its mode (ndof,): the static stability test at a settled state.  With a
+    half-bandwidth ``bw`` and a ``warm`` dict: banded inverse iteration when K is positive
+    definite (``band.lowest_mode``), else the dense test."""
+    if bw is not None and warm is not None and not G.shape[0]:
+        out = lowest_mode(sp.csr_matrix(K), sp.csr_matrix(M), bw, warm)
+        if out is not None:
+            return out
     if G.shape[0]:
         Z = sla.null_space(G)
         Kd, Md = Z.T @ (0.5 * (K + K.T)) @ Z, Z.T @ (M @ Z)
@@ -487,8 +495,3 @@ def soft_frequency(system: object, integ: GenAlpha, s: State) -> float | None:
     except (ValueError, np.linalg.LinAlgError, RuntimeError, spla.ArpackError):
         return None
     return math.sqrt(lam) if lam > 0.0 else None
-
-
-def downsample(n: int, cap: int) -> np.ndarray:
-    """At most ``cap`` indices of range(n), evenly spread, first and last included."""
-    return np.arange(n) if n <= cap else np.unique(np.linspace(0, n - 1, cap).round().astype(int))

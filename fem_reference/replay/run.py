@@ -2,12 +2,15 @@
 
 The FE discretisation the static reference solves (``assembly.build``) gets mass and damping
 and is integrated by generalised-alpha (``integrator.GenAlpha``): the load factor is ramped
-(C2 ramp over ``ramp_periods`` lowest periods T1) to each reported factor and held until
-settled -- max|w v|/omega_1, max|w qdd|/omega_1^2 and the static distance max|w K^-1 r| all
-below ``settle_tol * L`` (w: 1 for translations, L for rotations).  The equation of motion
-holds exactly at every step, so a state at rest is an exact static equilibrium: the settled
-states equal the static FE ones to the settling tolerance, whatever the step, density or
-damping (those shape only the transient, and so which branch a snap lands on).  Each settled
+through the reported factors in one continuous ramp (``ramp_periods`` lowest periods T1 per
+increment, ``sweep.ContinuousRamp``) and each sample settled -- directly when it is
+quasi-static (Newton to the stable equilibrium it comes to rest at), else by holding the load
+until max|w v|/omega_1, max|w qdd|/omega_1^2 and the static distance max|w K^-1 r| are all
+below ``settle_tol * L`` (w: 1 for translations, L for rotations); a settled state passes
+that same test.  The equation of motion holds exactly at every step, so a state at rest is an
+exact static equilibrium: the settled states equal the static FE ones to the settling
+tolerance, whatever the step, density or damping (those shape only the transient, and so
+which branch a snap lands on).  Each settled
 state is kicked (lowest mode, or a nodal impulse as the thesis did with 1 N pulses in ADAMS)
 and watched: returns = stable, departs = unstable; the tangent test is recorded beside it.
 """
@@ -24,9 +27,10 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from cases.schema import Scene
-from fem_reference.replay import events
+from fem_reference.replay import events, records
 from fem_reference.replay import honesty as honest
 from fem_reference.replay import integrator as ev
+from fem_reference.replay.sweep import ContinuousRamp
 from fem_reference.statics.bifurcation import is_conservative
 from fem_reference.statics.integrity import violation
 from reduced_models.base import Solution, Step
@@ -74,6 +78,7 @@ class ReplayOptions:
 
 
 SOFT_AFTER = 20.0  # T1 of holding after which a soft mode gets its own critical damping
+PROBE_NEWTON = 0.1  # Newton tolerance of a probe / settle_tol
 PROBE_LTE = 0.1  # local error per step of a probe / the kick's excursion (lte_tol: ~0.3 of 1e-3 L)
 
 
@@ -120,16 +125,28 @@ class _Run:
         self.s = self.integ.start(0.0, 0.0, np.zeros(n), np.zeros(n))
         self._record(self.s)
         self.deadline = honest.Deadline(o.time_limit_s)
+        self.warm: dict = {}  # the last tangent test's mode (band.lowest_mode's start)
+
+    def tangent_test(self, chk: dict) -> tuple[float, np.ndarray]:
+        """Lowest eigenpair of the settled state's tangent (``static_check``'s K, G)."""
+        return ev.tangent_test(chk["K"], chk["G"], self.M, self.integ.bw, self.warm)
 
     def _record(self, s: ev.State) -> None:
         h = self.hist
         h.t.append(s.t)
         h.factor.append(s.lam)
         h.kinetic.append(0.5 * float(s.v @ (self.M @ s.v)))
-        h.strain.append(float(self.sys.strain_energy(s.q)))
+        h.strain.append(None)  # on demand (``strain``): a full element pass per time step
         h.dissipated.append(self.D)
         h.external_work.append(self.W)
         h.q.append(s.q)
+
+    def strain(self, i: int) -> float:
+        """Strain energy of history state ``i`` (computed once, when first asked for)."""
+        h = self.hist
+        if h.strain[i] is None:
+            h.strain[i] = float(self.sys.strain_energy(h.q[i]))
+        return h.strain[i]
 
     def advance(
         self,
@@ -140,11 +157,14 @@ class _Run:
         hmax: float | None = None,
         lte: float | None = None,
         steady: bool = False,
+        through: bool = False,
     ) -> tuple[ev.State, object]:
         """Integrate to ``t_stop`` (or until ``until(state)`` returns non-None); steps at most
         ``hmax`` (default ``dt_max`` T1), local error per step at most ``lte`` L (default
         ``lte_tol``).  ``steady``: keep the step while the error test would change it by
-        less than x0.8 .. x1.5 (so a kept factorisation stays valid)."""
+        less than x0.8 .. x1.5 (so a kept factorisation stays valid).  ``through``: the
+        motion goes on smoothly past ``t_stop`` (a sample of a continuous ramp), so the step
+        cut short to land on it does not shrink the next one."""
         o, integ, hmin = self.o, self.integ, 1e-10 * self.T1
         hmax = o.dt_max * self.T1 if hmax is None else hmax
         lte = o.lte_tol if lte is None else lte
@@ -155,7 +175,8 @@ class _Run:
                     f"time limit {self.deadline.seconds:g} s reached at t = {s.t:.4g} "
                     f"(factor {s.lam:.6g}, step {self.h:.2g}): the replay stalled"
                 )
-            h = min(self.h, hmax, t_stop - s.t)
+            h_want = min(self.h, hmax)
+            h = min(h_want, t_stop - s.t)
             s1 = integ.step(s, h, lam_of_t(s.t + h))
             err = math.inf if s1 is None else integ.error(s, s1, h)
             if err > lte:
@@ -188,6 +209,8 @@ class _Run:
                 self._record(s)
             grow = min(2.0, 0.9 * (lte / max(err, 1e-300)) ** (1 / 3))
             self.h = h if steady and 0.8 <= grow < 1.5 else h * grow
+            if through and h < h_want:  # cut short by t_stop: says nothing of h_want
+                self.h = max(self.h, h_want)
             if until is not None:
                 res = until(s)
                 if res is not None:
@@ -243,60 +266,6 @@ class _Run:
             raise ev.ReplayError(f"did not settle at factor {lam:.6g} within {self.o.max_hold} T1")
         return s, chk
 
-    # -- snap-through -------------------------------------------------------------------------
-    def jump(self, mark: tuple, prev: Step | None, after: Step) -> dict | None:
-        """Report the increment since ``mark`` (history index, W, U, D, q at its start) as a
-        jump if it was dissipative.
-
-        The onset is the last history state (before the kinetic-energy peak) whose tangent is
-        still positive definite (bisection on the lowest eigenvalue), i.e. where the trajectory
-        left the stable branch: the limit point, up to the quasi-static lag.
-        """
-        h, (i0, W0, U0, D0, q_prev) = self.hist, mark
-        dD = self.D - self.D_impact - D0
-        scale = max(abs(self.W - W0), abs(h.strain[-1] - U0), 1e-300)
-        if dD <= self.o.jump_dissipation * scale:
-            return None
-        dist = np.max(np.abs(self.w * (h.q[-1] - q_prev))) / self.L
-        if dist < honest.JUMP_MIN_DISTANCE:  # a settling move, not a snap
-            return None
-        kin = np.asarray(h.kinetic[i0:])
-        ipk = i0 + int(np.argmax(kin))
-
-        def eig(i: int) -> float:
-            r, K, *_ = self.integ.forces(h.q[i], h.factor[i], h.t[i])
-            return float(ev.lowest_modes(K, self.M, k=1)[0][0])
-
-        # the first of ~12 samples up to the peak that is unstable, then bisection
-        grid = np.unique(np.linspace(max(i0 - 1, 0), ipk, 12).round().astype(int))
-        neg = [i for i in grid if eig(i) < 0.0]
-        if neg:
-            hi = neg[0]
-            lo = int(grid[max(int(np.searchsorted(grid, hi)) - 1, 0)])
-            while hi - lo > 1:
-                mid = (lo + hi) // 2
-                lo, hi = (mid, hi) if eig(mid) > 0.0 else (lo, mid)
-        else:  # never visibly left the stable region: first rise of kinetic energy
-            lo = i0 + int(np.argmax(kin >= 0.01 * kin.max()))
-        before = self.sys.step(h.q[lo], h.factor[lo], 0, None)
-        # load factor that holds the onset shape in static equilibrium (least squares)
-        f = np.asarray(self.sys.external(h.q[lo]), dtype=float)
-        r0 = np.asarray(self.sys.residual(h.q[lo], 0.0), dtype=float)
-        lam_eq = float(r0 @ f / (f @ f)) if f @ f > 0 else math.nan
-        # reported at the static path's stability loss; the dynamic onset alongside
-        lam_s = None
-        if prev is not None:
-            lam_s = honest.static_limit(self.sys, q_prev, float(prev.factor), after.factor)
-        lam_d = float(h.factor[lo])
-        out = dict(factor=lam_d if lam_s is None else lam_s, factor_dynamic=lam_d)
-        out.update(factor_static=lam_s, factor_equilibrium=lam_eq, t=float(h.t[lo]))
-        out.update(from_factor=float(prev.factor) if prev else math.nan, to_factor=after.factor)
-        out.update(dissipated=float(dD), dissipated_ratio=float(dD / scale))
-        out.update(peak_kinetic=float(kin.max()), jump_distance=float(dist))
-        out.update(before=dict(before.outputs), after=dict(after.outputs))
-        out["settled_before"] = dict(prev.outputs) if prev else {}
-        return out
-
     # -- stability -----------------------------------------------------------------------------
     def probe(self, s: ev.State, eig: float, mode: np.ndarray, scene: Scene | None) -> dict:
         """Kick the settled state ``s`` and watch: returns (stable), departs (unstable).
@@ -319,7 +288,7 @@ class _Run:
         c = float(mode @ (self.integ.damping(s) @ mode)) / float(mode @ (M @ mode))
         tau = max(1.0 / om, c / om**2)
         integ, q0 = self.integ, s.q
-        saved = [p.locked for p in integ.pairs], self.h
+        saved = [p.locked for p in integ.pairs], self.h, self.s  # s: not always the run's
         start = integ.start(s.t, s.lam, s.q, s.v + v0)
         peak, rest = [0.0], []
 
@@ -348,6 +317,8 @@ class _Run:
         hmax = max(o.dt_max * self.T1, tau / 10)
         lte = min(o.lte_tol, PROBE_LTE * d_ref / self.L)
         integ.keep_lu = {}  # modified Newton across steps: the tangent barely changes
+        tight = integ.newton_tol  # a probe's Newton: 1/10 of its at-rest test, not 1/100
+        integ.newton_tol = PROBE_NEWTON * o.settle_tol
         try:
             end, verdict = self.advance(
                 s.t + 60.0 * tau, lambda t: s.lam, watch, False, hmax, lte, steady=True
@@ -355,10 +326,10 @@ class _Run:
         except ev.ReplayError:
             end, verdict = start, None
         finally:
-            integ.keep_lu = None
+            integ.keep_lu, integ.newton_tol = None, tight
             for p, lk in zip(integ.pairs, saved[0]):
                 p.locked = lk
-            self.s, self.h = s, saved[1]
+            self.h, self.s = saved[1:]
         d_end = float(np.max(np.abs(self.w * (end.q - q0)))) / self.L
         stable = {"returned": True, "departed": False}.get(verdict)
         out = dict(stable=stable, peak=peak[0] / self.L, final=d_end, time=end.t - s.t)
@@ -370,7 +341,7 @@ class _Run:
 NO_VERDICT = "stable = None: no static stability verdict under follower (non-conservative) loads"
 
 
-def _reach(run: _Run, lam: float) -> tuple[ev.State, dict]:
+def ramp_and_hold(run: _Run, lam: float) -> tuple[ev.State, dict]:
     """Ramp the load factor to ``lam`` (over ``ramp_periods`` T1) and hold until settled."""
     if run.s.lam != lam or run.s.t == 0.0 and lam != 0.0:
         la, t0, Tr = run.s.lam, run.s.t, run.o.ramp_periods * run.T1
@@ -380,7 +351,7 @@ def _reach(run: _Run, lam: float) -> tuple[ev.State, dict]:
 
 def _stability(run: _Run, s: ev.State, chk: dict, want: bool, scene: Scene | None) -> tuple:
     """Tangent test and (if ``want``) impulse probe of the settled state ``s``: (eig, probe)."""
-    eig, mode = ev.tangent_test(chk["K"], chk["G"], run.M)
+    eig, mode = chk.get("tangent") or run.tangent_test(chk)
     pr = run.probe(s, eig, mode, scene) if want else {"stable": None, "verdict": "skipped"}
     return eig, pr
 
@@ -402,7 +373,7 @@ def replay_system(
     case: str = "",
     options: ReplayOptions | None = None,
     stability: Callable = _stability,
-    reach: Callable = _reach,
+    reach: Callable | None = None,
 ) -> Solution:
     """Replay ``system`` through the load ``factors`` (the heart of the ``replay`` model).
 
@@ -415,7 +386,8 @@ def replay_system(
     stability : ``(run, state, static_check, want_probe, scene) -> (eigenvalue, probe dict)``
         at each settled state (a servo replay tests the load-controlled system instead).
     reach : ``(run, factor) -> (settled state, static_check)``: how a report point is
-        reached (default: ramp and hold; a servo replay aims its coordinate).
+        reached (default: one continuous ramp through ``factors``, ``sweep.ContinuousRamp``;
+        a servo replay aims its coordinate).
 
     Returns
     -------
@@ -424,6 +396,7 @@ def replay_system(
     animation), ``settle`` (timing/damping figures).
     """
     o = options or ReplayOptions()
+    reach = reach or ContinuousRamp(factors)
     steps: list[Step] = []
     jumps: list[dict] = []
     probes: list[dict] = []
@@ -438,7 +411,7 @@ def replay_system(
     verdict = is_conservative(system)
     for k, lam in enumerate(np.asarray(factors, dtype=float)):
         it0, h = run.integ.newton_iterations, run.hist
-        mark = (len(h.t), run.W, h.strain[-1], run.D - run.D_impact, prev_q)
+        mark = (len(h.t), run.W, run.strain(-1), run.D - run.D_impact, prev_q)
         try:
             s, chk = reach(run, float(lam))
             want = verdict and (o.probe == "all" or o.probe == "last" and k == len(factors) - 1)
@@ -464,38 +437,14 @@ def replay_system(
         st = system.step(s.q, s.lam, run.integ.newton_iterations - it0, pr["stable"])
         st = replace(st, info={**dict(st.info), **info}, stable=pr["stable"])
         if k > 0:
-            jp = run.jump(mark, prev_step, st)
+            jp = records.jump(run, mark, prev_step, st)
             if jp is not None:
                 jumps.append(jp)
         steps.append(st)
         prev_q, prev_step = s.q, st
-    h = run.hist
-    idx = ev.downsample(len(h.t), o.history_samples)
-    history = {
-        key: [float(getattr(h, key)[i]) for i in idx]
-        for key in ("t", "factor", "kinetic", "strain", "dissipated", "external_work")
-    }
-    out_of = getattr(system, "outputs", None)  # FE systems: outputs without shapes (cheaper)
-    if getattr(system, "outputs_need_factor", False):  # a prescribed coordinate: q alone is not
-        outs = [out_of(h.q[i], h.factor[i]) for i in idx]  # the state
-    else:
-        outs = [
-            out_of(h.q[i]) if out_of else system.step(h.q[i], h.factor[i], 0, None).outputs
-            for i in idx
-        ]
-    for key in outs[0] if outs else ():
-        history[key] = [float(d.get(key, math.nan)) for d in outs]
-    fi = ev.downsample(len(h.t), o.frames)
-    W, U, T, D = h.external_work[-1], h.strain[-1] - run.U0, h.kinetic[-1], h.dissipated[-1]
-    frames = dict(t=np.array(h.t)[fi], factor=np.array(h.factor)[fi], q=np.array(h.q)[fi])
-    frames["n_elements"] = getattr(system, "n_elements", None)
-    settle = dict(T1=run.T1, omega1=run.w1, damping=run.damping_note, time_steps=len(h.t) - 1)
-    settle["newton_iterations"] = run.integ.newton_iterations
-    settle["factorizations"] = run.integ.factorizations
-    settle["point_masses_added"] = run.point_masses
-    settle["energy_balance_error"] = (W - U - T - D) / max(abs(W), abs(U), 1e-300)
-    extras = dict(history=history, jumps=jumps, events=run.events, probes=probes)
-    extras.update(frames=frames, settle=settle)
+        if getattr(reach, "ended", False):  # the reach ended the path (a servo at factor_end)
+            break
+    extras = records.extras(run, system, jumps, probes)
     if status == "converged":
         res = max(s.info["residual"] for s in steps)
         message = f"settled {len(steps)} states; max residual {res:.2e}; {len(jumps)} jump(s)"

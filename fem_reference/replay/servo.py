@@ -44,6 +44,7 @@ import scipy.sparse as sp
 from cases.schema import Scene
 from fem_reference.assembly import build
 from fem_reference.error.richardson import gci
+from fem_reference.replay import honesty as honest
 from fem_reference.replay import integrator as ev
 from fem_reference.statics.driver_post import post_process
 from reduced_models.base import Solution, Step, not_applicable
@@ -211,18 +212,55 @@ class _Aim:
     regula falsi once T is bracketed."""
 
     MAX_SETTLES = 30
+    END_RTOL = 1e-10  # the end point's load factor: relative to factor_end
 
-    def __init__(self, servo: ServoSystem, func: tuple[int, float, float], tol: float) -> None:
+    def __init__(
+        self, servo: ServoSystem, func: tuple[int, float, float], tol: float, end: float | None
+    ) -> None:
         self.sv, (self.j, self.c, self.off) = servo, func
         self.tol, self.seen = tol, [(0.0, 0.0)]  # settled (target value - off, servo DOF)
         self.jumped = False
+        self.end, self.last = end, (0.0, 0.0)  # factor_end; (servo DOF, load factor) settled
+        self.ended = False  # the path reached factor_end: ``replay_system`` stops there
 
     def __call__(self, run: object, T: float) -> tuple[ev.State, dict]:
-        from fem_reference.replay.run import _reach
+        """Settle at report value ``T``; a path that passes ``factor_end`` on the way settles
+        where the load factor equals it instead (and ends there, as fem-auto's does)."""
+        s, chk = self._aim(run, T)
+        if self.end is None:
+            return s, chk
+        prev, self.last = self.last, (s.lam, self.sv.full_state(s.q, s.lam)[1])
+        if self.last[1] * math.copysign(1.0, self.end) <= abs(self.end):
+            return s, chk
+        return self._land(run, prev, self.last)
+
+    def _land(self, run: object, a: tuple, b: tuple) -> tuple[ev.State, dict]:
+        """Settle at the servo position between ``a`` and ``b`` ((servo DOF, load factor),
+        on either side of factor_end) where the load factor is factor_end (Illinois)."""
+        from fem_reference.replay.run import ramp_and_hold
+
+        (p0, g0), (p1, g1) = (a[0], a[1] - self.end), (b[0], b[1] - self.end)
+        for _ in range(self.MAX_SETTLES):
+            p = p1 - g1 * (p1 - p0) / (g1 - g0)
+            s, chk = ramp_and_hold(run, p)
+            g = self.sv.full_state(s.q, s.lam)[1] - self.end
+            if abs(g) <= self.END_RTOL * abs(self.end):
+                self.ended, self.last = True, (p, g + self.end)
+                return s, chk
+            if (g > 0.0) == (g1 > 0.0):
+                g0 *= 0.5  # the same end kept twice: halve the other's value (Illinois)
+            else:
+                p0, g0 = p1, g1
+            p1, g1 = p, g
+        raise ev.ReplayError(f"the servo did not settle at factor_end = {self.end:g}")
+
+    def _aim(self, run: object, T: float) -> tuple[ev.State, dict]:
+        """Settle with the target coordinate at report value ``T`` (class docstring)."""
+        from fem_reference.replay.run import ramp_and_hold
 
         T = (T - self.off) / self.c  # in the units of q[j]
         if self.sv.i == self.j:
-            return _reach(run, T)
+            return ramp_and_hold(run, T)
         y1, p1 = self.seen[-1]
         y0, p0 = self.seen[-2] if len(self.seen) > 1 else (y1, p1)
         slope = (p1 - p0) / (y1 - y0) if y1 != y0 else 1.0
@@ -244,7 +282,7 @@ class _Aim:
                 p_new = p + float(np.clip(p_new - p, -cap, cap))
             else:
                 p_new = p + float(np.clip(slope * (T - y), -cap, cap))
-            s, chk = _reach(run, p_new)
+            s, chk = ramp_and_hold(run, p_new)
             y_new = float(self.sv.full_state(s.q, s.lam)[0][self.j])
             if abs(y_new - T) <= self.tol:
                 if (y_new, p_new) != self.seen[-1]:
@@ -343,17 +381,22 @@ def solve(scene: Scene, n_elements: int, options: object) -> Solution:
     extras["jumps"], extras["jumps_note"] = [], "not assessed under a servo-held coordinate"
     extras["servo"] = {"dof": i, "compliance_ell": system.ell}
     steps, msg = sol.steps, sol.message + note
+    end = ""
     if a.kind == "path" and math.isfinite(a.factor_end) and steps:
-        sgn = 1.0 if a.factor_end > 0 else -1.0
-        cut = next((k for k, st in enumerate(steps) if sgn * st.factor > abs(a.factor_end)), None)
+        sgn, top = math.copysign(1.0, a.factor_end), abs(a.factor_end) * (1 + _Aim.END_RTOL)
+        cut = next((k for k, st in enumerate(steps) if sgn * st.factor > top), None)
         if cut is not None:
             steps = steps[:cut]
-            msg += f"; path cut where the factor passes factor_end = {a.factor_end:g}"
+            end = f"; path cut where the factor passes factor_end = {a.factor_end:g}"
+        elif extras.get("reached_factor_end"):
+            end = f"; path ends where the factor reaches factor_end = {a.factor_end:g}"
     if sol.status == "converged":
         res = max(st.info["residual"] for st in steps)
-        msg = f"settled {len(steps)} servo-held states; max residual {res:.2e}{note}" + (
-            msg[msg.find("; path cut") :] if "; path cut" in msg else ""
-        )
+        msg = f"settled {len(steps)} servo-held states; max residual {res:.2e}{note}{end}"
+        if "stability" in extras:  # follower loads: no static verdict, said as load replays do
+            msg += f"; {extras['stability']}"
+    else:
+        msg += end
     return post_process(scene, Solution(sol.case, sol.model, sol.status, msg, steps, extras))
 
 
@@ -364,12 +407,16 @@ def _run(scene: Scene, full: object, i: int, func: tuple, values: np.ndarray, op
 
     system = ServoSystem(full, i)
     stab = _probe_under_load(system, options, scene)
-    aim = _Aim(system, func, aim_tolerance(values, func, options.settle_tol, full))
+    a = scene.analysis
+    end = a.factor_end if a.kind == "path" and math.isfinite(a.factor_end) else None
+    aim = _Aim(system, func, aim_tolerance(values, func, options.settle_tol, full), end)
     sol = replay_system(
         system, values, scene=scene, case=scene.name, options=options, stability=stab, reach=aim
     )
     if aim.jumped:
         sol = replace(sol, extras={**sol.extras, "servo_jump": True})
+    if aim.ended:
+        sol = replace(sol, extras={**sol.extras, "reached_factor_end": True})
     return sol, system
 
 
@@ -395,6 +442,14 @@ def solve_checked(scene: Scene, n: int, options: object) -> Solution:
     sol = solve(scene, n, options)
     if sol.status != "converged" or scene.analysis.kind != "distance" and not sol.steps:
         return sol
+    if sol.extras.get("reached_factor_end"):  # the factor is factor_end: the outputs' error
+        est = honest.mesh_error(scene, n, dict(sol.steps[-1].outputs))
+        if est is None:
+            return sol
+        worst = honest.worst_mesh_error(est, float(build(scene, 1).length_scale()))
+        msg = f"{sol.message}; mesh error vs fem-auto ~{worst:.1e} L (n = {n})"
+        extras = {**sol.extras, "mesh_error_estimate": est, "mesh_error_worst": worst}
+        return replace(sol, message=msg, extras=extras)
     err = factor_mesh_error(scene, n)
     if err is None:
         return sol

@@ -1,0 +1,153 @@
+"""One continuous load ramp through all report factors, sampled and settled at each.
+
+The replay's default way to reach its report factors (``run.replay_system``).  The load
+factor follows the factors piecewise linearly, one increment per ``ramp_periods`` lowest
+periods T1, never stopping: no restart transient per increment, so the time steps are set by
+the ramp (up to ``dt_max``), not by a fresh transient to resolve at every factor.  The first
+increment after a start from rest eases in (C2: load rate and its derivative start at zero).
+
+At a report factor the moving state lags the ramp (by ~ 2 zeta / omega_1 times its rate).
+When that sample is quasi-static -- velocity / omega_1 and the distance K^-1 r to
+equilibrium below ``CLOSE`` L and below ``QUASI_STATIC`` of the increment's own motion (not
+a sudden load's transient), within the tangent's linear range (Newton's second correction
+at most ``LINEAR`` of its first) -- what is left if the load is held is a small damped
+vibration about the nearby equilibrium, which it comes to rest at.  That equilibrium is
+found directly, by Newton from the sample (``settle``), and kept only if it is stable (or
+no static verdict exists: follower loads) and passes the same settling test as a held state
+(``_Run.static_check``).  Otherwise (a snap under way, an unstable or no nearby
+equilibrium) the load is held at the factor and the motion integrated until settled
+(``_Run.hold``) as a ramp-and-hold replay does, and the ramp starts again from rest there;
+so is the last factor (the time history ends at rest on it).  After a settled sample the
+ramp goes on from the moving state.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+from fem_reference.banded import BandedLU
+from fem_reference.replay import integrator as ev
+from fem_reference.statics.bifurcation import is_conservative
+
+CLOSE = 5e-2  # velocity / omega_1 and distance to equilibrium (/ L) that a sample may have
+QUASI_STATIC = 0.25  # and at most this fraction of the increment's own motion (a ramp's lag)
+LINEAR = 0.1  # and Newton's second correction / its first: the tangent barely changes on the way
+NEWTON_MAX = 12
+RAMP_NEWTON = 1e-3  # Newton tolerance on a ramp / lte_tol
+
+
+def _ease(x: float) -> float:
+    """Increments covered after ``x`` ramp periods from rest: x^3 - x^4 / 2 on [0, 1]
+    (C2 start, unit rate at x = 1), then x - 1/2."""
+    return x**3 - 0.5 * x**4 if x < 1.0 else x - 0.5
+
+
+class ContinuousRamp:
+    """``reach`` of ``replay_system``: called with the factors in order (see module doc).
+
+    Parameters
+    ----------
+    factors : (nsteps,) the report factors, in the order they will be asked for.
+    """
+
+    def __init__(self, factors: np.ndarray) -> None:
+        self.factors = np.asarray(factors, dtype=float)
+        self.sched: np.ndarray | None = None  # [start factor, factors...]
+        self.k = 0  # schedule index of the next report factor
+        self.j0, self.t0 = 0, 0.0  # the ramp runs from rest at schedule index j0, time t0
+        self.q_last: np.ndarray | None = None  # the last settled state's DOFs
+
+    def lam_of_t(self, Tr: float) -> Callable[[float], float]:
+        """Load factor along the ramp that started from rest at (j0, t0)."""
+        sched, j0, t0 = self.sched, self.j0, self.t0
+        idx = np.arange(sched.size, dtype=float)
+        return lambda t: float(np.interp(j0 + _ease((t - t0) / Tr), idx, sched))
+
+    def __call__(self, run: object, lam: float) -> tuple[ev.State, dict]:
+        if self.sched is None:
+            self.sched = np.r_[run.s.lam, self.factors]
+            self.k, self.j0, self.t0 = 1, 0, run.s.t
+            self.q_last = run.s.q
+            if self.factors.size and self.factors[0] == run.s.lam:  # starts where it is
+                self.k, self.j0 = 2, 1
+                return run.hold(lam)
+        j, self.k = self.k, self.k + 1
+        if self.sched[j] != lam:
+            raise ev.ReplayError(f"continuous ramp: factor {lam:g} asked out of order")
+        Tr = run.o.ramp_periods * run.T1
+        t_j = self.t0 + Tr * (j - self.j0 + 0.5)  # _ease(x) = j - j0 (j > j0)
+        integ, tight = run.integ, run.integ.newton_tol
+        # a transient: Newton to a fraction of the step's own error (the reported state is
+        # checked on itself, by ``static_check``)
+        integ.newton_tol = max(tight, RAMP_NEWTON * run.o.lte_tol)
+        try:
+            run.advance(t_j, self.lam_of_t(Tr), through=True)
+        finally:
+            integ.newton_tol = tight
+        # the last factor is held: the run's history ends at rest on its last answer
+        last = j == self.sched.size - 1
+        out = None if last else settle(run, run.s, lam, self.q_last)
+        if out is None:  # held on the ramp itself: it starts again from rest
+            out = run.hold(lam)
+            self.j0, self.t0 = j, out[0].t
+        self.q_last = out[0].q
+        return out
+
+
+def settle(
+    run: object, s: ev.State, lam: float, q_from: np.ndarray
+) -> tuple[ev.State, dict] | None:
+    """The equilibrium at ``lam`` the nearly settled state ``s`` comes to rest at (Newton
+    from s.q), at rest, with its ``static_check``; None if ``s`` is not close to rest and to
+    equilibrium (``CLOSE``, ``QUASI_STATIC`` of the motion since the settled ``q_from``),
+    Newton does not converge, or the equilibrium is unstable."""
+    integ, L, w = run.integ, run.L, run.w
+    if integ._Mb is None or integ.pairs:  # band systems without locks or pushes only
+        return None
+    speed = float(np.max(np.abs(w * s.v))) / run.w1
+    if speed > CLOSE * L:
+        return None
+    steps = _newton(run, s.q, lam)
+    if steps is None:
+        return None
+    q, dist = steps
+    if max(speed, dist) > QUASI_STATIC * float(np.max(np.abs(w * (q - q_from)))):
+        return None
+    rest = integ.start(s.t, lam, q, np.zeros_like(q))
+    chk = run.static_check(rest)
+    if chk is None:
+        return None
+    if is_conservative(run.sys):  # a damped motion does not come to rest at an unstable one
+        eig, mode = run.tangent_test(chk)
+        if not eig > 0.0:
+            return None
+        chk["tangent"] = (eig, mode)
+    return rest, chk
+
+
+def _newton(run: object, q: np.ndarray, lam: float) -> tuple[np.ndarray, float] | None:
+    """Static equilibrium at ``lam`` by Newton from ``q`` (band LU of the tangent) to the
+    replay's Newton tolerance, and the first correction max|w K^-1 r| (a length); None if
+    that is above ``CLOSE`` L, the second above ``LINEAR`` of it, or Newton stalls."""
+    integ, L, w = run.integ, run.L, run.w
+    bound, first = CLOSE * L, None
+    for _ in range(NEWTON_MAX):
+        e = run.sys.evaluate(q, lam)
+        try:
+            dq = -BandedLU(run.sys.tangent_band(e), integ.bw).solve(e.r)
+        except RuntimeError:
+            return None
+        err = float(np.max(np.abs(w * dq)))
+        if not math.isfinite(err) or err > bound:
+            return None
+        q = q + dq
+        if first is None:
+            first, bound = err, LINEAR * err
+        else:
+            bound = 0.5 * err
+        if err <= integ.newton_tol * L:
+            return q, first
+    return None
