@@ -25,11 +25,13 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 import cases
+from cases.schema import Driver
 from reduced_models.beam.single_beam import cantilever_of
 from reports import api
 from reports.verdicts.yardstick import yardstick
@@ -78,34 +80,10 @@ SLOW = (
 
 
 # encoding-dependent answers found and not fixed here (listed in issue 23's closing note)
-_SPURIOUS = (
-    "a spurious equilibrium of the distance analysis (the default run's error_rel of this "
-    "pair is 48-147 times the output's excursion): which one Newton lands on from the "
-    "unloaded start is decided by round-off"
-)
-_TIES = (
-    "the driver search returns the driver of the lowest barrier, the first of equal ones in "
-    "candidate order: mirror-image drivers (crank cw / ccw) tie, so the drawing's "
-    "orientation picks which one (and Step.factor's sign); the barriers are the same"
-)
-_NO_TIE = ("kinetostatic", "mixed", "thesis-force-method")  # decline the search or no tie
 KNOWN = {
-    **{("das2d-ex6-bistable-driver-search", m): _TIES for m in REDUCED if m not in _NO_TIE},
-    **{
-        (f"thesis-sixbar-config{k}", "thesis-force-method"): "mirrored, the thesis's "
-        "incremental force method drifts from its own path by 1e-7 at the first increments "
-        "to 1e-5 of the excursion at the end of Part 1 (not diagnosed: an orientation-"
-        "dependent angle convention of the Appendix C port, or its increments)"
-        for k in (2, 3, 6)
-    },
     ("lee-frame", "elastica"): "members reversed, the assembler's elastica path of Lee's "
     "frame reports states 3e-3 of the excursion apart past the limit points (not diagnosed: "
     "where arc-length steps land, or the member's branch)",
-    ("das2d-ex3-bistable-switch", "prb-2r"): _SPURIOUS,
-    ("das2d-ex3-bistable-switch", "prb-3r"): _SPURIOUS,
-    ("das2d-ex3-bistable-switch", "prb-fsm-4"): _SPURIOUS,
-    ("das2d-ex3-bistable-switch", "linear-8"): "fails in one encoding, converges in another: "
-    "its path ends at a Newton failure near the driver's t = 12-15 (default run: failed)",
 }
 
 
@@ -139,6 +117,15 @@ def mismatch(scene: cases.Scene, enc: Encoding, a, b, rtol: float = RTOL) -> str
     return ""
 
 
+def driven(scene: cases.Scene, sol) -> cases.Scene:
+    """The scene with the driver its driver search chose (``extras["bistable"]["driver"]``):
+    the path's Step.factor is that driver's coordinate, mapped back by it."""
+    found = (sol.extras or {}).get("bistable", {}).get("driver")
+    if scene.analysis.driver is not None or not found:
+        return scene
+    return replace(scene, analysis=replace(scene.analysis, driver=Driver(**found)))
+
+
 def solve(scene: cases.Scene, model: str):
     """The model's answer (without the report's post-processing: predicted error, the FE
     re-solve of a synthesis)."""
@@ -166,7 +153,7 @@ def check(scene: cases.Scene, model: str, every: bool = False) -> tuple[int, lis
         rtol = MODEL_RTOL.get(model, RTOL)
         if scene.analysis.kind == "synthesis":
             rtol = max(rtol, SYNTHESIS_RTOL)
-        why = mismatch(scene, enc, a, solve(other, model), rtol)
+        why = mismatch(driven(scene, a), enc, a, solve(other, model), rtol)
         if why:
             bad.append(f"{enc.name}: {why}")
     return n, bad
