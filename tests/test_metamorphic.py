@@ -43,9 +43,7 @@ CHEAP_S = 0.3  # CPU seconds of one solve below which every encoding is tried
 # newton): the same scene drawn rotated landed within ~2e-8 of an output's excursion of it
 # (cantilever-tip-load: 1.2e-8, DAS-2D Ex. 2: 2.2e-8) in one run, 1.7e-6 and 5e-7 in another
 # run of the same code on a busier machine (listed in FE_KNOWN: not diagnosed)
-# the thesis's force method stops as its listing does (norm(zero_load) < 1e-6 N, Appendix C;
-# reduced_models.thesis.force_method.PART2_TOL): compared at that tolerance
-MODEL_RTOL = {"fem-auto": 1e-7, "thesis-force-method": 1e-6}
+MODEL_RTOL = {"fem-auto": 1e-7}
 # a synthesis meets its target to its own tolerance (reduced_models.mechanism.synthesis.RTOL
 # on the target): the synthesised scene, and every output of it, is fixed only that closely
 # (DAS-2D stable-position synthesis drawn translated: 1.3e-8 .. 8e-8 of an excursion)
@@ -63,6 +61,8 @@ HOSTILE = (
     "tests/fixtures/das2d-ex4-bistable-driver.toml",
     "tests/fixtures/das2d-ex5-past-reach.toml",
     "tests/fixtures/flexure-parallel-guide-m.toml",
+    "tests/fixtures/column-imperfect-6x-euler.toml",
+    "tests/fixtures/crank-driven-along-itself.toml",
 )
 # the stated sample of the expensive models (marked slow): the cases where an encoding
 # dependence was found (auto N chosen per component: inclined loads) and one mechanism each
@@ -77,14 +77,6 @@ SLOW = (
     ("von-mises-spring-truss", "fem-auto"),
     ("cantilever-tip-load", "replay"),
 )
-
-
-# encoding-dependent answers found and not fixed here (listed in issue 23's closing note)
-KNOWN = {
-    ("lee-frame", "elastica"): "members reversed, the assembler's elastica path of Lee's "
-    "frame reports states 3e-3 of the excursion apart past the limit points (not diagnosed: "
-    "where arc-length steps land, or the member's branch)",
-}
 
 
 def directional(scene: cases.Scene, model: str) -> bool:
@@ -159,18 +151,7 @@ def check(scene: cases.Scene, model: str, every: bool = False) -> tuple[int, lis
     return n, bad
 
 
-def pairs() -> list:
-    """(case, model) for every case and reduced model; the listed ones expected to fail."""
-    return [
-        pytest.param(c, m, marks=pytest.mark.xfail(reason=KNOWN[c, m], strict=False))
-        if (c, m) in KNOWN
-        else (c, m)
-        for m in REDUCED
-        for c in CASES + HOSTILE
-    ]
-
-
-@pytest.mark.parametrize("case,model", pairs())
+@pytest.mark.parametrize("case,model", [(c, m) for m in REDUCED for c in CASES + HOSTILE])
 def test_reduced_models_answer_the_same_in_every_encoding(case, model):
     n, bad = check(cases.load(case), model)
     assert not bad, "\n".join(bad)
