@@ -4,14 +4,18 @@ an arbitrary point, mirrored, translated, in other units, nodes renamed and reor
 members reversed, a pin written as clamp + pinned end, and most of them at once), solved by
 every model that applies; the outputs mapped back must equal the original's to ``RTOL`` on
 the ``error_rel`` yardstick's scale (relative to the output's excursion along the original
-path, ``reports.verdicts.yardstick``), or the model must decline both ways.
+path, ``reports.verdicts.yardstick``) with the same stability verdict at every step, or the
+model must decline both ways.
 
 Reduced models run on every case (sweep cases are their base configuration at other spring
-constants / rest angles: the base is tried): 37 scenes, 333 applicable pairs, up to 2211
-encoded solves; a pair whose own solve costs more than ``CHEAP_S`` is tried in the combined
+constants / rest angles: the base is tried): 42 scenes x 16 models (672 pairs), each in up
+to 9 encodings; a pair whose own solve costs more than ``CHEAP_S`` is tried in the combined
 encoding (and reversed) only.  The auto family, ``elastica-bvp``, ``fem-auto`` and the replay
-run on the sample ``SLOW`` (marked slow).  Measured 2026-11-27 on the shared 2-core machine:
-the whole file (both tiers, 622 tests: 599 passed, 21 listed) 2 min 51 s wall.
+run on the sample ``SLOW`` (marked slow).  Hostile scenes (``HOSTILE``, written outside the
+catalog): DAS-2D scenes driven past reach or load-ramped, a flexure in other units, an
+imperfect column at 6x Euler, a crank driven along itself.  Measured 2026-11-27 on the shared
+2-core machine at load 2+: the whole file (both tiers, 686 tests) 11 min 44 s wall; 2 min 51 s
+on a quiet one (622 tests).
 
 Not compared: the approximate models of a mechanism member (linear-N, BCM, CBCM-N, PRB)
 describe the member in a frame at its end ``a`` (PRB pivots at gamma L from it, BCM's
@@ -79,6 +83,21 @@ SLOW = (
 )
 
 
+# encoding-dependent answers found and not fixed here (listed in issue 23's closing note)
+KNOWN = {
+    ("shallow-arch-snap", "prb-2rpr"): "in other units (unitsdown) the step just before the "
+    "limit point (factor 0.3805, lowest scaled pivot 9.4e-8 of the largest) is judged "
+    "undecidable (None: pivot ratio <= 1e-13) where the drawing says stable: the KKT "
+    "scaling of the stability test is not units-invariant for PRB-2RPR's axial joints (not "
+    "diagnosed further)",
+    ("thesis-sixbar-config2", "thesis-force-method"): "mirrored, the final state's verdict "
+    "flips (stability number -8.119 -> +8.232; rotated 37 deg -2.884, in mm -0.8147): the "
+    "listing's ones' U_m' H U_m ones is not frame-invariant (its pd_SE term is "
+    "outer(L_app, ones) in global x, y, and U_m is an arbitrary basis of a 2-dimensional "
+    "mechanism space); kept as the thesis computes it (its Configuration 2 and 3 verdicts)",
+}
+
+
 def directional(scene: cases.Scene, model: str) -> bool:
     """The model describes a mechanism member in a frame at its end a (module docstring)."""
     return model not in EXACT and isinstance(cantilever_of(scene), str)
@@ -106,6 +125,8 @@ def mismatch(scene: cases.Scene, enc: Encoding, a, b, rtol: float = RTOL) -> str
             if math.isfinite(v) and abs(v - w) > rtol * ys.scale[k]:
                 rel = abs(v - w) / ys.scale[k]
                 return f"{k} at factor {sa.factor:g}: {v!r} vs {w!r} ({rel:.2e} of its excursion)"
+        if sa.stable != sb.stable:  # the stability verdict is part of the answer
+            return f"stable at factor {sa.factor!r}: {sa.stable} vs {sb.stable}"
     return ""
 
 
@@ -151,7 +172,18 @@ def check(scene: cases.Scene, model: str, every: bool = False) -> tuple[int, lis
     return n, bad
 
 
-@pytest.mark.parametrize("case,model", [(c, m) for m in REDUCED for c in CASES + HOSTILE])
+def pairs() -> list:
+    """(case, model) for every case and reduced model; the listed ones expected to fail."""
+    return [
+        pytest.param(c, m, marks=pytest.mark.xfail(reason=KNOWN[c, m], strict=False))
+        if (c, m) in KNOWN
+        else (c, m)
+        for m in REDUCED
+        for c in CASES + HOSTILE
+    ]
+
+
+@pytest.mark.parametrize("case,model", pairs())
 def test_reduced_models_answer_the_same_in_every_encoding(case, model):
     n, bad = check(cases.load(case), model)
     assert not bad, "\n".join(bad)

@@ -18,6 +18,8 @@ and listed in ``extras["limit_points"]``.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from reduced_models.mechanism.kkt import bordered_solve
@@ -220,7 +222,8 @@ def _limit_point(
     """Refine the extremum of the load factor between ``st`` and the arc length ``ds`` along
     ``t``: zero of d lam / ds (tangent's lam component) by Illinois regula falsi on the arc
     length; the refined state is recorded as a step (``info["limit_point"] = +1 max /
-    -1 min``) and listed in ``found``.  Left unrefined (nothing recorded) if it fails."""
+    -1 min``, ``stable`` None: marginal) and listed in ``found``.  Left unrefined (nothing
+    recorded) if it fails."""
     a, b, ga, gb = 0.0, ds, float(t[-1]), float(g1)
     kind = 1.0 if ga > 0 else -1.0
     side, best = 0, None
@@ -246,6 +249,9 @@ def _limit_point(
         return
     run.record(best, best.lam, False)
     run.steps[-1].info["limit_point"] = kind
+    # the tangent stiffness is singular there by construction (d lam / ds = 0): the sign of
+    # its lowest eigenvalue is round-off (it differed between drawings): no verdict
+    run.steps[-1] = replace(run.steps[-1], stable=None)
     found.append(
         {
             "factor": float(best.lam),
