@@ -20,6 +20,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
+from scipy.linalg import null_space
 
 from reduced_models.base import Step, load_factors
 from reduced_models.mechanism.newton import SolveError, Solver, State, follow
@@ -131,6 +132,8 @@ class Run:
         a = self.scene.analysis
         lam_free = kind == "distance"
         lam = 0.0 if lam_free else a.factor_end
+        if why := stalled_driver(self.s):
+            raise SolveError(why)
         row, base, scale = self.add_driver()
         apply = self.set_driver(row, base, scale)
         vals = np.linspace(a.driver.start, a.driver.stop, a.steps + 1)
@@ -241,6 +244,8 @@ class Run:
                 f"mobility {nf - rank} (Gruebler count {nf - m0}) differs from the "
                 f"expected {a.mobility}"
             )
+        if why := stalled_driver(self.s):
+            raise SolveError(why)
         row, base, scale = self.add_driver()
         apply = self.set_driver(row, base, scale)
         vals = np.linspace(a.driver.start, a.driver.stop, a.steps + 1)
@@ -281,6 +286,31 @@ class Run:
         raise SolveError(
             f"kinematic lock or dead point: constraints not closed (residual {res:.1e})"
         )
+
+
+def stalled_driver(s: MechanismSystem, tol: float = 1e-8) -> str | None:
+    """Why the driver cannot move from the drawn position (None when it can).
+
+    Every motion the closures admit (rigid links, inextensible members, supports) leaves the
+    driver's coordinate stationary to first order there -- a crank tip driven along the
+    crank, a shuttle pushed against straight inextensible legs: prescribing it picks one of
+    the branches that meet there (the crank turning either way, the legs kinking up or down)
+    by round-off, so the drawing's orientation would decide the answer.  Judged on the
+    closure Jacobian at ``q0`` (free columns, rotations scaled by Lref to lengths, before the
+    driver row is added): the driver's unit vector lies within ``tol`` of the rows' span when
+    its projection onto their null space (the admissible motions) is shorter than ``tol``."""
+    _, J = s.cons(s.q0)
+    cols = s.free
+    scale = np.where(np.array(s.lay.kind)[cols] == "r", s.lay.Lref, 1.0)
+    A = J[:, cols] / scale
+    N = null_space(A, rcond=tol) if A.size else np.eye(len(cols))
+    if np.linalg.norm(N[list(cols).index(s.driver_dof)]) >= tol:
+        return None
+    return (
+        "the driver cannot move from the drawn position: every motion the links, inextensible "
+        "members and supports admit leaves its coordinate stationary to first order (a "
+        "kinematic singularity), so which branch it drives is not determined there"
+    )
 
 
 def run(sysm: MechanismSystem, kind: str, lazy: bool = False) -> Run:

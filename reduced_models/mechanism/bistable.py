@@ -215,8 +215,9 @@ def search_drivers(scene: Scene, name: str, spec_of: Callable[[Member], tuple]) 
     """The ``bistable`` goal without a driver: every candidate (``candidates``) swept, each
     reported in ``extras["drivers"]`` (bistable or why not, barrier, switching loads, the
     range swept); the path and ``extras["bistable"]`` are those of the bistable driver with
-    the lowest energy barrier (``extras["bistable"]["driver"]``; first of equal ones), or of
-    the first candidate swept when none is bistable.  The model's postprocess
+    the lowest energy barrier (``extras["bistable"]["driver"]``; of equal ones, all listed in
+    ``extras["bistable"]["tied"]``, the first by ``rank``), or of the first candidate swept
+    when none is bistable.  The model's postprocess
     re-solves every bistable candidate by fem-auto."""
     found, runs, swept, first = [], [], [], None
     for d in candidates(scene):
@@ -237,9 +238,13 @@ def search_drivers(scene: Scene, name: str, spec_of: Callable[[Member], tuple]) 
         if b["bistable"]:
             runs.append((b["barrier"]["forward"], d, r, b))
     ok = [e["driver"] for e in found if e["bistable"]]
-    if runs:  # shown: the lowest barrier (energy: comparable across drivers), first of ties
+    tied = []
+    if runs:  # shown: the lowest barrier (energy: comparable across drivers)
         low = min(x[0] for x in runs)
-        first = next(x[1:] for x in runs if x[0] <= (1.0 + 1e-6) * low)
+        tied = sorted(
+            (x for x in runs if x[0] <= (1.0 + 1e-6) * low), key=lambda x: rank(scene, x[1])
+        )
+        first = tied[0][1:]
     msg = f"bistable along {len(ok)} of {len(found)} candidate drivers"
     if first is None:  # the path shown: the first candidate swept
         if not swept:
@@ -250,7 +255,27 @@ def search_drivers(scene: Scene, name: str, spec_of: Callable[[Member], tuple]) 
     msg += f"; {driver_label(d)}: {describe(b)}"
     extras = {**r.extras, "drivers": found, "bistable": {**b, "driver": found_driver(d)}}
     extras["bistable"]["label"] = driver_label(d)
+    extras["bistable"]["tied"] = [driver_label(x[1]) for x in tied]
     return Solution(scene.name, name, "converged", msg, tuple(r.steps), extras)
+
+
+def rank(scene: Scene, d: Driver) -> tuple:
+    """Order among drivers of equal barrier, the same however the scene is drawn (node ids,
+    member order, the frame and the units differ between equivalent drawings; the candidate
+    order follows them): a link rotation before a node motion (an x/y motion is tied to the
+    drawing's frame), a grounded link (a pin or clamp at an end) before a floating one, then
+    the member id; a node motion by its distance from the nearest fixed support relative to
+    the longest member, then its candidate order."""
+    fixed = [s.node for s in scene.supports if s.type in ("pin", "clamp")]
+    if d.kind == "rotation":
+        m = scene.member(d.member)
+        return (0, not {m.a, m.b} & set(fixed), m.id)
+    span = max(scene.member_length(m.id) for m in scene.members)
+    n = scene.node(d.node)
+    dist = min(
+        (math.hypot(n.x - scene.node(f).x, n.y - scene.node(f).y) for f in fixed), default=0.0
+    )
+    return (1, round(dist / span, 9), "")
 
 
 def found_driver(d: Driver) -> dict:

@@ -259,6 +259,8 @@ def solve_with(scene: Scene, name: str, spec_of: Callable[[Member], tuple]) -> S
         return not_applicable(scene, name, str(err))
     if axial:
         return not_applicable(scene, name, axial)
+    if kind in ("distance", "energy", "kinematics") and (why := analyses.stalled_driver(sysm)):
+        return not_applicable(scene, name, why)
     if kind == "deploy":
         from reduced_models.mechanism.deploy_staged import deploy_any as deploy
 

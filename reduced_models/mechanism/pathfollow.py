@@ -18,10 +18,12 @@ and listed in ``extras["limit_points"]``.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from reduced_models.mechanism.kkt import bordered_solve
-from reduced_models.mechanism.newton import SolveError, State
+from reduced_models.mechanism.newton import POLISH_BELOW, SolveError, State
 
 # a corrector whose secant leaves the tangent by more than acos(JUMP_COS), or that needs more
 # than JUMP_ITERATIONS Newton iterations, has left the path's neighbourhood (members with a
@@ -92,20 +94,40 @@ class ArcLength:
                 a[row[0]] = 1.0
                 extra = z[row[0]] - row[1]
                 scale = s.lay.Lref
-            if res <= sv.tol and abs(extra) <= sv.tol * scale:
+            converged = res <= sv.tol and abs(extra) <= sv.tol * scale
+            if converged and res <= POLISH_BELOW * sv.tol:
                 return State(st.q, st.mu, st.lam, it, res, K, False)
-            if it == sv.max_iter:
+            if it == sv.max_iter and not converged:
                 break
             col = np.zeros(K.shape[0])
             col[: self.nf] = s.reduced_load(st.q)
             try:
                 dz = bordered_solve(K, col, a, -np.concatenate([R, [extra]]))
             except np.linalg.LinAlgError:
-                break
+                dz = np.full(len(z), np.nan)
+            if converged:  # one more update to round-off (``Solver.polish``), if it helps
+                return self._polish(st, K, res, z + dz, base, it)
             if not np.all(np.isfinite(dz)):
                 break
             z = z + dz
         raise SolveError("arc-length corrector did not converge")
+
+    def _polish(
+        self, st: State, K: object, res: float, z: np.ndarray, base: State, it: int
+    ) -> State:
+        """The corrector's converged state ``st`` or, when the update to ``z`` lowers the
+        residual, that state.  Converged at tol the state still depends on the iterates that
+        led there (on how the scene is drawn): at that level the Newton iteration counts that
+        set the next step length differed (Lee's frame drawn with its members reversed took
+        4 and 5 iterations at one step, and the rest of the path was sampled elsewhere).  The
+        count stays the converged one: the step lengths are those of the unpolished path."""
+        if not np.all(np.isfinite(z)):
+            return State(st.q, st.mu, st.lam, it, res, K, False)
+        new = self._state(z, base)
+        R2, K2, res2 = self.sv.kkt(new)
+        if not (np.isfinite(R2).all() and res2 < res):
+            return State(st.q, st.mu, st.lam, it, res, K, False)
+        return State(new.q, new.mu, new.lam, it, res2, K2, False)
 
 
 def run_path(run: object) -> None:
@@ -200,7 +222,8 @@ def _limit_point(
     """Refine the extremum of the load factor between ``st`` and the arc length ``ds`` along
     ``t``: zero of d lam / ds (tangent's lam component) by Illinois regula falsi on the arc
     length; the refined state is recorded as a step (``info["limit_point"] = +1 max /
-    -1 min``) and listed in ``found``.  Left unrefined (nothing recorded) if it fails."""
+    -1 min``, ``stable`` None: marginal) and listed in ``found``.  Left unrefined (nothing
+    recorded) if it fails."""
     a, b, ga, gb = 0.0, ds, float(t[-1]), float(g1)
     kind = 1.0 if ga > 0 else -1.0
     side, best = 0, None
@@ -226,6 +249,9 @@ def _limit_point(
         return
     run.record(best, best.lam, False)
     run.steps[-1].info["limit_point"] = kind
+    # the tangent stiffness is singular there by construction (d lam / ds = 0): the sign of
+    # its lowest eigenvalue is round-off (it differed between drawings): no verdict
+    run.steps[-1] = replace(run.steps[-1], stable=None)
     found.append(
         {
             "factor": float(best.lam),

@@ -1,6 +1,6 @@
 """The thesis's six-bar family read as a chain (seed 001, Appendix C): the serial chain of
 rigid bars from one pinned ground node to another (any member order, direction or node names,
-run counter-clockwise as the thesis numbers it), its ternary links, torsion springs and
+from the end the thesis numbers first), its ternary links, torsion springs and
 booms; and the chain's geometry (bar angles, joints rebuilt from the stored bar lengths, boom
 lengths, MATLAB's ``vpa`` rounding).  ``reduced_models.thesis.force_method`` runs the force
 method on it.
@@ -43,8 +43,7 @@ class Chain:
 
 def walk_chain(scene: Scene) -> tuple[tuple[str, ...], tuple[int, ...]] | str:
     """The members as one open chain, whatever their order, direction and node names: chain
-    nodes and the member index of each bar, run counter-clockwise round the loop the chain
-    closes with the ground (the thesis numbers its joints counter-clockwise), or the reason
+    nodes and the member index of each bar, from the end ``first_end`` picks, or the reason
     the members are not one chain."""
     at: dict[str, list[int]] = {}
     for i, m in enumerate(scene.members):
@@ -61,11 +60,31 @@ def walk_chain(scene: Scene) -> tuple[tuple[str, ...], tuple[int, ...]] | str:
         m = scene.members[nxt[0]]
         bars.append(nxt[0])
         nodes.append(m.b if m.a == nodes[-1] else m.a)
-    xy = np.array([[scene.node(n).x, scene.node(n).y] for n in nodes])
-    area = np.sum(xy[:, 0] * np.roll(xy[:, 1], -1) - np.roll(xy[:, 0], -1) * xy[:, 1])
-    if area < 0:
+    if first_end(scene, nodes) != nodes[0]:
         nodes, bars = nodes[::-1], bars[::-1]
     return tuple(nodes), tuple(bars)
+
+
+def first_end(scene: Scene, nodes: list[str]) -> str:
+    """The chain end the walk starts from: the one farther from the first boom's base (the
+    thesis's Configurations 2, 3 and 6 push from their last ground joint), else -- the two
+    ends as far, as in the symmetric Configuration 4 -- the end from which the chain runs
+    counter-clockwise round its loop with the ground (the thesis's numbering).
+
+    The listing re-places the joints from the first one (``rebuild``), so the walk's start
+    decides where the bars' length drift collects; the distance rule makes it the same end
+    however the scene is drawn (a mirror turns a counter-clockwise walk clockwise)."""
+    xy = {n: np.array([scene.node(n).x, scene.node(n).y]) for n in nodes}
+    ends = (nodes[0], nodes[-1])
+    if scene.booms:
+        base = np.array([scene.node(scene.booms[0].a).x, scene.node(scene.booms[0].a).y])
+        d = [float(np.hypot(*(xy[e] - base))) for e in ends]
+        span = max(float(np.hypot(*(xy[a] - xy[b]))) for a, b in zip(nodes, nodes[1:]))
+        if abs(d[0] - d[1]) > 1e-9 * span:
+            return ends[int(d[1] > d[0])]
+    p = np.array([xy[n] for n in nodes])
+    area = np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1])
+    return ends[int(area < 0)]
 
 
 def read_chain(scene: Scene) -> Chain | str:

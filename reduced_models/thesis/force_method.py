@@ -2,10 +2,11 @@
 
 A faithful port of the MATLAB listing for Configuration 4, written for any scene of the same
 family: a serial chain of rigid bars from one pinned ground node to another (read from the
-graph: any member order, direction or node names; run counter-clockwise as the thesis numbers
-it), consecutive bars welded at a free node forming ternary links (both ends welded; weld +
-pin is a pin), torsion springs at the joints, booms from pinned ground nodes to chain nodes
-(several as in Configuration 6: all push until the first reaches its length, then all lock).
+graph: any member order, direction or node names; run from the end the thesis numbers first:
+``chain.first_end``), consecutive bars welded at a free node forming ternary links (both ends
+welded; weld + pin is a pin), torsion springs at the joints, booms from pinned ground nodes
+to chain nodes (several as in Configuration 6: all push until the first reaches its length,
+then all lock).
 Per increment (``feb11_conf1_p1`` / ``_p2``):
 
 1. rebuild the free joints along the chain from the bar angles and the stored bar lengths;
