@@ -128,7 +128,10 @@ def lookup(
     at[0] = np.arange(4.0)[:, None]
     at[1:] = np.array(coords)[:, None, :]
     at = at.reshape(len(coords) + 1, 4 * k)
-    out = map_coordinates(grids, at, order=1, mode="nearest", prefilter=False).reshape(4, k)
+    # an output array of our own: without one scipy looks up the dtype's name (~20 us)
+    out = np.empty(4 * k)
+    map_coordinates(grids, at, out, order=1, mode="nearest", prefilter=False)
+    out = out.reshape(4, k)
     out[:2] = 10.0 ** out[:2]
     return out
 
@@ -322,25 +325,30 @@ def predict(name: str, scene: Scene, sol: Solution) -> dict[str, object]:
     states, notes = member_states(name, scene, sol)
     warnings = [n for n in notes if n.startswith("outside")]
     best, at = -1.0, None
-    for st in states:
-        live = np.nonzero(st.factor != 0)[0]
-        if not live.size:
+    for st in states:  # a path's 21 states: plain floats, one conversion per array
+        factor, outside = st.factor.tolist(), st.outside.tolist()
+        live = [i for i, f in enumerate(factor) if f != 0]
+        if not live:
             continue
-        out = live[st.outside[live]]
-        if out.size:
-            warnings.append(_outside_text(st, int(out[np.argmax(np.hypot(st.p, st.m)[out])])))
-        err = st.path_error()[live]
-        if np.isnan(err).any():
-            w = _where(st, int(live[np.argmax(np.isnan(err))]))
+        out = [i for i in live if outside[i]]
+        if out:
+            radius = np.hypot(st.p, st.m).tolist()
+            warnings.append(_outside_text(st, max(out, key=radius.__getitem__)))
+        err = st.path_error().tolist()
+        nan = [i for i in live if math.isnan(err[i])]
+        if nan:
+            w = _where(st, nan[0])
             warnings.append(
                 f"{st.model} failed or declined in the atlas near member {st.member!r}'s state "
                 f"PL^2/EI = {w['PL^2/EI']:.3g}, alpha = {w['alpha_deg']:g} deg, "
                 f"ML/EI = {w['ML/EI']:.3g}: no prediction there"
             )
-        top = np.fmax.reduce(err)
-        if np.isfinite(err).any() and top > best:
-            j = int(live[np.nanargmax(err)])
-            best, at = float(top), _where(st, j)
+        seen = [i for i in live if not math.isnan(err[i])]
+        if not any(math.isfinite(err[i]) for i in seen):
+            continue
+        j = max(seen, key=err.__getitem__)  # the first of equal largest, as nanargmax
+        if err[j] > best:
+            best, at = err[j], _where(st, j)
     result: dict[str, object] = {"predicted_error": best if at else None, "warnings": warnings}
     if at is None:
         result["predicted_error_note"] = "; ".join(notes) or "no member state to look up"
