@@ -32,6 +32,10 @@ def recover_tip_loads_batch(
         fk = np.asarray(f_known, dtype=float)
         f = fk + r * (inv * (t - (r * fk).sum(axis=1)))[:, None]
         return _drop_round_off(f, chain.L), rank
+    if JT.shape[1] == 3:  # square: one batched LU solve where every J^T is surely full rank
+        f = _solve_full_rank(JT, tau)
+        if f is not None:
+            return _drop_round_off(f, chain.L), np.full(len(f), 3)
     U, sv, Vt = np.linalg.svd(JT, full_matrices=False)  # (m, k, r), (m, r), (m, r, 3)
     keep = sv > 1e-12 * np.maximum(1.0, sv[:, :1])
     rank = keep.sum(axis=1)
@@ -45,6 +49,18 @@ def recover_tip_loads_batch(
         null = fk - ((Vk @ fk[:, :, None]).transpose(0, 2, 1) @ Vk)[:, 0]
         f = f + np.where((rank < 3)[:, None], null, 0.0)
     return _drop_round_off(f, chain.L), rank
+
+
+def _solve_full_rank(JT: np.ndarray, tau: np.ndarray) -> np.ndarray | None:
+    """f (m, 3) with J^T f = tau for square J^T (m, 3, 3), or None unless every J^T passes
+    the SVD's rank test (smallest singular value > 1e-12 max(1, largest)): the pseudo-inverse
+    is then the inverse.  Sufficient test without the SVD: s_min >= |det| / s_max^2 and
+    s_max <= the Frobenius norm F, so |det| > 1e-12 F^2 max(1, F) implies full rank."""
+    fro2 = (JT * JT).sum(axis=(1, 2))
+    bound = 1e-12 * fro2 * np.maximum(1.0, np.sqrt(fro2))
+    if not (np.abs(np.linalg.det(JT)) > bound).all():
+        return None
+    return np.linalg.solve(JT, tau[:, :, None])[:, :, 0]
 
 
 def _drop_round_off(f: np.ndarray, L: float) -> np.ndarray:
