@@ -163,15 +163,12 @@ class States:
         error is rescaled by motion-so-far / motion-over-the-path (for the translations and,
         on a free end, the rotation).
         """
-        parts = [(self.values[0], self.values[2])]
-        if self.rotation:
-            parts.append((self.values[1], self.values[3]))
-        out = []
-        for err, motion in parts:
-            top = np.fmax.reduce(motion)  # NaN only where every entry is (as nanmax)
-            w = motion / top if top > 0 else np.ones_like(motion)
-            out.append(err * np.fmin(w, 1.0))
-        return np.max(out, axis=0)
+        c = 2 if self.rotation else 1  # the channels judged: translations[, rotation]
+        err, motion = self.values[:c], self.values[2 : 2 + c]
+        top = np.fmax.reduce(motion, axis=1)  # NaN only where every entry is (as nanmax)
+        moved = top > 0
+        w = np.where(moved[:, None], motion / np.where(moved, top, 1.0)[:, None], 1.0)
+        return (err * np.fmin(w, 1.0)).max(axis=0)
 
 
 def _tip_vectors(sol: Solution, beam: Cantilever) -> np.ndarray:
