@@ -32,3 +32,15 @@ def test_straight_state_is_rank_two_and_keeps_the_axial_load() -> None:
     f, rank = recover_tip_loads_batch(chain, X, np.array([[-2.5, 0.0, 0.0]]))
     assert rank.tolist() == [2]
     np.testing.assert_allclose(f, [[-2.5, 0.0, 0.0]], atol=1e-14)
+
+
+def test_a_batch_of_straight_and_bent_states() -> None:
+    # the unloaded state (rank 2, SVD) beside bent ones (LU) in one batch: each row as alone
+    chain = _chain()
+    X = np.array([[0.0, 0.0, 0.0], [-0.1, -0.3, -0.5], [0.2, 0.1, -0.4]])
+    known = np.array([[-2.5, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    f, rank = recover_tip_loads_batch(chain, X, known)
+    assert rank.tolist() == [2, 3, 3]
+    np.testing.assert_allclose(f[0], known[0], atol=1e-14)
+    tau = chain.spring_forces(X[1:])
+    np.testing.assert_allclose((chain.jacobian_T(X[1:]) @ f[1:, :, None])[:, :, 0], tau, rtol=1e-12)
