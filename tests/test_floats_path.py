@@ -25,8 +25,16 @@ def _path(model, case: str):  # noqa: ANN001
     return lambda: equilibrium_path(chain, f1, load_factors(scene), guided=beam.guided)
 
 
+CASES = [
+    "cantilever-tip-load",
+    "cantilever-inclined-compression",
+    "pure-moment-rollup",
+    "column-postbuckling",
+]
+
+
 @pytest.mark.parametrize("model", [PRB2R(), PRB3R()], ids=["prb-2r", "prb-3r"])
-@pytest.mark.parametrize("case", ["cantilever-tip-load", "cantilever-inclined-compression", "pure-moment-rollup", "column-postbuckling"])
+@pytest.mark.parametrize("case", CASES)
 def test_inlined_path_equals_generic_path(model, case: str, monkeypatch) -> None:  # noqa: ANN001
     solve = _path(model, case)
     fast = solve()

@@ -54,6 +54,7 @@ RING = 0.1  # |(uy/L, rot)| below which a member's state is matched on its direc
 PATH = pathlib.Path(__file__).parent / "data" / "predicted_error.npz"
 ANGLES = np.array([0.0, 15, 30, 45, 60, 75, 90, 105, 120, 135, 150, 165, 179.9])
 RHO_MAX = 10.0
+_CHANNEL = np.arange(4.0)[:, None]  # lookup's channel coordinate
 
 
 @functools.lru_cache(maxsize=1)
@@ -93,9 +94,16 @@ def _channels(model: str, family: str) -> np.ndarray:
     return np.stack([err[..., 0], err[..., 1], move, turn])
 
 
-def _index(axis: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Fractional grid index of x on a sorted axis (clamped to its ends)."""
-    return np.interp(x, axis, np.arange(axis.size, dtype=float))
+def _index(axis: str, x: np.ndarray) -> np.ndarray:
+    """Fractional grid index of x on the table's sorted axis ``axis`` (clamped to its ends)."""
+    return np.interp(x, *_axis(axis))
+
+
+@functools.lru_cache(maxsize=8)
+def _axis(name: str) -> tuple[np.ndarray, np.ndarray]:
+    """The table's axis ``name`` and its grid indices 0, 1, ... (made once)."""
+    axis = table()[name]
+    return axis, np.arange(axis.size, dtype=float)
 
 
 def lookup(
@@ -115,17 +123,16 @@ def lookup(
     as the load vanishes; alpha above 179.9 deg reads the imperfect-column row).  NaN where the
     model failed or declined next to the state.
     """
-    t = table()
     rho = np.hypot(p, m)
-    ia, ir = _index(t["angles"], alpha), _index(t["rhos"], rho)
+    ia, ir = _index("angles", alpha), _index("rhos", rho)
     if follower:
         coords = [ia, ir]
     else:
-        coords = [ia, _index(t["betas"], np.degrees(np.arctan2(m, p))), ir]
+        coords = [ia, _index("betas", np.degrees(np.arctan2(m, p))), ir]
     grids = _channels(model, "follower" if follower else "dead")
     k = ia.size  # one call for the four channels: the channel is an exact integer coordinate
     at = np.empty((len(coords) + 1, 4, k))
-    at[0] = np.arange(4.0)[:, None]
+    at[0] = _CHANNEL
     at[1:] = np.array(coords)[:, None, :]
     at = at.reshape(len(coords) + 1, 4 * k)
     # an output array of our own: without one scipy looks up the dtype's name (~20 us)
@@ -370,4 +377,4 @@ def attach(name: str, scene: Scene, sol: Solution) -> Solution:
         own = extras.get("validity_message") if extras.get("validity_warning") else None
         extras["validity_warning"] = text
         extras["validity_message"] = f"{own}; {text}" if own else text
-    return dataclasses.replace(sol, extras=extras)
+    return Solution(sol.case, sol.model, sol.status, sol.message, sol.steps, extras)
