@@ -256,7 +256,8 @@ def solve(
     m = make_model(model, scene, options) if isinstance(model, str) else model
     sol = run_model(m, scene, catch=catch)
     # the unit system, for Solution.to_frame / plot labels in a notebook
-    return dataclasses.replace(sol, extras={**sol.extras, "units": scene.units})
+    extras = {**sol.extras, "units": scene.units}
+    return Solution(sol.case, sol.model, sol.status, sol.message, sol.steps, extras)
 
 
 # -- the solve --json object ---------------------------------------------------------------

@@ -21,6 +21,7 @@ once in ``shapes`` (``bcm.bcm_shape``, vectorised over the steps).
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import TYPE_CHECKING
 
@@ -135,6 +136,14 @@ def solve_direct(model: ChainModel, scene: Scene, beam: Cantilever) -> Solution 
     return Solution(scene.name, model.name, "converged", msg, tuple(steps), extras)
 
 
+@functools.lru_cache(maxsize=8)
+def stations(points: int) -> np.ndarray:
+    """``points`` equally spaced positions in [0, 1] along a segment (read-only, made once)."""
+    sigma = np.linspace(0.0, 1.0, points)
+    sigma.flags.writeable = False
+    return sigma
+
+
 def with_shapes(model: ChainModel, scene: Scene, sol: Solution) -> Solution:
     """``sol`` (one segment) with the shapes and bending stress of every step, all at once:
     ``ChainModel.postprocess`` for N = 1 (the segment frame is the beam frame)."""
@@ -142,7 +151,7 @@ def with_shapes(model: ChainModel, scene: Scene, sol: Solution) -> Solution:
     L, m = beam.L, len(sol.steps)
     tip = np.asarray(sol.extras["nodes"], dtype=float)[:m, 1] / np.array([L, L, 1.0])
     p = np.asarray(sol.extras["axial"], dtype=float)[:m, 0]
-    sigma = np.linspace(0.0, 1.0, model.shape_points)
+    sigma = stations(model.shape_points)
     xl, yl, kappa = model.shape(tip[:, 0] - 1.0, tip[:, 1], tip[:, 2], p, sol.extras["k"], sigma)
     pts = np.empty((m, sigma.size, 2))
     pts[:, :-1, 0], pts[:, :-1, 1] = xl[:, :-1], yl[:, :-1]

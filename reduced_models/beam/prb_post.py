@@ -17,7 +17,8 @@ from reduced_models.beam.single_beam import Cantilever
 def recover_tip_loads_batch(
     chain: PRBChain, X: np.ndarray, f_known: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """``recover_tip_loads`` for a stack of states X (m, n) (one batched SVD).
+    """``recover_tip_loads`` for a stack of states X (m, n) (batched: the closed form of
+    one spring row, LU solves of square J^T that are surely full rank, one SVD for the rest).
 
     ``f_known`` is None or (m, 3).  Returns ``(f (m, 3), rank (m,))``.
     """
@@ -32,6 +33,27 @@ def recover_tip_loads_batch(
         fk = np.asarray(f_known, dtype=float)
         f = fk + r * (inv * (t - (r * fk).sum(axis=1)))[:, None]
         return _drop_round_off(f, chain.L), rank
+    if JT.shape[1] != 3:
+        return _pinv_loads(JT, tau, f_known, chain.L)
+    # square J^T: an LU solve of each J^T that is surely full rank, the SVD for the others
+    # (a straight chain, the unloaded state); per matrix both are exact to round-off
+    full = _surely_full_rank(JT)
+    if not full.any():
+        return _pinv_loads(JT, tau, f_known, chain.L)
+    f, rank = np.empty((len(JT), 3)), np.full(len(JT), 3)
+    f[full] = _drop_round_off(np.linalg.solve(JT[full], tau[full][:, :, None])[:, :, 0], chain.L)
+    rest = ~full
+    if rest.any():
+        known = None if f_known is None else np.asarray(f_known, dtype=float)[rest]
+        f[rest], rank[rest] = _pinv_loads(JT[rest], tau[rest], known, chain.L)
+    return f, rank
+
+
+def _pinv_loads(
+    JT: np.ndarray, tau: np.ndarray, f_known: np.ndarray | None, L: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """f = pinv(J^T) tau by one batched SVD (J^T (m, k, 3), tau (m, k)), its null-space part
+    from ``f_known`` (m, 3) where J^T has rank < 3; ``(f (m, 3), rank (m,))``."""
     U, sv, Vt = np.linalg.svd(JT, full_matrices=False)  # (m, k, r), (m, r), (m, r, 3)
     keep = sv > 1e-12 * np.maximum(1.0, sv[:, :1])
     rank = keep.sum(axis=1)
@@ -44,7 +66,17 @@ def recover_tip_loads_batch(
         Vk = Vt * keep[:, :, None]
         null = fk - ((Vk @ fk[:, :, None]).transpose(0, 2, 1) @ Vk)[:, 0]
         f = f + np.where((rank < 3)[:, None], null, 0.0)
-    return _drop_round_off(f, chain.L), rank
+    return _drop_round_off(f, L), rank
+
+
+def _surely_full_rank(JT: np.ndarray) -> np.ndarray:
+    """(m,) bool: square J^T (m, 3, 3) passes the SVD's rank test (smallest singular value
+    > 1e-12 max(1, largest)), so that its pseudo-inverse is its inverse.  A sufficient test
+    without the SVD: s_min >= |det| / s_max^2 and s_max <= the Frobenius norm F, so
+    |det| > 1e-12 F^2 max(1, F) implies full rank."""
+    fro2 = (JT * JT).sum(axis=(1, 2))
+    bound = 1e-12 * fro2 * np.maximum(1.0, np.sqrt(fro2))
+    return np.abs(np.linalg.det(JT)) > bound
 
 
 def _drop_round_off(f: np.ndarray, L: float) -> np.ndarray:

@@ -50,10 +50,12 @@ class Cantilever:
     member: str
 
     def rotate_to_global(self, xy: np.ndarray) -> np.ndarray:
-        """Beam-frame points (n, 2) -> global points (n, 2)."""
+        """Beam-frame points (..., 2) -> global points (..., 2)."""
         c, s = math.cos(self.angle), math.sin(self.angle)
         R = np.array([[c, -s], [s, c]])
-        return np.asarray(xy) @ R.T + np.asarray(self.origin)
+        xy = np.asarray(xy)
+        # one (n, 2) x (2, 2) product: a stack of steps (m, n, 2) would loop over m
+        return (xy.reshape(-1, 2) @ R.T).reshape(xy.shape) + np.asarray(self.origin)
 
 
 # the last scene asked about and its answer: a model's router, ``applies_to`` and ``solve``

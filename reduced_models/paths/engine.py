@@ -441,5 +441,9 @@ def minimize_path(
         keep_branch=keep_branch, load_gradient=load_gradient, symmetric=symmetric,
     )  # fmt: skip
     kind = _ScalarPath if isinstance(A, Scalar) else _Path
+    if kind is _Path and isinstance(A, Floats):
+        from reduced_models.paths import floats_path  # it subclasses _Path: imported here
+
+        kind = floats_path.FloatsPath if floats_path.plain(A, update) else _Path
     path = kind(A, grad_hess, opts, x, factors[0] if factors else 0.0)
     return path.result(*path.follow(x, factors, max_cuts))

@@ -267,6 +267,13 @@ TARGETS = {
 
 # why a target is out of reach as stated (printed beside its verdict)
 NOTES = {
+    "prb-1r": (
+        "; its solve alone (the shared continuation on one float: tangent predictor, step "
+        "control, branch and stability tests, 21 output maps and Steps) is ~4x the plain "
+        "20-step Newton loop, post-processing (end loads, shape, stress) and the predicted "
+        "error add ~0.1 and ~0.05 ms: 3x would need a dedicated one-pivot path without the "
+        "engine and the post-processing fused into it"
+    ),
     "linear-8": (
         "; linear-N with N > 1 is geometrically nonlinear (each segment turns with its "
         "predecessor's tip: at PL^2/EI = 10 its tip deflection is 0.82 L, the elastica's "

@@ -54,6 +54,7 @@ RING = 0.1  # |(uy/L, rot)| below which a member's state is matched on its direc
 PATH = pathlib.Path(__file__).parent / "data" / "predicted_error.npz"
 ANGLES = np.array([0.0, 15, 30, 45, 60, 75, 90, 105, 120, 135, 150, 165, 179.9])
 RHO_MAX = 10.0
+_CHANNEL = np.arange(4.0)[:, None]  # lookup's channel coordinate
 
 
 @functools.lru_cache(maxsize=1)
@@ -93,9 +94,16 @@ def _channels(model: str, family: str) -> np.ndarray:
     return np.stack([err[..., 0], err[..., 1], move, turn])
 
 
-def _index(axis: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Fractional grid index of x on a sorted axis (clamped to its ends)."""
-    return np.interp(x, axis, np.arange(axis.size, dtype=float))
+def _index(axis: str, x: np.ndarray) -> np.ndarray:
+    """Fractional grid index of x on the table's sorted axis ``axis`` (clamped to its ends)."""
+    return np.interp(x, *_axis(axis))
+
+
+@functools.lru_cache(maxsize=8)
+def _axis(name: str) -> tuple[np.ndarray, np.ndarray]:
+    """The table's axis ``name`` and its grid indices 0, 1, ... (made once)."""
+    axis = table()[name]
+    return axis, np.arange(axis.size, dtype=float)
 
 
 def lookup(
@@ -115,20 +123,22 @@ def lookup(
     as the load vanishes; alpha above 179.9 deg reads the imperfect-column row).  NaN where the
     model failed or declined next to the state.
     """
-    t = table()
     rho = np.hypot(p, m)
-    ia, ir = _index(t["angles"], alpha), _index(t["rhos"], rho)
+    ia, ir = _index("angles", alpha), _index("rhos", rho)
     if follower:
         coords = [ia, ir]
     else:
-        coords = [ia, _index(t["betas"], np.degrees(np.arctan2(m, p))), ir]
+        coords = [ia, _index("betas", np.degrees(np.arctan2(m, p))), ir]
     grids = _channels(model, "follower" if follower else "dead")
     k = ia.size  # one call for the four channels: the channel is an exact integer coordinate
     at = np.empty((len(coords) + 1, 4, k))
-    at[0] = np.arange(4.0)[:, None]
+    at[0] = _CHANNEL
     at[1:] = np.array(coords)[:, None, :]
     at = at.reshape(len(coords) + 1, 4 * k)
-    out = map_coordinates(grids, at, order=1, mode="nearest", prefilter=False).reshape(4, k)
+    # an output array of our own: without one scipy looks up the dtype's name (~20 us)
+    out = np.empty(4 * k)
+    map_coordinates(grids, at, out, order=1, mode="nearest", prefilter=False)
+    out = out.reshape(4, k)
     out[:2] = 10.0 ** out[:2]
     return out
 
@@ -160,15 +170,12 @@ class States:
         error is rescaled by motion-so-far / motion-over-the-path (for the translations and,
         on a free end, the rotation).
         """
-        parts = [(self.values[0], self.values[2])]
-        if self.rotation:
-            parts.append((self.values[1], self.values[3]))
-        out = []
-        for err, motion in parts:
-            top = np.fmax.reduce(motion)  # NaN only where every entry is (as nanmax)
-            w = motion / top if top > 0 else np.ones_like(motion)
-            out.append(err * np.fmin(w, 1.0))
-        return np.max(out, axis=0)
+        c = 2 if self.rotation else 1  # the channels judged: translations[, rotation]
+        err, motion = self.values[:c], self.values[2 : 2 + c]
+        top = np.fmax.reduce(motion, axis=1)  # NaN only where every entry is (as nanmax)
+        moved = top > 0
+        w = np.where(moved[:, None], motion / np.where(moved, top, 1.0)[:, None], 1.0)
+        return (err * np.fmin(w, 1.0)).max(axis=0)
 
 
 def _tip_vectors(sol: Solution, beam: Cantilever) -> np.ndarray:
@@ -322,25 +329,30 @@ def predict(name: str, scene: Scene, sol: Solution) -> dict[str, object]:
     states, notes = member_states(name, scene, sol)
     warnings = [n for n in notes if n.startswith("outside")]
     best, at = -1.0, None
-    for st in states:
-        live = np.nonzero(st.factor != 0)[0]
-        if not live.size:
+    for st in states:  # a path's 21 states: plain floats, one conversion per array
+        factor, outside = st.factor.tolist(), st.outside.tolist()
+        live = [i for i, f in enumerate(factor) if f != 0]
+        if not live:
             continue
-        out = live[st.outside[live]]
-        if out.size:
-            warnings.append(_outside_text(st, int(out[np.argmax(np.hypot(st.p, st.m)[out])])))
-        err = st.path_error()[live]
-        if np.isnan(err).any():
-            w = _where(st, int(live[np.argmax(np.isnan(err))]))
+        out = [i for i in live if outside[i]]
+        if out:
+            radius = np.hypot(st.p, st.m).tolist()
+            warnings.append(_outside_text(st, max(out, key=radius.__getitem__)))
+        err = st.path_error().tolist()
+        nan = [i for i in live if math.isnan(err[i])]
+        if nan:
+            w = _where(st, nan[0])
             warnings.append(
                 f"{st.model} failed or declined in the atlas near member {st.member!r}'s state "
                 f"PL^2/EI = {w['PL^2/EI']:.3g}, alpha = {w['alpha_deg']:g} deg, "
                 f"ML/EI = {w['ML/EI']:.3g}: no prediction there"
             )
-        top = np.fmax.reduce(err)
-        if np.isfinite(err).any() and top > best:
-            j = int(live[np.nanargmax(err)])
-            best, at = float(top), _where(st, j)
+        seen = [i for i in live if not math.isnan(err[i])]
+        if not any(math.isfinite(err[i]) for i in seen):
+            continue
+        j = max(seen, key=err.__getitem__)  # the first of equal largest, as nanargmax
+        if err[j] > best:
+            best, at = err[j], _where(st, j)
     result: dict[str, object] = {"predicted_error": best if at else None, "warnings": warnings}
     if at is None:
         result["predicted_error_note"] = "; ".join(notes) or "no member state to look up"
@@ -365,4 +377,4 @@ def attach(name: str, scene: Scene, sol: Solution) -> Solution:
         own = extras.get("validity_message") if extras.get("validity_warning") else None
         extras["validity_warning"] = text
         extras["validity_message"] = f"{own}; {text}" if own else text
-    return dataclasses.replace(sol, extras=extras)
+    return Solution(sol.case, sol.model, sol.status, sol.message, sol.steps, extras)
