@@ -238,18 +238,34 @@ def _beam_column_shapes(
 def cpu_wall(call: Callable[[], object], rounds: int) -> tuple[float, float]:
     """Median CPU and wall seconds of ``call`` over ``rounds`` calls after one warm-up (GC
     off while timing)."""
-    call()
-    cpu, wall = [], []
+    return interleaved([call], rounds)[0]
+
+
+def interleaved(
+    calls: list[Callable[[], object]], rounds: int, budget_s: float = 0.3
+) -> list[tuple[float, float]]:
+    """Median CPU and wall seconds of each call, the calls timed in turn within each round.
+
+    On a shared machine the load drifts between one call's rounds and the next's; timing
+    ``limit, solve, end to end`` in turn puts every ratio's numerator and denominator under
+    the same load.  At least ``rounds`` rounds, more for sub-millisecond calls until one
+    call has spent ``budget_s`` of CPU (at most 25 rounds), one warm-up each, GC off.
+    """
+    for call in calls:
+        call()
+    cpu: list[list[float]] = [[] for _ in calls]
+    wall: list[list[float]] = [[] for _ in calls]
     gc.disable()
     try:
-        for _ in range(rounds):
-            w0, c0 = time.perf_counter(), time.process_time()
-            call()
-            cpu.append(time.process_time() - c0)
-            wall.append(time.perf_counter() - w0)
+        while len(cpu[0]) < rounds or (len(cpu[0]) < 25 and max(map(sum, cpu)) < budget_s):
+            for k, call in enumerate(calls):
+                w0, c0 = time.perf_counter(), time.process_time()
+                call()
+                cpu[k].append(time.process_time() - c0)
+                wall[k].append(time.perf_counter() - w0)
     finally:
         gc.enable()
-    return statistics.median(cpu), statistics.median(wall)
+    return [(statistics.median(c), statistics.median(w)) for c, w in zip(cpu, wall)]
 
 
 # model -> (its limit, target ratio of end-to-end CPU to the limit, or an absolute ms target)
@@ -310,7 +326,8 @@ def _limit_call(name: str, scene: Scene) -> Callable[[], object] | None:
 
 def limits_table(rounds: int, case: str = "cantilever-tip-load") -> tuple[list[str], list[str]]:
     """Rows: each model's limit, its solve alone and end to end (``reports.solve``), CPU and
-    wall ms, the end-to-end CPU ratio to the limit; and the target verdicts."""
+    wall ms (the three timed in turn, ``interleaved``), the end-to-end CPU ratio to the
+    limit; and the target verdicts."""
     scene = cases.load(case)
     lines = [
         "| model | limit | limit CPU / wall ms | solve CPU / wall ms | end-to-end CPU / wall ms "
@@ -321,9 +338,12 @@ def limits_table(rounds: int, case: str = "cantilever-tip-load") -> tuple[list[s
     for name, (what, ratio_max, ms_max) in TARGETS.items():
         model = api.make_model(name, scene)
         limit = _limit_call(name, scene)
-        lim = cpu_wall(limit, rounds) if limit else None
-        solo = cpu_wall(lambda m=model: api.run_model(m, scene, post=False), rounds)
-        e2e = cpu_wall(lambda m=model: api.solve(scene, m), rounds)
+        timed = [
+            lambda m=model: api.run_model(m, scene, post=False),
+            lambda m=model: api.solve(scene, m),
+        ]
+        solo, e2e, *lim = interleaved(timed + ([limit] if limit else []), rounds)
+        lim = lim[0] if lim else None
         ratio = e2e[0] / lim[0] if lim else None
         if ratio_max is not None and ratio is not None:
             target = f"<= {ratio_max:g}x: {verdict(ratio, ratio_max)}"
