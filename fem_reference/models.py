@@ -218,7 +218,7 @@ class Runner:
         for prev, fk in zip(f[:-1], f[1:]):
             new = S.reach_factor(self.system, st, float(fk), float(fk - prev), self.opts)
             if watch:
-                watch.snap(st, new)
+                new = watch.snap(st, new)
             st = watch.check(st, new, float(fk)) if watch else new
             self._push(st, float(fk))
         if watch:

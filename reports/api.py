@@ -302,6 +302,7 @@ _JSON_EXTRAS = (
     "limit_points",
     "critical_points",
     "reference_usable",
+    "off_branch",
     "mesh_error_worst",
     "jumps",
     "validity_warning",

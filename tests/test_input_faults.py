@@ -127,6 +127,40 @@ def test_watchdog_stops_a_thread_and_leaves_no_pending_exception():
     assert out == {"exc": "time limit of 0.2 s exceeded", "after": 499500}
 
 
+_TRACED_GUARDS = """
+import sys, threading, time
+from reports.run import limits
+
+def tracer(frame, event, arg):
+    return tracer
+
+def work():
+    sys.settrace(tracer)
+    try:
+        with limits.guard(0.2):
+            while True:
+                time.sleep(0.001)
+    except limits.LimitExceeded:
+        pass
+    with limits.guard(5.0):
+        pass
+    print(sum(range(10)))
+
+thread = threading.Thread(target=work)
+thread.start()
+thread.join()
+"""
+
+
+def test_watchdog_works_under_a_tracer():
+    """Coverage and debuggers trace: a guard ended in a traced thread must leave the
+    interpreter usable (clearing the pending exception with ``SetAsyncExc(id, NULL)`` left the
+    eval breaker set, and the next Python call under the tracer spun forever)."""
+    out = subprocess.run([sys.executable, "-c", _TRACED_GUARDS], cwd=ROOT, capture_output=True,
+                         text=True, timeout=30)  # fmt: skip
+    assert (out.returncode, out.stdout) == (0, "45\n"), out.stderr
+
+
 # -- journal -------------------------------------------------------------------------------------
 def test_torn_last_line_is_cut_off_so_the_next_record_survives(tmp_path):
     p = tmp_path / "partial.jsonl"

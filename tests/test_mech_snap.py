@@ -13,6 +13,7 @@ links carry little of the motion).
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 import pytest
@@ -60,6 +61,18 @@ def test_snap_load_and_far_state_agree_with_fem_auto(fem, model: str) -> None:
     est = abs(_at(solve(CASE, pair[0]), FAR) - _at(solve(CASE, pair[1]), FAR))
     allowed = 1.5 * est + (5e-2 if model == "mixed" else 2e-3) * _at(fem, FAR)
     assert abs(_at(sol, FAR) - _at(fem, FAR)) <= allowed, (_at(sol, FAR), _at(fem, FAR), est)
+
+
+def test_fem_auto_states_no_estimate_where_its_meshes_are_on_two_branches(fem) -> None:
+    """The coarse meshes stay on the fundamental branch up to its limit point (factor ~0.668)
+    while the finest switches at the bifurcation (0.432): no step may carry the distance
+    between the branches (~16.5 mm of shuttle travel) as its error estimate; the steps
+    between say they have none (``tests/test_richardson_branches.py``)."""
+    est = fem.extras["error_estimate_steps"][KEY]
+    none = {r["factor"] for r in fem.extras.get("off_branch", ()) if not r["estimate"]}
+    for s, e in zip(fem.steps, est):
+        assert (s.factor in none and math.isnan(e)) or e < 1e-3, (s.factor, e)
+    assert none and "no error estimate" in fem.message
 
 
 GUIDED = cases.load("das2d-ex3-bistable-switch")

@@ -129,23 +129,98 @@ def extrapolate(f: np.ndarray, n: np.ndarray, scale: float = 0.0) -> Extrapolati
 
 
 def extrapolate_table(
-    values: dict[str, np.ndarray], n: np.ndarray, scales: dict[str, float] | None = None
+    values: dict[str, np.ndarray],
+    n: np.ndarray,
+    scales: dict[str, float] | None = None,
+    same: np.ndarray | None = None,
 ) -> dict[str, np.ndarray]:
     """Vectorised over steps: ``values[key]`` is (m meshes, n_steps).
+
+    ``same`` (m, n_steps) bool selects, per step, the meshes that enter its estimate (those on
+    the finest mesh's branch, ``same_branch``; default all): a step left with one mesh has
+    no estimate (error and order nan, the finest value).
 
     Returns ``{"value": {key: (n_steps,)}, "error": ..., "order": ..., "fallback": ...}``
     as nested dicts of arrays.
     """
     scales = scales or {}
+    n = np.asarray(n, dtype=float)
     out = {"value": {}, "error": {}, "order": {}, "fallback": {}}
     for key, tab in values.items():
         tab = np.asarray(tab, dtype=float)
-        res = [extrapolate(tab[:, j], n, scales.get(key, 0.0)) for j in range(tab.shape[1])]
+        sel = np.ones(tab.shape, dtype=bool) if same is None else same
+        res = [
+            extrapolate(tab[sel[:, j], j], n[sel[:, j]], scales.get(key, 0.0))
+            for j in range(tab.shape[1])
+        ]
         out["value"][key] = np.array([r.value for r in res])
         out["error"][key] = np.array([r.error for r in res])
         out["order"][key] = np.array([r.order for r in res])
         out["fallback"][key] = np.array([r.fallback for r in res])
     return out
+
+
+def branch_changes(critical_points: list, factors: np.ndarray) -> np.ndarray:
+    """How many branch changes (a snap, a switch at a bifurcation: ``critical_points``
+    entries with ``switched``) a load-stepped path has passed at each of ``factors``
+    (n_steps,), counted from the first factor in the direction of loading; an int array."""
+    f = np.asarray(factors, dtype=float)
+    ev = np.array([cp["factor"] for cp in critical_points if cp.get("switched")], dtype=float)
+    d, span = ev[:, None] - f[0], (f - f[0])[None, :]
+    return np.sum((d * span > 0.0) & (np.abs(d) < np.abs(span)), axis=0)
+
+
+def same_branch(runs: list, kind: str) -> np.ndarray:
+    """(m, n_steps) bool: whether mesh i's state at step j lies on the branch of the finest
+    mesh's (the last of ``runs``, Runners with equally many steps).
+
+    A load-stepped path that snapped or switched at a bifurcation on one mesh and not (yet)
+    on another holds states of different branches between the two events: their difference
+    is the distance between the branches, not a discretisation error, and Richardson on it
+    is meaningless (DAS-2D Ex. 3: the coarse meshes stay on the unstable fundamental branch
+    up to its limit point while the finest switches at the bifurcation before it).  So a
+    mesh is on the finest mesh's branch where it has passed as many branch changes.  A path
+    analysis's coarse meshes are re-solved through the finest path (``_retrace``): all same.
+    """
+    fin = runs[-1]
+    same = np.ones((len(runs), len(fin.steps)), dtype=bool)
+    if kind == "path":
+        return same
+    factors = np.array([s.factor for s in fin.steps], dtype=float)
+    ref = branch_changes(fin.extras.get("critical_points") or [], factors)
+    for i, r in enumerate(runs[:-1]):
+        same[i] = branch_changes(r.extras.get("critical_points") or [], factors) == ref
+    return same
+
+
+def _branch_note(ns: np.ndarray, same: np.ndarray, factors: np.ndarray) -> tuple[str, list]:
+    """The message and the ``extras["off_branch"]`` records (``factor``, ``meshes`` used,
+    ``excluded``, whether an ``estimate`` is left) of the steps some mesh was left out of
+    (``same_branch``)."""
+    part = np.flatnonzero(~same.all(axis=0))
+    if part.size == 0:
+        return "", []
+    records = [
+        {
+            "factor": float(factors[j]),
+            "meshes": ns[same[:, j]].astype(int).tolist(),
+            "excluded": ns[~same[:, j]].astype(int).tolist(),
+            "estimate": bool(same[:, j].sum() >= 2),
+        }
+        for j in part
+    ]
+    parts = []
+    for has, what in ((False, "no error estimate"), (True, "an error estimate from fewer meshes")):
+        at = [r for r in records if r["estimate"] is has]
+        if at:
+            out = sorted({n for r in at for n in r["excluded"]})
+            parts.append(
+                f"{what} at {len(at)} steps (factors {at[0]['factor']:.6g}-"
+                f"{at[-1]['factor']:.6g}): meshes {out} are on another branch there (they "
+                "snapped or switched branch at another factor)"
+            )
+    note = "; ".join(parts)
+    return note, records
 
 
 # -- fem-auto: combine the runs of a mesh sequence ---------------------------------------------
@@ -231,7 +306,13 @@ def combine(scene: Scene, name: str, sequence: tuple[int, ...], runs: list) -> S
     if solved_factor:
         table["factor"] = np.array([[s.factor for s in r.steps] for _, r in usable])
     L = fin.system.length_scale()
-    ex = extrapolate_table(table, ns, {k: _scale(k, L, fin.steps) for k in table})
+    same = same_branch([r for _, r in usable], kind)
+    factors = np.array([s.factor for s in fin.steps], dtype=float)
+    note, off = _branch_note(ns, same, factors)
+    if off:
+        extras["off_branch"] = off
+        message = f"{message}; {note}" if message else note
+    ex = extrapolate_table(table, ns, {k: _scale(k, L, fin.steps) for k in table}, same)
     steps = []
     for j, s in enumerate(fin.steps):
         outs = {k: float(ex["value"][k][j]) for k in keys}

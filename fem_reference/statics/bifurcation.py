@@ -60,6 +60,7 @@ DENSE_MAX = 800
 NATURAL_STEPS = 32  # arc-length steps (to start with) retracing a load step that lost stability
 TRACE_STEPS = 8 * NATURAL_STEPS  # the most arc-length steps spent retracing one load step
 JUMP_RATIO = 4.0  # a load step moving this much more than the previous one (per unit factor)
+NATURAL_SAME = 1e-6  # a retraced state this close (x the step's move) is load control's own
 
 
 def is_conservative(system: object) -> bool:
@@ -159,25 +160,36 @@ class Watch:
             return smooth
         return self._act(lam_c, crit, phi, located, cur, target, path)
 
-    def snap(self, prev: S.State, cur: S.State) -> None:
+    def snap(self, prev: S.State, cur: S.State) -> S.State:
         """Record a snap passed within the load step ``prev -> cur``: a limit point that load
         control jumped over (or arc-length passed, ``info['snap']``).  A step that moved more
         than ``JUMP_RATIO`` x the previous one per unit factor is retraced by arc-length from
         ``prev``; where its factor turns back, the limit point is refined (``refine_extremum``)
         and the state at that factor on the branch load control landed on is solved:
         ``{"kind": "snap", "factor", "from": outputs at the limit point, "to": outputs on the
-        landed branch at the same factor, "switched": True}`` (the path goes on from there)."""
+        landed branch at the same factor, "switched": True}`` (the path goes on from there).
+
+        Returns the state the path goes on from: ``cur``, or -- where the retraced path
+        reaches ``cur``'s factor without turning back and stays stable (``natural``) but
+        ends elsewhere -- that state: Newton jumped from the knee of an imperfect structure's
+        natural path onto a stable part of the complementary branch (an imperfect column
+        just past its Euler load, bending against its imperfection), a step too large."""
         if not self.active:
-            return
-        du = S.Scaler.of(self.sys).unorm(cur.u - prev.u)
+            return cur
+        sc = S.Scaler.of(self.sys)
+        du = sc.unorm(cur.u - prev.u)
         dl = abs(cur.lam - prev.lam)
         last, self._step = self._step, (du, dl)
         jumped = last is not None and du * last[1] > JUMP_RATIO * last[0] * dl
         if not (jumped or cur.info.get("snap")):
-            return
+            return cur
         lim = self._limit(prev, cur)
         if lim is None:
-            return
+            smooth = self.natural(prev, cur, cur.lam)
+            if smooth is None or sc.unorm(smooth.u - cur.u) <= NATURAL_SAME * du:
+                return cur
+            self._step = (sc.unorm(smooth.u - prev.u), dl)
+            return smooth
         try:
             to = S.newton(self.sys, cur.u, lim.lam, self.opts)
         except S.SolveError:
@@ -185,6 +197,7 @@ class Watch:
         out = self.sys.outputs
         point = {"factor": float(lim.lam), "kind": "snap", "switched": True}
         self.points.append({**point, "from": out(lim.u), "to": out(to.u)})
+        return cur
 
     def _trace(self, prev: S.State, cur: S.State):  # noqa: ANN202 - a generator of S.State
         """States of the path traced by arc-length from ``prev`` towards ``cur.lam``: initial

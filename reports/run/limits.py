@@ -135,20 +135,42 @@ def _watchdog(seconds: float | None, memory_mb: float | None) -> Iterator[None]:
     finally:
         done.set()
         dog.join()
-        _async_raise(target, None)  # an exception sent just before the block ended
+        _cancel_pending()  # an exception sent just before the block ended
 
 
 _PENDING: dict[int, LimitExceeded] = {}
 
 
-def _async_raise(thread_id: int, exc: LimitExceeded | None) -> None:
-    """Raise ``exc``'s class in another thread (None: cancel a pending one)."""
-    if exc is not None:
-        _PENDING[thread_id] = exc
-        cls = _Timeout if exc.kind == "time" else _Memory
-        ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(thread_id), ctypes.py_object(cls))
-    else:
-        ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(thread_id), None)
+def _set_async_exc(thread_id: int, cls: type[BaseException]) -> None:
+    ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(thread_id), ctypes.py_object(cls))
+
+
+def _async_raise(thread_id: int, exc: LimitExceeded) -> None:
+    """Raise ``exc``'s class in another thread."""
+    _PENDING[thread_id] = exc
+    _set_async_exc(thread_id, _Timeout if exc.kind == "time" else _Memory)
+
+
+class _Cancelled(BaseException):
+    """What a thread sends itself to take the place of a pending limit exception."""
+
+
+def _cancel_pending() -> None:
+    """Drop a limit exception the watchdog sent this thread just before its block ended.
+
+    ``PyThreadState_SetAsyncExc(id, NULL)`` would clear it but leaves the interpreter's eval
+    breaker set (CPython 3.11/3.12 unset it only when they deliver an exception): under any
+    tracer (``pytest --cov``, a debugger) the next Python call then re-enters the breaker
+    forever.  So the thread sends itself ``_Cancelled``, which replaces a pending exception,
+    and catches it: that delivery clears the breaker.
+    """
+    _PENDING.pop(threading.get_ident(), None)
+    try:
+        _set_async_exc(threading.get_ident(), _Cancelled)
+        for _ in range(2):  # delivered when the call returns, at the latest at this jump back
+            pass
+    except _Cancelled:
+        pass
 
 
 class _Timeout(LimitExceeded):
