@@ -172,7 +172,8 @@ def run_model(model: Model, scene: Scene, *, catch: bool = True, post: bool = Tr
 def checked(
     scene: Scene, sol: Solution, rigid_max: float = RIGID_STRETCH_MAX, approximate: bool = False
 ) -> Solution:
-    """``sol``, or, when converged, failed at its first state that is no answer (a NaN output,
+    """``sol``, or, when converged, failed at its first state that is no answer (an infinite
+    strain energy, a NaN output,
     a rigid link off its length by more than ``rigid_max``, a member stretched beyond the
     elastic models: the shared ``cases.limits.state_violation``) with the states before it.
 
@@ -182,6 +183,10 @@ def checked(
     driver imposes the motion (a tip driven past the member's length is no state of it)."""
     if sol.status != "converged":
         return sol
+    for k, st in enumerate(sol.steps):
+        if math.isinf(st.energy):  # NaN is "not computed"; an infinite energy is no state
+            msg = f"at factor {st.factor:.6g}: strain energy is infinite"
+            return dataclasses.replace(sol, status="failed", message=msg, steps=sol.steps[:k])
     if scene.analysis.kind == "synthesis":  # its states belong to the synthesised scene,
         rigid_max = math.inf  # whose link lengths the synthesis may have changed
     strain_max = math.inf if approximate and scene.analysis.driver is None else STRAIN_MAX
