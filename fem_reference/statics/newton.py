@@ -60,8 +60,9 @@ class State:
     """A converged equilibrium: displacements, load factor and bookkeeping.
 
     ``lu``: a factorised tangent near the state (from the last Newton iteration), reused by
-    predictors; ``prev``: the previous converged point ``(lam, u)`` of the same load-controlled
-    branch (quadratic predictor); ``h_next``: the load step the stepping would try next;
+    predictors; ``prev``, ``prev2``: the previous two converged points ``(lam, u)`` of the same
+    load-controlled branch, newest first (``static.predictor``); ``h_next``: the load step
+    the stepping would try next;
     ``ev``: the solver's own evaluation at exactly ``(u, lam)`` (its element state and
     residual), so the stability test and the record need not evaluate the state again
     (``statics.inertia.evaluation``; valid only while ``ev.u is u``)."""
@@ -74,6 +75,7 @@ class State:
     lu: object | None = field(default=None, repr=False)
     info: dict = field(default_factory=dict)
     prev: tuple[float, np.ndarray] | None = field(default=None, repr=False)
+    prev2: tuple[float, np.ndarray] | None = field(default=None, repr=False)
     h_next: float | None = None
     ev: object | None = field(default=None, repr=False)
 
