@@ -85,14 +85,6 @@ SLOW = (
 
 # encoding-dependent answers found and not fixed here (listed in issue 23's closing note)
 KNOWN = {
-    ("shallow-arch-snap", "prb-2rpr"): "in other units (unitsdown) the step just before the "
-    "limit point (factor 0.3805, lowest pivot 9.4e-8 of the largest) is judged undecidable "
-    "(None: pivot ratio <= 1e-13) where the drawing says stable: Solver.stable scales the KKT "
-    "matrix by 1/sqrt(rscale) and 1/sqrt(cscale), which leaves a translation block in "
-    "1/length (it needs sqrt(Lref / rscale) for translations and sqrt(fscale Lref) / cscale "
-    "for multipliers to be dimensionless), so the pivot ratio and the None threshold move "
-    "with the length unit; the inertia itself does not (that scaling makes this pair pass "
-    "but moves 23 catalog answers by 1e-9 .. 2e-5 through the reused factorisation: left)",
     ("thesis-sixbar-config2", "thesis-force-method"): "mirrored, the final state's verdict "
     "flips (stability number -8.119 -> +8.232; rotated 37 deg -2.884, in mm -0.8147): the "
     "listing's ones' U_m' H U_m ones is not frame-invariant (its pd_SE term is "
