@@ -84,13 +84,7 @@ SLOW = (
 
 
 # encoding-dependent answers found and not fixed here (listed in issue 23's closing note)
-KNOWN = {
-    ("thesis-sixbar-config2", "thesis-force-method"): "mirrored, the final state's verdict "
-    "flips (stability number -8.119 -> +8.232; rotated 37 deg -2.884, in mm -0.8147): the "
-    "listing's ones' U_m' H U_m ones is not frame-invariant (its pd_SE term is "
-    "outer(L_app, ones) in global x, y, and U_m is an arbitrary basis of a 2-dimensional "
-    "mechanism space); kept as the thesis computes it (its Configuration 2 and 3 verdicts)",
-}
+KNOWN: dict[tuple[str, str], str] = {}
 
 
 def directional(scene: cases.Scene, model: str) -> bool:
