@@ -13,6 +13,9 @@ Stability (``Step.stable``): the reduced Hessian ``Z^T W Z`` on the tangent spac
 constraints (driver held in energy analyses) is positive definite iff the KKT matrix has
 exactly ``m + n_p`` negative eigenvalues and none near zero (inertia additivity; n_p = number
 of axial multipliers of chained segments, each of which brings one negative eigenvalue).
+"Near zero" is judged unit-free: the factorisation kept for the tangent is scaled by the
+residual and constraint scales; where its pivot ratio is close enough to ``SINGULAR_REL``
+that the units could move it across, the verdict comes from a dimensionless copy.
 
 The KKT system comes from ``kkt.Assembly`` (one scatter per evaluation), dense below
 ``kkt.SPARSE_FROM`` unknowns (LAPACK dgesv, Bunch-Kaufman dsytrf for the inertia), sparse
@@ -203,21 +206,55 @@ class Solver:
             cs = cs if d is None or hold_driver else np.delete(cs, d)
             sc = np.concatenate([1.0 / np.sqrt(s.rscale[f]), 1.0 / np.sqrt(cs)])
             n_p = sum(len(ch.w) for ch in s.chains)
+            e = self._unit_free(cs)
             S = None if sp.issparse(K) else np.outer(sc, sc)  # dense: elementwise scaling
-            self._stab = (np.flatnonzero(keep), S, bool(np.all(keep)), sc, n_p)
+            self._stab = (np.flatnonzero(keep), S, bool(np.all(keep)), sc, n_p, e)
             self._stab_key = key
-        keep, S, full, sc, n_p = self._stab
+        keep, S, full, sc, n_p, e = self._stab
         m = len(keep) - nf
         if len(keep) == 0:
             return True, 1.0
         reuse = full and not st.lam_free
-        if sp.issparse(K):
-            n_neg, pivot = self._sparse_inertia(st, K, keep, full, sc, reuse)
-        else:
-            n_neg, pivot = _dense_inertia(st, K if full else K[np.ix_(keep, keep)], S, sc, reuse)
+        n_neg, pivot = self._inertia(st, K, keep, full, sc, S, reuse)
+        # the pivot ratio of this scaling moves with the length and force units (its
+        # translation block is in 1/length): near the singular threshold, by as much as the
+        # unit-free rescaling e can move it, the verdict comes from a dimensionless copy
+        # (its factors are not kept: the Newton tangent stays as it is)
+        if pivot <= SINGULAR_REL * (e.max() / e.min()) ** 4:
+            se = sc * e
+            n_neg, pivot = self._inertia(st, K, keep, full, se, np.outer(se, se), False)
         if n_neg is None:
             return None, pivot
         return n_neg == m + n_p, pivot
+
+    def _unit_free(self, cs: np.ndarray) -> np.ndarray:
+        """Factors that make ``stable``'s congruence scaling dimensionless, (nf + m,): a
+        translation's scale 1/sqrt(fscale) times sqrt(Lref) (its stiffness is force/length),
+        a length constraint's multiplier 1/sqrt(Lref) times sqrt(fscale) (an angle row's
+        1 times sqrt(fscale Lref)); rotations and chain axial unknowns as they are."""
+        s, f = self.s, self.f
+        Lref = s.lay.Lref
+        trans = np.array(s.lay.kind)[f] == "t"
+        for ch in s.chains:  # the p unknowns have their own residual scale (not a force)
+            trans &= ~np.isin(f, ch.dofs[:, 6])
+        ef = np.where(trans, math.sqrt(Lref), 1.0)
+        return np.concatenate([ef, np.sqrt(s.fscale * Lref / cs)])
+
+    def _inertia(
+        self,
+        st: State,
+        K: Matrix,
+        keep: np.ndarray,
+        full: bool,
+        sc: np.ndarray,
+        S: np.ndarray | None,
+        reuse: bool,
+    ) -> tuple[int | None, float]:
+        """Inertia of the kept rows and columns of ``K`` congruence-scaled by ``sc`` (dense
+        ``K``: ``S = outer(sc, sc)``, elementwise) and the lowest relative pivot."""
+        if sp.issparse(K):
+            return self._sparse_inertia(st, K, keep, full, sc, reuse)
+        return _dense_inertia(st, K if full else K[np.ix_(keep, keep)], S, sc, reuse)
 
     def _sparse_inertia(
         self,
@@ -299,11 +336,12 @@ def _inertia(lu: np.ndarray, piv: np.ndarray) -> tuple[int | None, float]:
         neg += 2 * int(np.count_nonzero((det >= 0) & (half < 0)))
         lo, hi = float(mags.min()), float(mags.max())
     rel = lo / max(hi, 1e-300)
-    if rel <= 1e-13:
+    if rel <= SINGULAR_REL:
         return None, rel
     return neg, rel
 
 
+SINGULAR_REL = 1e-13  # smallest |pivot| / largest below which the KKT matrix counts as singular
 SMALL = 128  # pivots counted with plain floats up to this size (fewer calls than numpy)
 
 

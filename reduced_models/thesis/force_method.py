@@ -31,17 +31,22 @@ work (so each row of the first term repeats one load component) and ``lam`` come
 ``A^+ Load_0`` in the column order of ``A`` (bar I, II, III, ternary moment, IV, V, VI, boom)
 while ``F`` is ordered (bar I..VI, boom, bending): the listing pairs them index by index.
 Both quirks are kept (``extras`` also holds the eigenvalues of the symmetric part of
-``U_m' H U_m``, which do not depend on the SVD's arbitrary null-space basis).
+``U_m' H U_m``, which do not depend on the SVD's arbitrary null-space basis).  The first term
+repeats global load components, so the number changes with the frame and units the structure
+is drawn in: it is evaluated in the thesis's own frame (``thesis_frame``: x along the ground
+from the last ground joint to the first, the moving joints at positive y, SI units), which
+gives the thesis's number for the catalog drawing and the same number for any other drawing.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from cases.schema import Scene
+from cases.units import SYSTEMS
 from reduced_models.base import ModelCard, Solution, Step, not_applicable
 from reduced_models.thesis.chain import Chain, angles, boom_lengths, read_chain, rebuild, round_sig
 from reduced_models.thesis.structure import counts, flexibilities, joint_stiffness
@@ -55,6 +60,7 @@ class ForceMethodState:
     """Matrices of one increment at joint positions ``pos`` (chain order)."""
 
     def __init__(self, chain: Chain, pos: np.ndarray, lengths: np.ndarray, locked: bool):
+        self.pos, self.lengths, self.locked = pos, lengths, locked
         nf = len(chain.free)
         nbar = len(pos) - 1
         th = angles(pos)
@@ -240,12 +246,45 @@ def run_part(
     return res
 
 
-def thesis_stability(chain: Chain, part2: PartResult, lengths: np.ndarray) -> dict:
-    """The listing's stability number and, beside it, basis-free eigenvalues."""
-    st = part2.last
-    lam = st.internal_forces(part2.last_load0)
-    H = np.outer(part2.last_app, np.ones(len(part2.last_app)))  # pd_SE as written
-    for lj, Hj in zip(lam, constraint_hessians(chain, lengths)):  # index-by-index pairing
+def thesis_frame(scene: Scene, chain: Chain) -> tuple[np.ndarray, float, float]:
+    """The frame and units the thesis draws the structure in: (Q, metres per length unit,
+    newtons per force unit), Q (2, 2) orthogonal taking scene vectors to the frame whose x
+    axis runs along the ground from the chain's last ground joint to its first and whose y
+    points to the side the drawn moving joints are on (SI; ``nondim`` scenes as they are).
+
+    The listing's stability number is not frame-invariant (its ``pd_SE`` term repeats the
+    global load components): evaluated in this frame it is the thesis's own number for
+    every drawing of the same structure."""
+    xy = np.array([[scene.node(j).x, scene.node(j).y] for j in chain.nodes])
+    ex = xy[0] - xy[-1]
+    ex = ex / np.hypot(*ex)
+    Q = np.array([[ex[0], ex[1]], [-ex[1], ex[0]]])
+    side = np.sum((xy[list(chain.free)] - xy[-1]) @ Q[1])
+    if side < 0.0:  # drawn mirrored: turn y
+        Q = np.array([[1.0, 0.0], [0.0, -1.0]]) @ Q
+    sL, sF = SYSTEMS.get(scene.units, (1.0, 1.0))
+    return Q, sL, sF
+
+
+def thesis_stability(scene: Scene, chain: Chain, part2: PartResult, lengths: np.ndarray) -> dict:
+    """The listing's stability number, evaluated in the thesis's frame (``thesis_frame``),
+    and, beside it, basis-free eigenvalues."""
+    Q, sL, sF = thesis_frame(scene, chain)
+
+    def vec(v: np.ndarray, s: float) -> np.ndarray:  # per-joint (x, y) rows into the frame
+        return s * (v.reshape(-1, 2) @ Q.T).reshape(-1)
+
+    last = part2.last
+    canon = replace(
+        chain,
+        base=tuple(vec(np.asarray(chain.base), sL)),
+        others=tuple((tuple(vec(np.asarray(b), sL)), j, f, sL * L) for b, j, f, L in chain.others),
+    )
+    st = ForceMethodState(canon, vec(last.pos, sL).reshape(-1, 2), sL * last.lengths, last.locked)
+    app = vec(part2.last_app, sF)
+    lam = st.internal_forces(vec(part2.last_load0, sF))
+    H = np.outer(app, np.ones(len(app)))  # pd_SE as written
+    for lj, Hj in zip(lam, constraint_hessians(chain, sL * lengths)):  # index-by-index pairing
         H = H + lj * Hj
     Um = st.M
     mat = Um.T @ H @ Um
@@ -302,7 +341,8 @@ class ThesisForceMethod:
             "further booms push until the first is that long (the thesis's Configuration 6)",
             "each increment applies delta times the whole current load through the modal "
             "spring stiffness R'KR (a relaxation, not a Newton step)",
-            "stability number ones' U_m' H U_m ones with the listing's Hessian as written",
+            "stability number ones' U_m' H U_m ones with the listing's Hessian as written, "
+            "evaluated in the thesis's frame (x along the ground, the chain above it, SI)",
         ),
         validity="serial six-bar chains of the thesis; accuracy set by delta (see report)",
         references=(
@@ -383,7 +423,7 @@ class ThesisForceMethod:
         end = p1.positions[-1]
         reached = boom_lengths(chain, end)
         lengths = np.append(np.hypot(*np.diff(end, axis=0).T), reached)
-        extras.update(thesis_stability(chain, p2, lengths))
+        extras.update(thesis_stability(scene, chain, p2, lengths))
         extras["part1_boom_lengths_end"] = dict(zip([b.id for b in scene.booms], reached))
         extras["part2_increments"] = len(p2.positions) - 1
         extras["part2_load_total"] = p2.load_total.tolist()
