@@ -44,8 +44,9 @@ from tests.scene_transforms import ENCODINGS, Encoding, length_scale
 RTOL = 1e-8
 CHEAP_S = 0.3  # CPU seconds of one solve below which every encoding is tried
 # fem-auto's Newton stops at a residual of 1e-9 of the force scale (fem_reference.statics.
-# newton): its answer is fixed only that closely (drawn in other units, mirrored or
-# translated it lands within ~1e-13 of an output's excursion; drawn rotated: FE_KNOWN)
+# newton): its answer is fixed only that closely (in every encoding it lands within ~1e-13
+# of an output's excursion since a point's (x, y) is extrapolated in its convergence frame,
+# fem_reference.error.richardson.extrapolate_points)
 MODEL_RTOL = {"fem-auto": 1e-7}
 # a synthesis meets its target to its own tolerance (reduced_models.mechanism.synthesis.RTOL
 # on the target): the synthesised scene, and every output of it, is fixed only that closely
@@ -177,29 +178,10 @@ def test_reduced_models_answer_the_same_in_every_encoding(case, model):
     assert not bad, "\n".join(bad)
 
 
-FE_KNOWN = (
-    "fem-auto drawn rotated: 1.7e-6 (cantilever-tip-load) and 9.7e-7 (DAS-2D Ex. 2) of the "
-    "excursion (mirrored, translated, in other units: 1e-13; deterministic: repeated runs "
-    "bit-identical).  richardson.combine extrapolates each scalar output with its own "
-    "observed order and asymptotic-range fallback: a point's x and y are mixed by a "
-    "rotation, their orders differ (tip.x 1.69 -> finest-mesh fallback from factor 0.9, "
-    "tip.y 2.01), so the extrapolation is not rotation-equivariant.  Extrapolating a point's "
-    "(x, y) and (ux, uy) in its convergence frame (axis along the finest two meshes' "
-    "difference) agrees to 1e-15 in every encoding and moves catalog answers by <= 2e-6 of "
-    "the excursion (within fem-auto's estimate): not done here (richardson.py is another "
-    "helper's file)"
-)
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize(
     "case,model",
-    [
-        pytest.param(c, m, marks=pytest.mark.xfail(reason=FE_KNOWN, strict=False))
-        if m == "fem-auto" and c in ("cantilever-tip-load", "das2d-ex2-parallelogram")
-        else (c, m)
-        for c, m in SLOW
-    ],
+    SLOW,
 )
 def test_references_answer_the_same_in_every_encoding(case, model):
     n, bad = check(cases.load(case), model, every=True)
