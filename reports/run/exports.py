@@ -11,8 +11,9 @@ timed, never fatal), as the task's ``ExportPolicy`` says.  Only the case's refer
   step index on a path whose factor falls) (``fem_reference.export.write_series``);
 * for ``replay`` also ``<case>_replay-frames.{pvd,xdmf}`` + ``.vtu``: its time-history frames,
   the same fields, time in seconds (``fem_reference.replay.model.write_vtu_series``);
-* ``OUT/figures/<case>-replay.gif``: ``fem_reference.replay.model.write_animation`` on
-  ``gif_frames`` evenly spaced frames at ``gif_dpi`` without tick labels;
+* ``OUT/figures/<case>-replay.gif``: the replay's members on ``gif_frames`` evenly spaced
+  frames at ``gif_dpi`` without tick labels, drawn as
+  ``fem_reference.replay.model.write_animation`` draws them (``reports.run.gifs``);
 * a ``kinematics`` analysis (DAS-2D's kinematic driver analysis: rigid links, no FE
   reference, no replay) exports its own solver's steps: the series and
   ``OUT/figures/<case>-kinematics.gif``.
@@ -40,6 +41,7 @@ import numpy as np
 
 from cases.schema import Scene
 from reduced_models.base import Solution
+from reports.run.gifs import shapes_gif
 
 
 @dataclasses.dataclass(frozen=True)
@@ -152,17 +154,17 @@ def _write_frames(target: Path, sol: Solution, scene: Scene, out: Path) -> dict[
 
 
 def _write_gif(gif: Path, sol: Solution, scene: Scene, policy: ExportPolicy, out: Path) -> str:
-    import matplotlib
+    """The replay GIF: ``gif_frames`` evenly spaced stored frames, the members' shapes
+    recovered on the replay's FE system, drawn as ``write_animation`` draws them but once
+    per GIF and blitted (``reports.run.gifs``), without tick labels."""
+    from fem_reference.replay.model import _frame_shapes
 
-    matplotlib.use("Agg")
-    from fem_reference.replay.model import write_animation
-
+    frames = [
+        (shapes, f"{sol.case}  t = {t:.4g}  factor = {f:.4g}")
+        for t, f, shapes in _frame_shapes(_decimated(sol, policy.gif_frames), scene)
+    ]
     gif.parent.mkdir(parents=True, exist_ok=True)
-    # tick labels are half the cost of a frame (two draws per frame in matplotlib's writer)
-    rc = {"savefig.dpi": policy.gif_dpi, "xtick.labelbottom": False, "xtick.bottom": False}
-    rc.update({"ytick.labelleft": False, "ytick.left": False})
-    with matplotlib.rc_context(rc):
-        write_animation(_decimated(sol, policy.gif_frames), scene, str(gif), fps=policy.gif_fps)
+    shapes_gif(gif, frames, dpi=policy.gif_dpi, fps=policy.gif_fps)
     return gif.relative_to(out).as_posix()
 
 
@@ -172,36 +174,11 @@ def _write_steps_gif(
     """GIF of the steps' shapes (a kinematic driver analysis: the linkage moving), at most
     ``gif_frames`` evenly spaced steps, as the replay GIF is drawn; ``unit`` follows the
     driver value in the title."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.animation import FuncAnimation, PillowWriter
-
     steps = [s for s in sol.steps if s.shapes]
     idx = np.unique(np.linspace(0, len(steps) - 1, policy.gif_frames).round().astype(int))
-    steps = [steps[i] for i in idx]
-    pts = np.vstack([np.asarray(xy) for s in steps for xy in s.shapes.values()])
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
-    pad = 0.05 * max(hi - lo) + 1e-12
+    frames = [(steps[i].shapes, f"{sol.case}  driver = {steps[i].factor:.4g}{unit}") for i in idx]
     gif.parent.mkdir(parents=True, exist_ok=True)
-    with matplotlib.rc_context({"savefig.dpi": policy.gif_dpi}):
-        fig, ax = plt.subplots(figsize=(5, 4))
-        ax.set(xlim=(lo[0] - pad, hi[0] + pad), ylim=(lo[1] - pad, hi[1] + pad), aspect="equal")
-        ax.set_xticks([])
-        ax.set_yticks([])
-        lines = {m: ax.plot([], [], lw=2, marker="o", ms=3)[0] for m in steps[0].shapes}
-        title = ax.set_title("")
-
-        def draw(i: int) -> list:
-            for m, xy in steps[i].shapes.items():
-                lines[m].set_data(np.asarray(xy)[:, 0], np.asarray(xy)[:, 1])
-            title.set_text(f"{sol.case}  driver = {steps[i].factor:.4g}{unit}")
-            return [*lines.values(), title]
-
-        anim = FuncAnimation(fig, draw, frames=len(steps), blit=False)
-        anim.save(str(gif), writer=PillowWriter(fps=policy.gif_fps))
-        plt.close(fig)
+    shapes_gif(gif, frames, dpi=policy.gif_dpi, fps=policy.gif_fps, marker="o")
     return gif.relative_to(out).as_posix()
 
 

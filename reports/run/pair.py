@@ -50,8 +50,9 @@ def solve_task(task: dict) -> dict:
                 return store.record(base, sol.status, sol.message, card=card)
             deadline = t_start + 0.8 * limit if limit else math.inf
             solve_again = lambda: api.run_model(model, scene, post=False)  # noqa: E731
-            times = timing.repeat(solve_again, first, task["timing"], deadline)
-            more = pick_inputs(task, solve_again, first[1])
+            runs: list[float] = []  # the repeats' CPU s: the cost estimate's first samples
+            times = timing.repeat(solve_again, first, task["timing"], deadline, runs)
+            more = pick_inputs(task, solve_again, first[1], runs)
             sol, post_s, post_cpu_s = timing.timed(lambda: api.finish(model, scene, sol))
             times.update(post_s=post_s, post_cpu_s=post_cpu_s)
     except limits.LimitExceeded as exc:
@@ -80,17 +81,20 @@ def solve_task(task: dict) -> dict:
     )
 
 
-def pick_inputs(task: dict, solve_again: Any, first_cpu_s: float) -> dict:
+def pick_inputs(
+    task: dict, solve_again: Any, first_cpu_s: float, runs_cpu_s: Sequence[float] = ()
+) -> dict:
     """A pick candidate's ``cost`` (``reports.verdicts.cost``: the estimate ``flexbench recommend``
     reads and writes, so the front page ranks by the same numbers) and a-priori
     ``unknowns``; {} for other pairs.  Sweep points (hundreds, timed once) get no estimate:
-    their pick ranks by the one CPU time."""
+    their pick ranks by the one CPU time.  ``runs_cpu_s``: CPU s of the timing repeats of
+    ``solve_again``, reused as samples."""
     scene, name = task["scene"], task["model"]
     if task["role"] != "model" and name not in pick.EXACT:
         return {}
     out: dict[str, Any] = {"unknowns": pick.unknowns(name, scene)}
     if scene.sweep_parent is None:
-        est = cost.estimate(scene, name, task["options"], solve_again, first_cpu_s)
+        est = cost.estimate(scene, name, task["options"], solve_again, first_cpu_s, runs_cpu_s)
         out["cost"] = est.as_json()
     return out
 

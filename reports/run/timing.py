@@ -66,6 +66,7 @@ def repeat(
     first: tuple[float, float],
     policy: Any,
     deadline: float = math.inf,
+    runs_cpu_s: list[float] | None = None,
 ) -> dict[str, float]:
     """Wall and CPU statistics of ``call`` (see module docstring).
 
@@ -75,6 +76,8 @@ def repeat(
     first : (wall, cpu) seconds of the first call.
     policy : a ``runner.TimingPolicy`` (min_total_s, max_runs, cold_cap_s, min_runs).
     deadline : ``perf_counter`` time after which no repeat is started.
+    runs_cpu_s : if given, the CPU seconds of each repeat are appended to it (the cost
+        estimate's first samples, ``reports.verdicts.cost.measure``).
 
     Returns
     -------
@@ -106,6 +109,8 @@ def repeat(
         finally:
             if gc_was_on:
                 gc.enable()
+    if repeated and runs_cpu_s is not None:
+        runs_cpu_s.extend(cpus)
     out = _stats("", walls) | _stats("cpu_", cpus)
     out.update(
         n_repeats=len(walls),

@@ -13,7 +13,9 @@ confidence interval of their median (distribution-free, ``scipy.stats.quantile_t
 range of the samples below 6 of them) has a half-width of at most ``REL`` of the median, or
 ``MAX_SAMPLES`` samples, or ``BUDGET_S`` CPU seconds spent (at least ``MIN_SAMPLES``), or
 ``WALL_BUDGET_S`` of wall time (a solve that waits costs little CPU).  A
-solve slower than ``BUDGET_S`` is measured once (its first solve).  The estimate is the median
+solve slower than ``BUDGET_S`` is measured once (its first solve).  The runner's timing
+repeats of the same call (``reports.run.timing.repeat``, same conditions) are the first
+samples, not solved again.  The estimate is the median
 per solve, its noise that half-width (s).
 
 Cache: one JSON file per code version, ``$FLEXBENCH_CACHE`` (default ``~/.cache/flexbench/``)
@@ -38,7 +40,7 @@ import json
 import os
 import statistics
 import time
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -159,34 +161,47 @@ def half_width(samples: list[float]) -> float:
     return float(ci.high - ci.low) / 2
 
 
-def measure(call: Callable[[], object], first_cpu_s: float) -> Estimate:
+def measure(
+    call: Callable[[], object], first_cpu_s: float, runs_cpu_s: Sequence[float] = ()
+) -> Estimate:
     """Sample ``call`` until its median is stable (module docstring); ``first_cpu_s`` is the
     CPU time of the answer's own (untimed) solve.  ``WALL_BUDGET_S`` of wall time ends the
     sampling whatever the CPU count says: a solve that waits (I/O, a sleep) costs little CPU
-    and would otherwise be batched thousands of times."""
+    and would otherwise be batched thousands of times.
+
+    ``runs_cpu_s`` are CPU times (s) of single calls of the same ``call`` already made under
+    the same conditions (the runner's timing repeats: after the answer's solve, BLAS on one
+    thread, GC off); each full group of ``k`` of them is a sample, so those solves are not
+    made again."""
     if first_cpu_s >= BUDGET_S:
         return Estimate(first_cpu_s, 0.0, 1)
     k = max(1, int(np.ceil(SAMPLE_S / max(first_cpu_s, 1e-7))))
-    samples: list[float] = []
+    groups = len(runs_cpu_s) // k
+    samples = [sum(runs_cpu_s[i * k : (i + 1) * k]) / k for i in range(groups)]
     wall_end = time.perf_counter() + WALL_BUDGET_S
     with quiet_process():
-        while True:
+        while not _stable(samples, k, wall_end):
             t0, n = time.process_time(), 0
             while n < k and (n == 0 or time.perf_counter() < wall_end):
                 call()
                 n += 1
             samples.append((time.process_time() - t0) / n)
-            if time.perf_counter() >= wall_end:
-                break
-            if len(samples) < MIN_SAMPLES:
-                continue
-            mid, half = statistics.median(samples), half_width(samples)
-            spent = sum(samples) * k
-            if len(samples) >= 6 and half <= REL * mid:
-                break
-            if len(samples) >= MAX_SAMPLES or spent >= BUDGET_S:
-                break
     return Estimate(statistics.median(samples), half_width(samples), len(samples))
+
+
+def _stable(samples: list[float], k: int, wall_end: float) -> bool:
+    """Whether sampling stops (module docstring): never before a sample, then at the wall
+    budget, else from ``MIN_SAMPLES`` on at the target interval, ``MAX_SAMPLES`` or
+    ``BUDGET_S`` CPU seconds of samples (``k`` solves each)."""
+    if not samples:
+        return False
+    if time.perf_counter() >= wall_end:
+        return True
+    if len(samples) < MIN_SAMPLES:
+        return False
+    if len(samples) >= 6 and half_width(samples) <= REL * statistics.median(samples):
+        return True
+    return len(samples) >= MAX_SAMPLES or sum(samples) * k >= BUDGET_S
 
 
 def estimate(
@@ -195,13 +210,15 @@ def estimate(
     options: Mapping | None,
     call: Callable[[], object],
     first_cpu_s: float,
+    runs_cpu_s: Sequence[float] = (),
 ) -> Estimate:
     """The cached estimate of ``name`` on ``scene`` (with ``options``), else measured by
-    sampling ``call`` (the model's solve) and cached."""
+    sampling ``call`` (the model's solve; ``runs_cpu_s``: CPU times of its calls already
+    timed, ``measure``) and cached."""
     k = key(scene, name, options)
     hit = lookup(k)
     if hit is not None:
         return hit
-    est = measure(call, first_cpu_s)
+    est = measure(call, first_cpu_s, runs_cpu_s)
     store(k, est)
     return est
