@@ -351,7 +351,9 @@ def main(argv: list[str] | None = None) -> int:
     rounds = max(3, args.rounds)
     when = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
     head = [f"Speed record of {when}. Machine: {machine()}. CPU and wall time, median of "
-            f"{rounds} rounds (fewer for calls over 0.2 s), BLAS on one thread (threadpoolctl).",
+            f"{rounds} rounds (fewer for calls over 0.2 s; the limits table times each model's "
+            "limit, solve and end-to-end call in turn, up to 25 rounds for sub-millisecond "
+            "calls), BLAS on one thread (threadpoolctl).",
             ""]  # fmt: skip
     if args.mech:
         return _mech_only(["# FlexBench speed record", "", *head], rounds, args.out)
