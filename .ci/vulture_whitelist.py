@@ -39,3 +39,7 @@ _chain
 # reports/__init__.py: the module __getattr__ (PEP 562) that imports reports.recommend (from
 # reports.verdicts.recommend) on first use; Python calls it, no code does
 __getattr__
+
+# numpy: ndarray.flags.writeable = False makes a cached array read-only (bcm_single.stations);
+# numpy reads the attribute, no code of ours does
+writeable

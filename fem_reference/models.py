@@ -223,9 +223,11 @@ class Runner:
             self._push(st, float(fk))
         if watch:
             self.extras["critical_points"] = watch.points
+            left = {p["factor"] for p in watch.points if p["kind"] == "bifurcation"}
             self.notes += [
-                f"snap at factor {p['factor']:.8g}: a limit point passed, the path jumps to "
-                "another branch (critical_points: from, to)"
+                f"snap at factor {p['factor']:.8g}: "
+                f"{'a subcritical bifurcation' if p['factor'] in left else 'a limit point'} "
+                "passed, the path jumps to another branch (critical_points: from, to)"
                 for p in watch.points
                 if p["kind"] == "snap"
             ]

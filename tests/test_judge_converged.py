@@ -183,17 +183,29 @@ def test_a_load_ramp_past_the_limit_of_a_von_mises_arch_reports_the_snap():
 
 @pytest.mark.parametrize("model", ["fem-8", "fem-auto"])
 def test_das2d_ex3_ramped_to_15_n_says_where_it_snaps(model):
-    """DAS-2D Ex. 3 as the seed runs it (Fx ramped to 15 N, shuttle unguided): the shuttle
-    snaps at the largest load of its force-travel curve (the catalog's distance sweep of the
-    same scene; the guide there keeps that symmetric path unchanged) from ~3.9 mm of travel to
-    the far branch beyond the second stable position (15.25 mm)."""
+    """DAS-2D Ex. 3 as the seed runs it (Fx ramped to 15 N, shuttle unguided).  Its symmetric
+    path meets a bifurcation first (the elastica: 0.43203, where it snaps); a model that
+    switches there must report the snap at that factor, from the symmetric state to the far
+    branch beyond the second stable position (15.25 mm); one that finds no stable branch next
+    to it (says so: subcritical) stays on the symmetric path and must report the snap at that
+    path's largest load (the catalog's guided distance sweep of the same scene)."""
     ramp = cases.load(str(FIXTURES / "das2d-ex3-load-ramp.toml"))
     sol = reports.solve(ramp, model)
     assert sol.status == "converged"
-    (snap,) = [p for p in sol.extras["critical_points"] if p["kind"] == "snap"]
-    sweep = reports.solve("das2d-ex3-bistable-switch", model)
-    peak = max(st.factor for st in sweep.steps)  # grid 0.48 mm: at most ~1e-4 below the max
-    assert peak <= snap["factor"] <= peak * (1 + 1e-4)
-    assert 3.0 < snap["from"]["shuttle_top.ux"] < 5.0
+    points = sol.extras["critical_points"]
+    (bif,) = [p for p in points if p["kind"] == "bifurcation"]
+    (snap,) = [p for p in points if p["kind"] == "snap"]
+    if bif["switched"]:
+        elastica = reports.solve(ramp, "elastica")
+        (exact,) = [p for p in elastica.extras["critical_points"] if p["kind"] == "snap"]
+        assert snap["factor"] == pytest.approx(bif["factor"], rel=1e-12)
+        assert snap["factor"] == pytest.approx(exact["factor"], rel=1e-3)
+        assert snap["from"]["shuttle_top.ux"] < 3.0
+    else:
+        assert "subcritical" in sol.message
+        sweep = reports.solve("das2d-ex3-bistable-switch", model)
+        peak = max(st.factor for st in sweep.steps)  # grid 0.48 mm: at most ~1e-4 below
+        assert peak <= snap["factor"] <= peak * (1 + 1e-4)
+        assert 3.0 < snap["from"]["shuttle_top.ux"] < 5.0
     assert snap["to"]["shuttle_top.ux"] > 15.25
     assert "snap at factor" in sol.message

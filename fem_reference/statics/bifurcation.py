@@ -320,7 +320,28 @@ class Watch:
             )
             return cur
         point["switched"] = True
+        self._jump(crit, new, lam_c)
         return new
+
+    def _jump(self, crit: S.State, new: S.State, lam_c: float) -> None:
+        """A switch that lands on a stable state far from the critical one at ``lam_c`` (a
+        subcritical bifurcation: the structure leaves it dynamically, DAS-2D Ex. 3's
+        unguided shuttle) is also a snap, reported with the states before and after at
+        ``lam_c`` as the elastica reports it.  A supercritical branch (a buckled column)
+        returns to the critical state at ``lam_c``: no snap."""
+        sysm = self.sys
+        try:
+            to = S.newton(sysm, new.u, lam_c, self.opts)
+        except S.SolveError:
+            return
+        moved = np.abs(to.u - crit.u)[~np.asarray(sysm.is_rotation, dtype=bool)]
+        if np.max(moved, initial=0.0) <= SWITCH_AMPLITUDE * sysm.length_scale():
+            return
+        if not self.stable(to):
+            return
+        out = sysm.outputs
+        point = {"factor": float(lam_c), "kind": "snap", "switched": True}
+        self.points.append({**point, "from": out(crit.u), "to": out(to.u)})
 
     def _switch(self, crit: S.State, phi: np.ndarray, target: float) -> S.State | None:
         """Stable state at ``target`` on a branch through ``crit`` along ``phi`` (or None)."""

@@ -13,8 +13,8 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from reduced_models.paths.engine import _Path
 from reduced_models.paths.floats import Floats, _ldl_factor_solve, _ldl_solve
+from reduced_models.paths.path_base import _Path
 
 
 def plain(A: object, update: object) -> bool:

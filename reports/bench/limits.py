@@ -235,12 +235,6 @@ def _beam_column_shapes(
     return np.stack([xl, yl], axis=-1), np.abs(kappa).max(axis=1)
 
 
-def cpu_wall(call: Callable[[], object], rounds: int) -> tuple[float, float]:
-    """Median CPU and wall seconds of ``call`` over ``rounds`` calls after one warm-up (GC
-    off while timing)."""
-    return interleaved([call], rounds)[0]
-
-
 def interleaved(
     calls: list[Callable[[], object]], rounds: int, budget_s: float = 0.3
 ) -> list[tuple[float, float]]:
