@@ -30,7 +30,13 @@ import numpy as np
 from cases.schema import Scene
 from reduced_models.base import Solution, Step, load_factors
 from reduced_models.beam.chain import SegmentLaw
-from reduced_models.beam.single_beam import Cantilever, cantilever_of, output_map, unstable_note
+from reduced_models.beam.single_beam import (
+    Cantilever,
+    cantilever_of,
+    output_map,
+    steps_with_shapes,
+    unstable_note,
+)
 
 if TYPE_CHECKING:
     from reduced_models.beam.chain_model import ChainModel
@@ -157,23 +163,5 @@ def with_shapes(model: ChainModel, scene: Scene, sol: Solution) -> Solution:
     pts[:, :-1, 0], pts[:, :-1, 1] = xl[:, :-1], yl[:, :-1]
     pts[:, -1] = tip[:, :2]  # the last point is the tip node itself
     pts = beam.rotate_to_global(pts * L)
-    mem = scene.member(beam.member)
-    if mem.thickness is None or mem.E is None:
-        stress = [None] * m
-    else:  # single_beam.stress_from_curvature of each step
-        kmax = np.abs(kappa).max(axis=1) / L
-        stress = (mem.E * mem.thickness * kmax / 2.0).tolist()
-    steps = tuple(
-        Step(
-            st.factor,
-            st.outputs,
-            st.energy,
-            st.iterations,
-            st.stable,
-            {beam.member: xy},
-            sig,
-            st.info,
-        )  # fmt: skip
-        for st, xy, sig in zip(sol.steps, pts, stress)
-    )
+    steps = steps_with_shapes(scene, beam, sol.steps, pts, np.abs(kappa).max(axis=1) / L)
     return Solution(sol.case, sol.model, sol.status, sol.message, steps, sol.extras)

@@ -150,24 +150,7 @@ class ChainModel:
         xl, yl, kappa = (v.reshape(m, N, sigma.size) for v in self.shape(*flat, sigma))
         pts = beam.rotate_to_global(chain_shape(nodes, xl, yl, h) * L)  # (m, P, 2)
         kmax = np.abs(kappa).max(axis=(1, 2), initial=0.0) * N / L
-        mem = scene.member(beam.member)
-        if mem.thickness is None or mem.E is None:
-            stress = [None] * m
-        else:  # single_beam.stress_from_curvature of each step, all at once
-            stress = (mem.E * mem.thickness * kmax / 2.0).tolist()
-        steps = tuple(
-            Step(
-                st.factor,
-                st.outputs,
-                st.energy,
-                st.iterations,
-                st.stable,
-                {beam.member: xy},
-                sig,
-                st.info,
-            )  # fmt: skip
-            for st, xy, sig in zip(sol.steps, pts, stress)
-        )
+        steps = single_beam.steps_with_shapes(scene, beam, sol.steps, pts, kmax)
         return dataclasses.replace(sol, steps=steps)
 
     def solve(self, scene: Scene) -> Solution:

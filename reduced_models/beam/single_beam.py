@@ -168,6 +168,31 @@ def stress_from_curvature(scene: Scene, beam: Cantilever, kappa: np.ndarray) -> 
     return float(mem.E * mem.thickness * np.max(np.abs(kappa)) / 2.0)
 
 
+def steps_with_shapes(
+    scene: Scene, beam: Cantilever, steps: Sequence[Step], pts: np.ndarray, kmax: np.ndarray
+) -> tuple[Step, ...]:
+    """``steps`` with the member's deformed shape and largest bending stress of each step.
+
+    Parameters
+    ----------
+    pts : (m, P, 2) centre-line points of each step in global coordinates (length units).
+    kmax : (m,) largest |curvature| of each step (1/length); the stress is
+        ``stress_from_curvature``'s E t kmax / 2, all steps at once (None without E, t).
+    """
+    mem = scene.member(beam.member)
+    if mem.thickness is None or mem.E is None:
+        stress = [None] * len(steps)
+    else:
+        stress = (mem.E * mem.thickness * np.asarray(kmax) / 2.0).tolist()
+    return tuple(
+        Step(
+            st.factor, st.outputs, st.energy, st.iterations, st.stable,
+            {beam.member: xy}, sig, st.info,
+        )
+        for st, xy, sig in zip(steps, pts, stress)
+    )  # fmt: skip
+
+
 def unstable_note(steps: Sequence[Step]) -> str:
     """``"; ..."`` saying that a path ends on an unstable equilibrium (its stability test
     says so), else ``""``: a converged answer on an unstable branch is never silent."""
