@@ -83,16 +83,6 @@ SLOW = (
     ("das2d-ex3-bistable-switch-load", "fem-auto"),
 )
 
-# found and not fixed: fem-auto's finest mesh switches at Ex. 3's subcritical bifurcation
-# (0.432073: snap to the far branch) drawn as is and rotated, but mirrored, translated or in
-# other units ``bifurcation.Watch._switch`` finds no stable branch (the arc-length ``_follow``
-# from the perturbed state does not land on one) and the path snaps at the symmetric peak
-# 0.667806 instead: whether the switch succeeds hangs on round-off
-FE_KNOWN = {
-    ("das2d-ex3-bistable-switch-load", "fem-auto"): "the switch at the subcritical "
-    "bifurcation succeeds in some encodings only (snap at 0.432073 vs 0.667806)",
-}
-
 
 # encoding-dependent answers found and not fixed here (listed in issue 23's closing note)
 KNOWN: dict[tuple[str, str], str] = {}
@@ -190,15 +180,7 @@ def test_reduced_models_answer_the_same_in_every_encoding(case, model):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(
-    "case,model",
-    [
-        pytest.param(c, m, marks=pytest.mark.xfail(reason=FE_KNOWN[c, m], strict=False))
-        if (c, m) in FE_KNOWN
-        else (c, m)
-        for c, m in SLOW
-    ],
-)
+@pytest.mark.parametrize("case,model", SLOW)
 def test_references_answer_the_same_in_every_encoding(case, model):
     n, bad = check(cases.load(case), model, every=True)
     assert n > 0

@@ -22,8 +22,12 @@ reported state of ``Runner.run_load`` (``models.py``):
    from the eigenvalues and the switch starts from the last stable state.  That is a
    displacement-controlled imperfection of 1e-2 L, independent of the mesh and removed as
    soon as the state is reached (the path is then followed by plain load control, which
-   carries no imperfection).  Subcritical bifurcations (no stable state next to the
-   critical one) are not switched: the path ends there with the reason.
+   carries no imperfection).  A rising branch (supercritical) is followed by arc-length to
+   the target factor.  On a falling one (subcritical: no stable state next to the critical
+   one) the structure snaps: where it settles at the target factor is found by energy
+   descent from the displaced critical state (``descent.settle``, as the reduced models land
+   their snaps), and the snap is reported at the critical factor (``_jump``).  When no
+   stable state is reached the path goes on on the unstable fundamental branch and says so.
 
 5. *Natural path* (``natural``): when the fundamental path cannot be re-solved inside the
    bracket, the load step is retraced by arc-length from its last stable state; a traced
@@ -52,6 +56,7 @@ from scipy.optimize import brentq
 
 from fem_reference.rigid import stability_view
 from fem_reference.statics import static as S
+from fem_reference.statics.descent import settle
 from fem_reference.statics.inertia import jacobi_verdict, state_stability
 
 KIND_TOL = 1e-3
@@ -312,7 +317,7 @@ class Watch:
         self.points.append(point)
         if path:
             return self._branch_off(crit, phi, point, cur)
-        new = self._switch(crit, phi, target)
+        new = self._switch(crit, phi, lam_c, target)
         if new is None:
             self.note = (
                 f"bifurcation at factor {lam_c:.8g}: no stable branch next to it "
@@ -343,8 +348,12 @@ class Watch:
         point = {"factor": float(lam_c), "kind": "snap", "switched": True}
         self.points.append({**point, "from": out(crit.u), "to": out(to.u)})
 
-    def _switch(self, crit: S.State, phi: np.ndarray, target: float) -> S.State | None:
-        """Stable state at ``target`` on a branch through ``crit`` along ``phi`` (or None)."""
+    def _switch(
+        self, crit: S.State, phi: np.ndarray, lam_c: float, target: float
+    ) -> S.State | None:
+        """Stable state at ``target`` on a branch through ``crit`` along ``phi`` (or None): a
+        rising branch is followed by arc-length; from a falling one (subcritical) the
+        structure snaps, and where it settles is found by energy descent."""
         sysm, opts = self.sys, self.opts
         sc = S.Scaler.of(sysm)
         i = int(np.argmax(np.abs(phi) * np.sqrt(sc.w)))
@@ -362,7 +371,10 @@ class Watch:
                     opts,
                     constraint=(i, 1.0, crit.u[i] + step * phi[i]),
                 )
-                land = self._follow(S.State(off.u, off.lam), target, sc.unorm(off.u - crit.u))
+                if off.lam < lam_c:  # the branch falls: no stable state next to the critical one
+                    land = self._descend(crit.u + step * phi, target)
+                else:
+                    land = self._follow(S.State(off.u, off.lam), target, sc.unorm(off.u - crit.u))
             except S.SolveError:
                 continue
             if self._eig(land) > 0.0:
@@ -400,6 +412,18 @@ class Watch:
         point["switched"] = True
         off.info = {**off.info, "branch_switch": 1.0}
         return off
+
+    def _descend(self, u0: np.ndarray, target: float) -> S.State:
+        """The stable state at ``target`` the structure settles at when it leaves ``u0`` (the
+        critical state displaced along its mode) under the load step's factor (where the
+        fundamental branch is unstable: the descent cannot return to it), by energy
+        descent (``descent.settle``), as the reduced models land their snaps."""
+        sysm = self.sys
+
+        def mode(u: np.ndarray) -> tuple[float, np.ndarray]:
+            return lowest_mode(sysm, u, target)[:2]
+
+        return settle(sysm, u0, target, self.opts, mode, SWITCH_AMPLITUDE)
 
     def _potential(self, st: S.State) -> float:
         """Total potential U(u) - lam f . u of a state (dead loads: conservative)."""
