@@ -37,9 +37,10 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from fem_reference.banded import BAND_MAX, csr_to_band, symmetric_upper_band
+from fem_reference.banded import BAND_MAX, csr_to_band
 from fem_reference.rigid import stability_view
 from fem_reference.statics import static as S
+from fem_reference.statics.inertia import jacobi_inertia
 
 RELAX_ITER = 400  # pseudo-time steps of one relaxation
 POLISH = 1e3  # residual (x Newton's tolerance) below which a convex state is polished by Newton
@@ -61,16 +62,15 @@ def _pseudo_mass(system: object, opts: S.Options) -> np.ndarray:
 
 def positive_definite(system: object, K: sp.spmatrix) -> bool:
     """Is the symmetric part of the (stability) tangent ``K`` positive definite?  Cholesky of
-    its Jacobi-scaled form: LAPACK band ``dpbtrf`` on a narrow band, dense otherwise."""
-    n = K.shape[0]
-    if n == 0:
+    its Jacobi-scaled form: LAPACK band ``dpbtrf`` on a narrow band
+    (``inertia.jacobi_inertia``), dense otherwise."""
+    if K.shape[0] == 0:
         return True
-    d = np.abs(K.diagonal())
-    scale = 1.0 / np.sqrt(np.where(d > 0.0, d, 1.0))
     bw = getattr(system, "bandwidth", None)
     if bw is not None and bw <= BAND_MAX:
-        up = symmetric_upper_band(csr_to_band(sp.csr_matrix(K), bw), bw, scale)
-        return sla.lapack.dpbtrf(up, lower=0, overwrite_ab=1)[1] == 0
+        return jacobi_inertia(csr_to_band(sp.csr_matrix(K), bw), bw) is not None
+    d = np.abs(K.diagonal())
+    scale = 1.0 / np.sqrt(np.where(d > 0.0, d, 1.0))
     A = K.toarray()
     A = 0.5 * (A + A.T) * np.outer(scale, scale)
     try:
