@@ -112,7 +112,7 @@ def relax(system: object, u0: np.ndarray, lam: float, opts: S.Options) -> S.Stat
     sc = S.Scaler.of(system)
     mass = _pseudo_mass(system, opts)
     disp = mass > 0.0
-    tol = sc.ftol(lam, opts)
+    polish = POLISH * sc.ftol(lam, opts)
     u, alpha, steps = u0.copy(), ALPHA0, 0
     r, K = system.residual_and_tangent(u, lam)
     for steps in range(RELAX_ITER):
@@ -121,13 +121,12 @@ def relax(system: object, u0: np.ndarray, lam: float, opts: S.Options) -> S.Stat
             break
         with stability_view(system):
             Ks = system.residual_and_tangent(u, lam)[1]
-        if rn <= POLISH * tol and positive_definite(system, Ks):
-            try:  # a stable basin: Newton's own convergence test on the landing
-                st = S.newton(system, u, lam, opts)
+        if rn <= polish and positive_definite(system, Ks):
+            st = _polish(system, u, lam, opts)  # a stable basin: Newton's convergence test
+            if st is not None:
                 st.iterations += steps
                 return st
-            except S.SolveError:
-                pass
+            polish = 0.1 * rn  # Newton left the basin (a saddle near by): descend further
         a = _shift(system, Ks, mass, alpha)
         try:
             du = spla.splu((K + sp.diags(a * mass)).tocsc()).solve(-r)
@@ -142,6 +141,17 @@ def relax(system: object, u0: np.ndarray, lam: float, opts: S.Options) -> S.Stat
         else:
             alpha = 4.0 * a
     raise S.SolveError(f"energy descent did not settle at factor {lam:.6g}", iterations=steps)
+
+
+def _polish(system: object, u: np.ndarray, lam: float, opts: S.Options) -> S.State | None:
+    """Newton from ``u`` at ``lam`` if it converges to a stable state, else None."""
+    try:
+        st = S.newton(system, u, lam, opts)
+    except S.SolveError:
+        return None
+    with stability_view(system):
+        Ks = system.residual_and_tangent(st.u, lam)[1]
+    return st if positive_definite(system, Ks) else None
 
 
 def settle(
