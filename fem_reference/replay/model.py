@@ -94,7 +94,7 @@ class Replay:
         "lte_tol": ("float", 1e-10, 1.0),
         "dt_max": ("float", 1e-6, 1e3),
         "max_hold": ("float", 1.0, 1e6),
-        "probe": ("str", None, None, ("all", "last", "none")),
+        "probe": ("str", None, None, ("auto", "all", "last", "none")),
         "probe_amplitude": ("float", 1e-12, 1.0),
         "probe_node": ("str",),
         "probe_impulse": ("floats",),
