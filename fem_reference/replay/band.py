@@ -121,18 +121,27 @@ def step_band(integ: GenAlpha, s: State, h: float, lam: float) -> State | None:
 def lowest_mode(
     K: sp.csr_matrix, M: sp.csr_matrix, bw: int, warm: dict
 ) -> tuple[float, np.ndarray] | None:
-    """Lowest eigenpair of the symmetric part of (K, M) when it is positive definite: the
-    banded Cholesky (``dpbtrf``) succeeds, then inverse iteration x <- K^-1 M x with Rayleigh
-    quotients, warm-started from ``warm["x"]`` (the previous settled state's mode; replaced
-    by the new one).  Stops when the error estimated from the convergence rate is below
-    ``EIG_RTOL``; the mode is M-normalised, its largest component positive.  None when K is
-    not positive definite or does not fit the band, or the iteration is too slow (close
-    eigenvalues): the dense test decides."""
+    """Lowest eigenpair of the symmetric part of (K, M) when it is positive definite
+    (``lowest_mode_band``); None also when K does not fit the band."""
     n = K.shape[0]
     rows = np.repeat(np.arange(n), np.diff(K.indptr))
     if not K.nnz or int(np.abs(rows - K.indices).max()) > bw:
         return None
-    chol, info = _dpbtrf(symmetric_upper_band(csr_to_band(K, bw), bw, np.ones(n)), lower=0)
+    return lowest_mode_band(csr_to_band(K, bw), M, bw, warm)
+
+
+def lowest_mode_band(
+    Kb: np.ndarray, M: sp.csr_matrix, bw: int, warm: dict
+) -> tuple[float, np.ndarray] | None:
+    """Lowest eigenpair of the symmetric part of (K, M), K in ``dgbtrf`` band storage
+    ``Kb``, when it is positive definite: the banded Cholesky (``dpbtrf``) succeeds, then
+    inverse iteration x <- K^-1 M x with Rayleigh quotients, warm-started from ``warm["x"]``
+    (the previous settled state's mode; replaced by the new one).  Stops when the error
+    estimated from the convergence rate is below ``EIG_RTOL``; the mode is M-normalised, its
+    largest component positive.  None when K is not positive definite or the iteration is
+    too slow (close eigenvalues): the dense test decides."""
+    n = Kb.shape[1]
+    chol, info = _dpbtrf(symmetric_upper_band(Kb, bw, np.ones(n)), lower=0)
     if info != 0:
         return None
     x = warm.get("x")
