@@ -23,7 +23,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.linalg.blas import dgbmv as _dgbmv
 from scipy.linalg.lapack import dpbtrf as _dpbtrf
 from scipy.linalg.lapack import dpbtrs as _dpbtrs
 
@@ -62,9 +61,7 @@ def step_band(integ: GenAlpha, s: State, h: float, lam: float) -> State | None:
     cv = integ.gamma_p / (integ.beta_p * h)
     acc = s.acc.copy()
     q = qh + acc / cq
-    a0, C, bw, n = integ.a0, None, integ.bw, s.q.shape[0]
-    # dgbmv's storage: the rows below the fill-in (scipy's wrapper rejects n < 2 bw + 1)
-    Mg = np.asfortranarray(integ._Mb[bw:]) if n > 2 * bw else None
+    a0, C = integ.a0, None
     if integ.a1 == 0.0:  # C = a0 M: its band is M's, and one band product M (acc + a0 v)
         Cb = (cv * a0 + cq) * integ._Mb
     else:
@@ -88,7 +85,7 @@ def step_band(integ: GenAlpha, s: State, h: float, lam: float) -> State | None:
                 keep[h] = solve
         if C is None:
             x = acc + a0 * v
-            inertia = integ.M @ x if Mg is None else _dgbmv(n, n, bw, bw, 1.0, Mg, x)
+            inertia = integ.mass_times(x)
         else:
             inertia = integ.M @ acc + C @ v
         dq = -solve(inertia + ev_.r)

@@ -144,7 +144,7 @@ class _Run:
         h = self.hist
         h.t.append(s.t)
         h.factor.append(s.lam)
-        h.kinetic.append(0.5 * float(s.v @ (self.M @ s.v)))
+        h.kinetic.append(0.5 * float(s.v @ self.integ.mass_times(s.v)))
         h.strain.append(None)  # on demand (``strain``): a full element pass per time step
         h.dissipated.append(self.D)
         h.external_work.append(self.W)
@@ -202,8 +202,7 @@ class _Run:
             if books:
                 dq = s1.q - s.q
                 self.W += 0.5 * float((s.f_ext + s1.f_ext) @ dq)
-                C = integ.damping(s)
-                self.D += 0.5 * h * float(s.v @ (C @ s.v) + s1.v @ (C @ s1.v))
+                self.D += 0.5 * h * (integ.damping_power(s, s.v) + integ.damping_power(s, s1.v))
             if pair is not None:
                 g_hit = pair.gap(s1.q)
                 s1, lost = integ.lock(s1, pair)

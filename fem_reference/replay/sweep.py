@@ -87,14 +87,14 @@ class ContinuousRamp:
             raise ev.ReplayError(f"continuous ramp: factor {lam:g} asked out of order")
         Tr = run.o.ramp_periods * run.T1
         t_j = self.t0 + Tr * (j - self.j0 + 0.5)  # _ease(x) = j - j0 (j > j0)
-        integ, tight = run.integ, run.integ.newton_tol
-        # a transient: Newton to a fraction of the step's own error (the reported state is
-        # checked on itself, by ``static_check``)
-        integ.newton_tol = max(tight, RAMP_NEWTON * run.o.lte_tol)
         # the local error per step: a fraction of the motion the tangent at the last settled
         # sample predicts for this increment (its end is settled by Newton anyway), never
         # below lte_tol; lte_tol after a hold (a snap, the start from rest: no prediction)
         lte = max(run.o.lte_tol, RAMP_RTOL * self.move)
+        integ, tight = run.integ, run.integ.newton_tol
+        # a transient: Newton to a fraction of the step's own error (the reported state is
+        # checked on itself, by ``static_check``)
+        integ.newton_tol = max(tight, RAMP_NEWTON * lte)
         try:
             run.advance(t_j, self.lam_of_t(Tr), hmax=RAMP_DT * run.T1, lte=lte, through=True)
         finally:
