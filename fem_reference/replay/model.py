@@ -57,7 +57,7 @@ class Replay:
         family="replay",
         summary="damped dynamics replay (MSC-ADAMS style) of the corotational FE scene: "
         "generalised-alpha, one continuous load ramp settled at each reported factor, "
-        "impulse stability probes",
+        "tangent test and impulse probes of stability",
         assumptions=(
             "same corotational discretisation as fem-N; consistent mass from Member.density "
             "(default 7850 kg/m^3, 7.85e-9 t/mm^3, 7.35e-4 lbf s^2/in^4, 1 nondim)",
@@ -65,9 +65,12 @@ class Replay:
             "Rayleigh with the current tangent); settled states do not depend on it",
             "a state is settled when velocity, acceleration and the static distance K^-1 r "
             "are all below settle_tol * L (1e-7 L by default)",
-            "stability: a kick along the lowest mode (or a nodal impulse) returns / departs "
-            "(distance/path: under load control at the settled factor, as the FE tests); "
-            "follower loads: no static verdict (stable = None, extras['stability'])",
+            "stability: the tangent test at each settled state (lowest eigenvalue of (K, M)) "
+            "where it is clear (|eig| >= 0.05 omega_1^2), a kick along the lowest mode (or a "
+            "nodal impulse) that returns / departs where it is near zero and at the last "
+            "state (probe = 'all': at every state); distance/path: under load control at the "
+            "settled factor, as the FE tests; follower loads: no static verdict (stable = "
+            "None, extras['stability'])",
             "a DOF without mass (a node joining only springs) gets a point mass (the mean "
             "translational one); settled states do not depend on it",
             "boom events: exact length lock with a plastic latch (no penalty stop)",

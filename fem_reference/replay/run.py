@@ -11,8 +11,11 @@ that same test.  The equation of motion holds exactly at every step, so a state 
 exact static equilibrium: the settled states equal the static FE ones to the settling
 tolerance, whatever the step, density or damping (those shape only the transient, and so
 which branch a snap lands on).  Each settled
-state is kicked (lowest mode, or a nodal impulse as the thesis did with 1 N pulses in ADAMS)
-and watched: returns = stable, departs = unstable; the tangent test is recorded beside it.
+state gets the tangent test (lowest eigenvalue of (K, M)); under conservative loads that is
+its stability verdict where it is clear, and the state is kicked (lowest mode, or a nodal
+impulse as the thesis did with 1 N pulses in ADAMS) and watched -- returns = stable,
+departs = unstable -- where it is near zero and at the last state (``probe`` = "auto";
+"all" kicks every state).
 """
 
 from __future__ import annotations

@@ -19,6 +19,13 @@ equilibrium) the load is held at the factor and the motion integrated until sett
 (``_Run.hold``) as a ramp-and-hold replay does, and the ramp starts again from rest there;
 so is the last factor (the time history ends at rest on it).  After a settled sample the
 ramp goes on from the moving state.
+
+Steps on the ramp are sized by the integrator's error estimate up to ``RAMP_DT`` T1, with a
+local error of ``RAMP_RTOL`` of the motion the tangent at the last settled sample predicts
+for the increment (``K^-1 f_ext`` times its load step; never below ``lte_tol``, and
+``lte_tol`` after a hold): a quasi-static ramp takes two steps per increment, while a snap
+starting on it (accelerations far above the ramp's) is resolved to that tolerance and held
+at ``lte_tol``.
 """
 
 from __future__ import annotations
