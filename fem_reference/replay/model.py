@@ -136,11 +136,15 @@ class Replay:
             return f"{kind} analyses: {_DECLINED[kind]}"
         if kind not in ("load", "deploy") and self.factors is None:
             return f"{kind} analyses: the replay only ramps a load factor"
+        if getattr(self, "_checked", (None,))[0] is scene:  # scenes are frozen: same answer
+            return self._checked[1]
         try:
             build(scene, 1)
+            reason = None
         except (ModelError, KeyError) as err:
-            return f"not representable: {err}"
-        return None
+            reason = f"not representable: {err}"
+        self._checked = (scene, reason)
+        return reason
 
     def solve(self, scene: Scene) -> Solution:
         """Settled equilibrium path of ``scene`` with probes, histories, jumps."""
