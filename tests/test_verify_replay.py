@@ -211,6 +211,20 @@ def test_probe_agrees_with_exact_stability_column(lam):
     assert st.info["tangent_stable"] == float(lam < LAM_CRIT_COLUMN)
 
 
+def test_auto_probe_kicks_only_near_the_limit_and_the_last_state():
+    """probe = "auto" on the two-link column: every state gets the exact verdict; the tangent
+    test decides where the lowest eigenvalue (3 - sqrt 5) / 2 - lam is at least 5 % of
+    omega_1^2 = (3 - sqrt 5) / 2 away from zero (lam outside (0.363, 0.401)), the kick
+    decides within that band and at the last state."""
+    factors = np.array([0.0, 0.1, 0.2, 0.3, 0.37, 0.39, 0.5, 0.6])
+    sol = replay_system(TwoLinkColumn(), factors)
+    assert sol.ok, sol.message
+    verdicts = [p["verdict"] for p in sol.extras["probes"]]
+    expected = ["tangent"] * 4 + ["returned", "departed", "tangent", "departed"]
+    assert verdicts == expected
+    assert [s.stable for s in sol.steps] == [bool(lam < LAM_CRIT_COLUMN) for lam in factors]
+
+
 COLUMN = """
 [case]
 name = "straight-column"

@@ -7,8 +7,11 @@ factorisation at 100 DOFs) and solved by modified Newton: factorised at the firs
 of a step and again only when the updates stop contracting fast (an update above
 ``REFRESH`` times the previous one).  While ``GenAlpha.keep_lu`` is a dict (an impulse
 probe: small motion about a settled state, steps of one size) the factorisation also
-carries over to the next step of the same size.  Convergence is judged by the same update test as
-``GenAlpha.step``; the converged state is the same to that tolerance.
+carries over to the next step of the same size.  Convergence is judged by the update test
+of ``GenAlpha.step`` (an update within the Newton tolerance) or, once two updates are
+known, by the updates still to come: at most theta / (1 - theta) of the last one while they
+contract by theta < 1/2 -- the converged state is the same to that tolerance, and a step
+spends one iteration fewer than waiting for the next update to be within it.
 
 The tangent test of a settled state in band storage too (``lowest_mode``): banded Cholesky
 and inverse iteration warm-started from the previous state's mode, where a dense
@@ -23,7 +26,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.linalg.blas import dgbmv as _dgbmv
 from scipy.linalg.lapack import dpbtrf as _dpbtrf
 from scipy.linalg.lapack import dpbtrs as _dpbtrs
 
@@ -62,9 +64,7 @@ def step_band(integ: GenAlpha, s: State, h: float, lam: float) -> State | None:
     cv = integ.gamma_p / (integ.beta_p * h)
     acc = s.acc.copy()
     q = qh + acc / cq
-    a0, C, bw, n = integ.a0, None, integ.bw, s.q.shape[0]
-    # dgbmv's storage: the rows below the fill-in (scipy's wrapper rejects n < 2 bw + 1)
-    Mg = np.asfortranarray(integ._Mb[bw:]) if n > 2 * bw else None
+    a0, C = integ.a0, None
     if integ.a1 == 0.0:  # C = a0 M: its band is M's, and one band product M (acc + a0 v)
         Cb = (cv * a0 + cq) * integ._Mb
     else:
@@ -88,7 +88,7 @@ def step_band(integ: GenAlpha, s: State, h: float, lam: float) -> State | None:
                 keep[h] = solve
         if C is None:
             x = acc + a0 * v
-            inertia = integ.M @ x if Mg is None else _dgbmv(n, n, bw, bw, 1.0, Mg, x)
+            inertia = integ.mass_times(x)
         else:
             inertia = integ.M @ acc + C @ v
         dq = -solve(inertia + ev_.r)
@@ -98,7 +98,10 @@ def step_band(integ: GenAlpha, s: State, h: float, lam: float) -> State | None:
         acc = acc + cq * dq
         err = float(np.max(np.abs(integ.w * dq)))
         integ.newton_iterations += 1
-        if err <= tol:
+        theta = err / prev if it > 1 else 1.0  # contraction of the updates
+        # converged: this update, or the ones still to come (at most theta / (1 - theta) of
+        # it while they contract by theta), within tol
+        if err <= tol or theta < 0.5 and theta * err <= (1.0 - theta) * tol:
             break
         if err > REFRESH * prev:
             if fresh and it > 3 and err > 0.5 * prev:  # not contracting with a new matrix
@@ -121,18 +124,27 @@ def step_band(integ: GenAlpha, s: State, h: float, lam: float) -> State | None:
 def lowest_mode(
     K: sp.csr_matrix, M: sp.csr_matrix, bw: int, warm: dict
 ) -> tuple[float, np.ndarray] | None:
-    """Lowest eigenpair of the symmetric part of (K, M) when it is positive definite: the
-    banded Cholesky (``dpbtrf``) succeeds, then inverse iteration x <- K^-1 M x with Rayleigh
-    quotients, warm-started from ``warm["x"]`` (the previous settled state's mode; replaced
-    by the new one).  Stops when the error estimated from the convergence rate is below
-    ``EIG_RTOL``; the mode is M-normalised, its largest component positive.  None when K is
-    not positive definite or does not fit the band, or the iteration is too slow (close
-    eigenvalues): the dense test decides."""
+    """Lowest eigenpair of the symmetric part of (K, M) when it is positive definite
+    (``lowest_mode_band``); None also when K does not fit the band."""
     n = K.shape[0]
     rows = np.repeat(np.arange(n), np.diff(K.indptr))
     if not K.nnz or int(np.abs(rows - K.indices).max()) > bw:
         return None
-    chol, info = _dpbtrf(symmetric_upper_band(csr_to_band(K, bw), bw, np.ones(n)), lower=0)
+    return lowest_mode_band(csr_to_band(K, bw), M, bw, warm)
+
+
+def lowest_mode_band(
+    Kb: np.ndarray, M: sp.csr_matrix, bw: int, warm: dict
+) -> tuple[float, np.ndarray] | None:
+    """Lowest eigenpair of the symmetric part of (K, M), K in ``dgbtrf`` band storage
+    ``Kb``, when it is positive definite: the banded Cholesky (``dpbtrf``) succeeds, then
+    inverse iteration x <- K^-1 M x with Rayleigh quotients, warm-started from ``warm["x"]``
+    (the previous settled state's mode; replaced by the new one).  Stops when the error
+    estimated from the convergence rate is below ``EIG_RTOL``; the mode is M-normalised, its
+    largest component positive.  None when K is not positive definite or the iteration is
+    too slow (close eigenvalues): the dense test decides."""
+    n = Kb.shape[1]
+    chol, info = _dpbtrf(symmetric_upper_band(Kb, bw, np.ones(n)), lower=0)
     if info != 0:
         return None
     x = warm.get("x")

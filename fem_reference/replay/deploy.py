@@ -15,7 +15,7 @@ from fem_reference.assembly import build
 from fem_reference.replay import events
 from fem_reference.replay import integrator as ev
 from fem_reference.replay.deploy_history import time_history
-from fem_reference.replay.run import replay_system
+from fem_reference.replay.run import replay_system, unprobed
 from fem_reference.statics.deploy import booms_as_locks
 from reduced_models.base import Solution, Step
 
@@ -107,10 +107,11 @@ class _ProbeBoth:
         self.settled: np.ndarray | None = None  # the settled state's DOFs
         self.perturbed: dict | None = None  # the recorded response to the impulse
 
-    def __call__(self, run: object, s: object, chk: dict, want: bool, scene: Scene) -> tuple:
+    def __call__(self, run: object, s: object, chk: dict, want: str, scene: Scene) -> tuple:
         eig, mode = ev.tangent_test(chk["K"], chk["G"], run.M)
-        if not want:
-            return eig, {"stable": None, "verdict": "skipped"}
+        pr = unprobed(run, eig, want)
+        if pr is not None:
+            return eig, pr
         t0 = time.process_time()
         pr = run.probe(s, eig, mode, scene)
         if run.o.probe_node is not None:  # the case's own impulse was the probe

@@ -56,7 +56,7 @@ def replay_static(scene: Scene, model: object, probes: object) -> Solution:
         # the replay's settling test: a short hold settles it
         s, chk = run.hold(0.0)
         q = s.q
-        eig, pr = probes(run, s, chk, True, scene)
+        eig, pr = probes(run, s, chk, "probe", scene)
     except (ev.ReplayError, RuntimeError, ValueError, np.linalg.LinAlgError) as exc:
         return Solution(scene.name, name, "failed", f"static start: {exc}")
     st = system.step(q, 0.0, 0, pr["stable"])

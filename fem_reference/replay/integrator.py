@@ -45,6 +45,7 @@ import scipy.linalg as sla
 import scipy.optimize as so
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from scipy.linalg.blas import dgbmv as _dgbmv
 
 from fem_reference.banded import BAND_MAX, BandedLU, csr_to_band
 from fem_reference.replay.band import band_mass, lowest_mode, step_band
@@ -174,6 +175,9 @@ class GenAlpha:
         self.bw = getattr(system, "bandwidth", None)  # half-bandwidth of the FE matrices
         self.alg = getattr(system, "algebraic", None)  # DOF indices without inertia
         self._Mb = band_mass(self)  # not None: ``step`` works in band storage
+        n, bw = self.M.shape[0], self.bw
+        # M in ``dgbmv`` storage (the rows below the fill-in; scipy's wrapper needs n > 2 bw)
+        self._Mg = None if self._Mb is None or n <= 2 * bw else np.asfortranarray(self._Mb[bw:])
         self._C0 = None  # mass damping a0 M, once asked for
         self.keep_lu: dict | None = None  # factorisation kept across steps (band.py)
         try:
@@ -232,6 +236,19 @@ class GenAlpha:
                 self._C0 = self.a0 * self.M
             return self._C0
         return combine([(self.a0, self.M), (self.a1, K)])
+
+    def mass_times(self, x: np.ndarray) -> np.ndarray:
+        """M x (a band product when M has the FE band: ~5x cheaper than csr at 100 DOFs)."""
+        if self._Mg is None:
+            return self.M @ x
+        n = x.shape[0]
+        return _dgbmv(n, n, self.bw, self.bw, 1.0, self._Mg, x)
+
+    def damping_power(self, s: State, v: np.ndarray) -> float:
+        """v^T C v for a step starting at ``s`` (``damping``), the rate of dissipation."""
+        if self.a1 == 0.0 or (self.K0 is None and s.K is None):
+            return self.a0 * float(v @ self.mass_times(v))
+        return float(v @ (self.damping(s) @ v))
 
     def start(self, t: float, lam: float, q: np.ndarray, v: np.ndarray) -> State:
         """A state with consistent accelerations (constrained if pairs are locked)."""

@@ -57,7 +57,7 @@ class Replay:
         family="replay",
         summary="damped dynamics replay (MSC-ADAMS style) of the corotational FE scene: "
         "generalised-alpha, one continuous load ramp settled at each reported factor, "
-        "impulse stability probes",
+        "tangent test and impulse probes of stability",
         assumptions=(
             "same corotational discretisation as fem-N; consistent mass from Member.density "
             "(default 7850 kg/m^3, 7.85e-9 t/mm^3, 7.35e-4 lbf s^2/in^4, 1 nondim)",
@@ -65,9 +65,12 @@ class Replay:
             "Rayleigh with the current tangent); settled states do not depend on it",
             "a state is settled when velocity, acceleration and the static distance K^-1 r "
             "are all below settle_tol * L (1e-7 L by default)",
-            "stability: a kick along the lowest mode (or a nodal impulse) returns / departs "
-            "(distance/path: under load control at the settled factor, as the FE tests); "
-            "follower loads: no static verdict (stable = None, extras['stability'])",
+            "stability: the tangent test at each settled state (lowest eigenvalue of (K, M)) "
+            "where it is clear (|eig| >= 0.05 omega_1^2), a kick along the lowest mode (or a "
+            "nodal impulse) that returns / departs where it is near zero and at the last "
+            "state (probe = 'all': at every state); distance/path: under load control at the "
+            "settled factor, as the FE tests; follower loads: no static verdict (stable = "
+            "None, extras['stability'])",
             "a DOF without mass (a node joining only springs) gets a point mass (the mean "
             "translational one); settled states do not depend on it",
             "boom events: exact length lock with a plastic latch (no penalty stop)",
@@ -94,7 +97,7 @@ class Replay:
         "lte_tol": ("float", 1e-10, 1.0),
         "dt_max": ("float", 1e-6, 1e3),
         "max_hold": ("float", 1.0, 1e6),
-        "probe": ("str", None, None, ("all", "last", "none")),
+        "probe": ("str", None, None, ("auto", "all", "last", "none")),
         "probe_amplitude": ("float", 1e-12, 1.0),
         "probe_node": ("str",),
         "probe_impulse": ("floats",),
@@ -133,11 +136,15 @@ class Replay:
             return f"{kind} analyses: {_DECLINED[kind]}"
         if kind not in ("load", "deploy") and self.factors is None:
             return f"{kind} analyses: the replay only ramps a load factor"
+        if getattr(self, "_checked", (None,))[0] is scene:  # scenes are frozen: same answer
+            return self._checked[1]
         try:
             build(scene, 1)
+            reason = None
         except (ModelError, KeyError) as err:
-            return f"not representable: {err}"
-        return None
+            reason = f"not representable: {err}"
+        self._checked = (scene, reason)
+        return reason
 
     def solve(self, scene: Scene) -> Solution:
         """Settled equilibrium path of ``scene`` with probes, histories, jumps."""

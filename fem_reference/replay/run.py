@@ -11,8 +11,11 @@ that same test.  The equation of motion holds exactly at every step, so a state 
 exact static equilibrium: the settled states equal the static FE ones to the settling
 tolerance, whatever the step, density or damping (those shape only the transient, and so
 which branch a snap lands on).  Each settled
-state is kicked (lowest mode, or a nodal impulse as the thesis did with 1 N pulses in ADAMS)
-and watched: returns = stable, departs = unstable; the tangent test is recorded beside it.
+state gets the tangent test (lowest eigenvalue of (K, M)); under conservative loads that is
+its stability verdict where it is clear, and the state is kicked (lowest mode, or a nodal
+impulse as the thesis did with 1 N pulses in ADAMS) and watched -- returns = stable,
+departs = unstable -- where it is near zero and at the last state (``probe`` = "auto";
+"all" kicks every state).
 """
 
 from __future__ import annotations
@@ -46,7 +49,10 @@ class ReplayOptions:
     rotations, Charney 2008).  rho_inf : generalised-alpha spectral radius at h -> inf.
     ramp_periods : ramp per load increment.  settle_tol : see module docstring.  lte_tol :
     local displacement error per step / L.  dt_max : largest step; max_hold : give up after.
-    probe : "all" | "last" | "none"; probe_amplitude : modal kick (excursion ~ amplitude * L);
+    probe : "auto" | "all" | "last" | "none": which settled states are kicked ("auto": those
+    whose tangent test is near its limit, |lowest eigenvalue| < ``PROBE_MARGIN`` omega_1^2,
+    and the last; the others get the tangent's verdict, ``probe_plan``);
+    probe_amplitude : modal kick (excursion ~ amplitude * L);
     probe_node, probe_impulse : nodal impulse (node id, (Ix, Iy)) instead.
     jump_dissipation : an increment is a jump (snap-through) when the energy it dissipates
     exceeds this fraction of the work done (or strain energy change); a quasi-static ramp
@@ -65,7 +71,7 @@ class ReplayOptions:
     lte_tol: float = 3e-4
     dt_max: float = 0.5
     max_hold: float = 400.0
-    probe: str = "all"
+    probe: str = "auto"
     probe_amplitude: float = 1e-3
     probe_node: str | None = None
     probe_impulse: tuple[float, float] = (0.0, 1.0)
@@ -80,6 +86,12 @@ class ReplayOptions:
 SOFT_AFTER = 20.0  # T1 of holding after which a soft mode gets its own critical damping
 PROBE_NEWTON = 0.1  # Newton tolerance of a probe / settle_tol
 PROBE_LTE = 0.1  # local error per step of a probe / the kick's excursion (lte_tol: ~0.3 of 1e-3 L)
+# probe="auto": a settled state is kicked when its lowest eigenvalue of (K, M) is within this
+# fraction of omega_1^2 of zero (its lowest frequency below ~22 % of the unloaded one): near
+# a limit point or bifurcation, where a kick of the probe's size can leave a shallow well
+# (or the equilibrium found under load control lies elsewhere, test_replay_probe) and the
+# sign of an eigenvalue near zero is the least certain
+PROBE_MARGIN = 0.05
 
 
 class _Run:
@@ -135,7 +147,7 @@ class _Run:
         h = self.hist
         h.t.append(s.t)
         h.factor.append(s.lam)
-        h.kinetic.append(0.5 * float(s.v @ (self.M @ s.v)))
+        h.kinetic.append(0.5 * float(s.v @ self.integ.mass_times(s.v)))
         h.strain.append(None)  # on demand (``strain``): a full element pass per time step
         h.dissipated.append(self.D)
         h.external_work.append(self.W)
@@ -193,8 +205,7 @@ class _Run:
             if books:
                 dq = s1.q - s.q
                 self.W += 0.5 * float((s.f_ext + s1.f_ext) @ dq)
-                C = integ.damping(s)
-                self.D += 0.5 * h * float(s.v @ (C @ s.v) + s1.v @ (C @ s1.v))
+                self.D += 0.5 * h * (integ.damping_power(s, s.v) + integ.damping_power(s, s1.v))
             if pair is not None:
                 g_hit = pair.gap(s1.q)
                 s1, lost = integ.lock(s1, pair)
@@ -349,11 +360,34 @@ def ramp_and_hold(run: _Run, lam: float) -> tuple[ev.State, dict]:
     return run.hold(lam)
 
 
-def _stability(run: _Run, s: ev.State, chk: dict, want: bool, scene: Scene | None) -> tuple:
-    """Tangent test and (if ``want``) impulse probe of the settled state ``s``: (eig, probe)."""
+def probe_plan(o: ReplayOptions, k: int, n: int, conservative: bool) -> str:
+    """What settled state ``k`` of ``n`` gets: "probe" (kicked), "tangent" (the tangent
+    test's verdict, kicked only when it is near its limit: ``unprobed``) or "none" (no
+    verdict: follower loads, or probes switched off)."""
+    last = k == n - 1
+    if not conservative or o.probe == "none" or o.probe == "last" and not last:
+        return "none"
+    return "probe" if o.probe == "all" or last else "tangent"
+
+
+def unprobed(run: _Run, eig: float, want: str) -> dict | None:
+    """The stability record of a settled state that is not kicked: skipped (``want`` "none")
+    or the tangent's verdict ("tangent": a conservative system at rest in an equilibrium
+    whose tangent is positive definite is stable -- its energy is a Lyapunov function, the
+    damping makes it asymptotic -- and one with a negative eigenvalue is not); None when it
+    must be kicked ("probe", or |eig| below ``PROBE_MARGIN`` omega_1^2)."""
+    if want == "none":
+        return {"stable": None, "verdict": "skipped"}
+    if want == "tangent" and abs(eig) >= PROBE_MARGIN * run.w1**2:
+        return {"stable": bool(eig > 0.0), "verdict": "tangent"}
+    return None
+
+
+def _stability(run: _Run, s: ev.State, chk: dict, want: str, scene: Scene | None) -> tuple:
+    """Tangent test and (``probe_plan``, ``unprobed``) impulse probe of the settled state
+    ``s``: (eig, probe record)."""
     eig, mode = chk.get("tangent") or run.tangent_test(chk)
-    pr = run.probe(s, eig, mode, scene) if want else {"stable": None, "verdict": "skipped"}
-    return eig, pr
+    return eig, unprobed(run, eig, want) or run.probe(s, eig, mode, scene)
 
 
 def _integrity(system: object, s: ev.State) -> str | None:
@@ -383,8 +417,9 @@ def replay_system(
     factors : (nsteps,) reported load factors, starting with the initial one.
     scene : the scene (node coordinates for boom events and nodal probes), optional.
     case : case name for the Solution; options : ReplayOptions (defaults if None).
-    stability : ``(run, state, static_check, want_probe, scene) -> (eigenvalue, probe dict)``
-        at each settled state (a servo replay tests the load-controlled system instead).
+    stability : ``(run, state, static_check, want, scene) -> (eigenvalue, probe dict)`` at
+        each settled state, ``want`` from ``probe_plan`` (a servo replay tests the
+        load-controlled system instead).
     reach : ``(run, factor) -> (settled state, static_check)``: how a report point is
         reached (default: one continuous ramp through ``factors``, ``sweep.ContinuousRamp``;
         a servo replay aims its coordinate).
@@ -414,7 +449,7 @@ def replay_system(
         mark = (len(h.t), run.W, run.strain(-1), run.D - run.D_impact, prev_q)
         try:
             s, chk = reach(run, float(lam))
-            want = verdict and (o.probe == "all" or o.probe == "last" and k == len(factors) - 1)
+            want = probe_plan(o, k, len(factors), verdict)
             eig, pr = stability(run, s, chk, want, scene)
         except (ev.ReplayError, RuntimeError, ValueError, np.linalg.LinAlgError) as exc:
             status, message = "failed", f"factor {lam:.6g}: {exc}"
@@ -431,7 +466,9 @@ def replay_system(
             "t_settled": s.t,
             "lowest_eigenvalue": eig,
             "tangent_stable": float(eig > 0) if verdict else math.nan,
-            "probe_stable": math.nan if pr["stable"] is None else float(pr["stable"]),
+            "probe_stable": math.nan
+            if pr["stable"] is None or pr["verdict"] == "tangent"
+            else float(pr["stable"]),
             "probe_peak": pr.get("peak", math.nan),
         }
         st = system.step(s.q, s.lam, run.integ.newton_iterations - it0, pr["stable"])

@@ -177,11 +177,11 @@ class ServoSystem:
 def _probe_under_load(servo: ServoSystem, options: object, scene: Scene) -> object:
     """The ``stability`` hook of ``replay_system``: tangent test and impulse probe of the full
     system at the settled load factor (servo off), as the FE tests a distance step."""
-    from fem_reference.replay.run import _Run
+    from fem_reference.replay.run import _Run, unprobed
 
     aux: list = []
 
-    def stab(run: object, s: ev.State, chk: dict, want: bool, sc: Scene | None) -> tuple:
+    def stab(run: object, s: ev.State, chk: dict, want: str, sc: Scene | None) -> tuple:
         q, lam = servo.full_state(s.q, s.lam)
         if not aux:
             aux.append(_Run(servo.full, scene, replace(options, settle_tol=1e-7)))
@@ -189,8 +189,9 @@ def _probe_under_load(servo: ServoSystem, options: object, scene: Scene) -> obje
         a = aux[0]
         _, K = servo.full.residual_and_tangent(q, lam)
         eig, mode = ev.tangent_test(sp.csr_matrix(K), np.zeros((0, servo.ndof)), a.M)
-        if not want:
-            return eig, {"stable": None, "verdict": "skipped"}
+        pr = unprobed(a, eig, want)  # the full system's omega_1 sets the margin
+        if pr is not None:
+            return eig, pr
         return eig, a.probe(a.integ.start(s.t, lam, q, np.zeros(servo.ndof)), eig, mode, sc)
 
     return stab

@@ -19,6 +19,13 @@ equilibrium) the load is held at the factor and the motion integrated until sett
 (``_Run.hold``) as a ramp-and-hold replay does, and the ramp starts again from rest there;
 so is the last factor (the time history ends at rest on it).  After a settled sample the
 ramp goes on from the moving state.
+
+Steps on the ramp are sized by the integrator's error estimate up to ``RAMP_DT`` T1, with a
+local error of ``RAMP_RTOL`` of the motion the tangent at the last settled sample predicts
+for the increment (``K^-1 f_ext`` times its load step; never below ``lte_tol``, and
+``lte_tol`` after a hold): a quasi-static ramp takes two steps per increment, while a snap
+starting on it (accelerations far above the ramp's) is resolved to that tolerance and held
+at ``lte_tol``.
 """
 
 from __future__ import annotations
@@ -30,6 +37,7 @@ import numpy as np
 
 from fem_reference.banded import BandedLU
 from fem_reference.replay import integrator as ev
+from fem_reference.replay.band import lowest_mode_band
 from fem_reference.statics.bifurcation import is_conservative
 
 CLOSE = 5e-2  # velocity / omega_1 and distance to equilibrium (/ L) that a sample may have
@@ -37,6 +45,8 @@ QUASI_STATIC = 0.25  # and at most this fraction of the increment's own motion (
 LINEAR = 0.1  # and Newton's second correction / its first: the tangent barely changes on the way
 NEWTON_MAX = 12
 RAMP_NEWTON = 1e-3  # Newton tolerance on a ramp / lte_tol
+RAMP_DT = 2.0  # largest ramp step / T1 (two per increment at ramp_periods = 4)
+RAMP_RTOL = 0.03  # local error per ramp step / the motion the tangent predicts for it
 
 
 def _ease(x: float) -> float:
@@ -59,6 +69,7 @@ class ContinuousRamp:
         self.k = 0  # schedule index of the next report factor
         self.j0, self.t0 = 0, 0.0  # the ramp runs from rest at schedule index j0, time t0
         self.q_last: np.ndarray | None = None  # the last settled state's DOFs
+        self.move = 0.0  # motion the tangent predicts for the next increment / L (0: unknown)
 
     def lam_of_t(self, Tr: float) -> Callable[[float], float]:
         """Load factor along the ramp that started from rest at (j0, t0)."""
@@ -73,18 +84,26 @@ class ContinuousRamp:
             self.q_last = run.s.q
             if self.factors.size and self.factors[0] == run.s.lam:  # starts where it is
                 self.k, self.j0 = 2, 1
-                return run.hold(lam)
+                out = run.hold(lam)
+                if banded(run) and self.sched.size > 2:
+                    chk = at_rest(run, out[0].t, lam, out[0].q)[1]
+                    self.move = 0.0 if chk is None else self._ahead(run, out[0], chk, 2)
+                return out
         j, self.k = self.k, self.k + 1
         if self.sched[j] != lam:
             raise ev.ReplayError(f"continuous ramp: factor {lam:g} asked out of order")
         Tr = run.o.ramp_periods * run.T1
         t_j = self.t0 + Tr * (j - self.j0 + 0.5)  # _ease(x) = j - j0 (j > j0)
+        # the local error per step: a fraction of the motion the tangent at the last settled
+        # sample predicts for this increment (its end is settled by Newton anyway), never
+        # below lte_tol; lte_tol after a hold (a snap, the start from rest: no prediction)
+        lte = max(run.o.lte_tol, RAMP_RTOL * self.move)
         integ, tight = run.integ, run.integ.newton_tol
         # a transient: Newton to a fraction of the step's own error (the reported state is
         # checked on itself, by ``static_check``)
-        integ.newton_tol = max(tight, RAMP_NEWTON * run.o.lte_tol)
+        integ.newton_tol = max(tight, RAMP_NEWTON * lte)
         try:
-            run.advance(t_j, self.lam_of_t(Tr), through=True)
+            run.advance(t_j, self.lam_of_t(Tr), hmax=RAMP_DT * run.T1, lte=lte, through=True)
         finally:
             integ.newton_tol = tight
         # the last factor is held: the run's history ends at rest on its last answer
@@ -93,8 +112,18 @@ class ContinuousRamp:
         if out is None:  # held on the ramp itself: it starts again from rest
             out = run.hold(lam)
             self.j0, self.t0 = j, out[0].t
+            self.move = 0.0
+        elif not last:
+            self.move = self._ahead(run, out[0], out[1], j + 1)
         self.q_last = out[0].q
         return out
+
+    def _ahead(self, run: object, s: ev.State, chk: dict, j: int) -> float:
+        """max|w K^-1 f_ext| (lam_j - s.lam) / L: the motion the tangent at the settled
+        state ``s`` (``chk["solve"]``, from ``at_rest``) predicts for the increment to
+        schedule index ``j``."""
+        f = np.asarray(run.sys.external(s.q), dtype=float) * (self.sched[j] - s.lam)
+        return float(np.max(np.abs(run.w * chk["solve"](f)))) / run.L
 
 
 def settle(
@@ -104,8 +133,8 @@ def settle(
     from s.q), at rest, with its ``static_check``; None if ``s`` is not close to rest and to
     equilibrium (``CLOSE``, ``QUASI_STATIC`` of the motion since the settled ``q_from``),
     Newton does not converge, or the equilibrium is unstable."""
-    integ, L, w = run.integ, run.L, run.w
-    if integ._Mb is None or integ.pairs:  # band systems without locks or pushes only
+    L, w = run.L, run.w
+    if not banded(run):
         return None
     speed = float(np.max(np.abs(w * s.v))) / run.w1
     if speed > CLOSE * L:
@@ -116,15 +145,52 @@ def settle(
     q, dist = steps
     if max(speed, dist) > QUASI_STATIC * float(np.max(np.abs(w * (q - q_from)))):
         return None
-    rest = integ.start(s.t, lam, q, np.zeros_like(q))
-    chk = run.static_check(rest)
+    rest, chk = at_rest(run, s.t, lam, q)
     if chk is None:
         return None
-    if is_conservative(run.sys):  # a damped motion does not come to rest at an unstable one
-        eig, mode = run.tangent_test(chk)
-        if not eig > 0.0:
-            return None
-        chk["tangent"] = (eig, mode)
+    if is_conservative(run.sys) and not chk["tangent"][0] > 0.0:
+        return None  # a damped motion does not come to rest at an unstable equilibrium
+    return rest, chk
+
+
+def banded(run: object) -> bool:
+    """Whether ``settle`` and ``at_rest`` apply: a band system without locks or pushes."""
+    return run.integ._Mb is not None and not run.integ.pairs
+
+
+def at_rest(run: object, t: float, lam: float, q: np.ndarray) -> tuple[ev.State, dict | None]:
+    """The state at rest at ``q`` (band system without locks or pushes) and its
+    ``_Run.static_check`` with the tangent test (``chk["tangent"]``), all from one evaluation
+    and one band tangent: the accelerations M^-1 (-r), the distance K^-1 r, the lowest
+    eigenpair of (K, M) (``band.lowest_mode_band``; the dense test when K is not positive
+    definite).  The check is None when the state does not pass it."""
+    integ, sys_, o, bw = run.integ, run.sys, run.o, run.integ.bw
+    e = sys_.evaluate(q, lam)
+    Kb = sys_.tangent_band(e)
+    r = np.asarray(e.r, dtype=float)
+    acc = np.zeros_like(q) if integ._Msolve is None else integ._Msolve(-r)  # as ``start``
+    current = integ.a1 != 0.0 and integ.K0 is None  # current-stiffness damping needs K
+    K = sys_.tangent_csr(e) if current else None
+    fe = lam * np.asarray(sys_.external(q), dtype=float)
+    zero = np.zeros_like(q)
+    rest = ev.State(t, lam, q, zero, acc, acc.copy(), np.zeros(0), fe, K)
+    tol = o.settle_tol * run.L
+    if np.max(np.abs(run.w * acc)) / run.w1**2 > tol:
+        return rest, None
+    tangent = lowest_mode_band(Kb, integ.M, bw, run.warm)  # before the LU overwrites Kb
+    try:
+        solve = BandedLU(Kb, bw).solve
+        d = solve(r)
+        dist = float(np.max(np.abs(run.w * d))) / run.L
+    except RuntimeError:
+        return rest, None  # singular: no distance (``static_check`` then asks the residual)
+    if not dist <= o.settle_tol:
+        return rest, None
+    if tangent is None:  # not positive definite: the dense test
+        K = sys_.tangent_csr(e) if K is None else K
+        tangent = ev.tangent_test(K, np.zeros((0, q.size)), integ.M)
+    chk = {"residual": float(np.max(np.abs(r))), "distance": dist, "tangent": tangent}
+    chk["solve"] = solve  # K^-1 at the state (``ContinuousRamp._ahead``)
     return rest, chk
 
 
