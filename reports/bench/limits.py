@@ -278,25 +278,40 @@ TARGETS = {
 # why a target is out of reach as stated (printed beside its verdict)
 NOTES = {
     "prb-1r": (
-        "; its solve alone (the shared continuation on one float: tangent predictor, step "
-        "control, branch and stability tests, 21 output maps and Steps) is ~4x the plain "
-        "20-step Newton loop, post-processing (end loads, shape, stress) and the predicted "
-        "error add ~0.1 and ~0.05 ms: 3x would need a dedicated one-pivot path without the "
-        "engine and the post-processing fused into it"
+        "; measured in one process (CPU, load 6 on 2 cores, 2026-11-27): the engine's path "
+        "0.087 ms (1.4x the whole plain path), the rest of the solve (tips, energy, 21 output "
+        "maps and Steps) ~0.09, post-processing ~0.12-0.16 (end loads 0.06, shape and stress "
+        "0.04, the 21 Steps rebuilt), the predicted error ~0.06: some 300 numpy calls and "
+        "Python objects of ~1 us each, not arithmetic (end loads, shape and stress fused into "
+        "one plain-float pass: 0.079 ms against the numpy pair's 0.087, not kept); 3x (~0.17 "
+        "ms) would need a path that builds no per-step objects and the predicted error "
+        "outside the timed call"
+    ),
+    "linear-1": (
+        "; measured (as prb-1r): solve ~0.2 ms (the 21 2x2 solves ~0.013; end loads from the "
+        "segment law 0.022, energy 0.011, local coordinates 0.010, 21 Steps), shapes ~0.1 "
+        "(49 points a step: 0.039 placing and rotating them, 0.021 the shape functions, 0.014 "
+        "the Steps), predicted error ~0.06: a dozen numpy passes of 5-40 us each; 0.2 ms "
+        "would need the shapes on request and the predicted error outside the timed call"
     ),
     "linear-8": (
         "; linear-N with N > 1 is geometrically nonlinear (each segment turns with its "
         "predecessor's tip: at PL^2/EI = 10 its tip deflection is 0.82 L, the elastica's "
         "0.81 L, linear-1's 3.3 L), so one factorisation cannot give its answers; it is "
         "solved by Newton in the chain's own coordinates (reduced_models.beam.chain_path: "
-        "one tridiagonal dptsv per iteration, 2-3 iterations per step); ~75 numpy calls "
-        "on N-long arrays per iteration set its cost"
+        "one tridiagonal dptsv per iteration, 2-3 iterations per step) at the cost per "
+        "iteration of cbcm-16's"
     ),
     "cbcm-16": (
         "; Newton in the chain's own coordinates (reduced_models.beam.chain_path), 48 "
         "iterations (2-3 per step, the floor with a 1e-10 update test and a verifying "
-        "iteration), each ~75 numpy calls on 16-long arrays (segment law, closed-form 3x3 "
-        "condensation, one dptsv): below 1.5 ms would need compiled per-iteration code"
+        "iteration), measured 74 us each: 47 the residual and condensed system (~40 numpy "
+        "calls of ~1 us on 16-long arrays: segment law, closed-form 3x3 condensation), 8 the "
+        "back-substitution, 2 the dptsv; the quintic predictor 17 us a step.  That system "
+        "rewritten with a third fewer calls (reused buffers, fused rows, gathers) measured no "
+        "faster (5.85 against 5.74 ms); steps 1-7 take 3 iterations because the predictor's "
+        "error there (2e-3 to 1e-4 scaled, the tip segment's axial force) is the path's own "
+        "curvature: below 1.5 ms would need compiled per-iteration code"
     ),
 }
 

@@ -292,6 +292,9 @@ def cli_verdict() -> str:
     )
 
 
+LIMITS_TITLE = "Each model against its limit (cantilever-tip-load, 20 steps)"
+
+
 def readme_sections(rounds: int) -> tuple[list[tuple[str, list[str]]], list[str]]:
     """The sections README's speed table shows (each model against its limit, fem-N against
     OpenSeesPy, the replay against the static FE) and every issue-22 verdict they and the
@@ -300,7 +303,7 @@ def readme_sections(rounds: int) -> tuple[list[tuple[str, list[str]]], list[str]
 
     sections, verdicts = [], []
     for title, make in (
-        ("Each model against its limit (cantilever-tip-load, 20 steps)", limits_table),
+        (LIMITS_TITLE, limits_table),
         ("fem-N against OpenSeesPy, end to end (cantilever-tip-load, PL^2/EI = 10)",
          opensees_table),
         ("Replay against the static FE (cantilever-tip-load)", replay_table),
@@ -344,6 +347,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--out", help="also write the Markdown record to this file")
     p.add_argument("--mech", action="store_true", help="only the mechanism rows (issue 9)")
     p.add_argument("--readme", help="only README's speed table, written into this file")
+    p.add_argument("--limits", action="store_true", help="only the models-against-limits table")
     args = p.parse_args(argv)
     timing.pin_blas()
     api.make_model("fem-16")  # imports first: no import inside a timed call
@@ -357,6 +361,11 @@ def main(argv: list[str] | None = None) -> int:
             ""]  # fmt: skip
     if args.mech:
         return _mech_only(["# FlexBench speed record", "", *head], rounds, args.out)
+    if args.limits:  # the few seconds a change to a small model needs, not the whole record
+        rows, verdicts = limits_table(rounds)
+        head[0] += f" Load average: {_load()}."
+        print(markdown(head, [(LIMITS_TITLE, rows)], verdicts))
+        return 0
     sections, verdicts = readme_sections(rounds)
     if not args.readme:
         sections += _more_sections(rounds, args.quick, verdicts)
