@@ -24,7 +24,8 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-KEPT_MAX = 64  # index maps kept (a run solves each case's few meshes many times)
+# index maps kept: two per mesh, so a case's few meshes (a 4096-element mesh's are ~5 MB)
+KEPT_MAX = 16
 _KEPT: dict[tuple, Any] = {}
 
 
