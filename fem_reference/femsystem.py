@@ -363,9 +363,10 @@ class FEMSystem:
         return self._strain_energy(d, cr.local_state(self.beams, d[self.beam_dofs]))
 
     def _strain_energy(self, d: np.ndarray, st: cr.LocalState) -> float:
-        return float(
-            np.sum(cr.energy(self.beams, st)) + self._springs(d, False)[2] + self._torsion(d)[2]
-        )
+        # np.add.reduce: np.sum's pairwise sum without its wrapper (a tenth of a step record)
+        e = np.add.reduce(cr.energy(self.beams, st))
+        e += self._springs(d, False)[2] if self.spring_dofs.shape[0] else 0.0
+        return float(e + (self._torsion(d)[2] if self.tors_dofs.shape[0] else 0.0))
 
     def length_scale(self) -> float:
         """Largest member length."""
