@@ -214,12 +214,12 @@ class Runner:
 
     def run_load(self) -> None:
         st = self.initial()
-        self._push(st, 0.0)
-        f = load_factors(self.scene)
         watch = Watch(self.system, self.opts) if self.o.get("bifurcation", True) else None
         if watch is not None:
             watch.dense_max = int(self.o.get("dense_max", 60))
-        self.watch = watch
+        self.watch = watch  # before the first record: its verdict is the watch's first
+        self._push(st, 0.0)
+        f = load_factors(self.scene)
         for prev, fk in zip(f[:-1], f[1:]):
             new = S.reach_factor(self.system, st, float(fk), float(fk - prev), self.opts)
             if watch:
