@@ -46,7 +46,7 @@ from scipy.sparse.csgraph import reverse_cuthill_mckee
 from cases.schema import Scene
 from fem_reference.beam_mesh import BeamMeshing
 from fem_reference.femsystem import Evaluation, FEMSystem, MemberMesh, ModelError
-from fem_reference.scatter import BandScatter, Scatter
+from fem_reference.scatter import BandScatter, Scatter, family_key, kept
 
 __all__ = [
     "BandScatter",
@@ -108,6 +108,27 @@ def build(
     system = b.system()
     system.fast  # noqa: B018 - build the fast-path index maps now, not inside a timed solve
     return system
+
+
+def _renumber(
+    free: np.ndarray, coef: np.ndarray, fam: list[np.ndarray], ndof: int
+) -> tuple[np.ndarray, Scatter, int]:
+    """Free DOF map (nfull + 1,) of ``ndof`` free DOFs renumbered by reverse Cuthill-McKee
+    (member chains become narrow bands, so the Newton solves can use a banded LU,
+    ``banded.factor``), its csr scatter and its half-bandwidth."""
+    scatter = Scatter(free, coef, fam, ndof)
+    pattern = sp.csr_matrix(
+        (np.ones(scatter.nnz), scatter.indices, scatter.indptr), shape=(ndof, ndof)
+    )
+    # no free DOF (a member clamped at both ends): nothing to renumber, and csgraph's
+    # reordering fails on an empty graph
+    perm = reverse_cuthill_mckee(pattern, symmetric_mode=True) if ndof else np.arange(0)
+    new_of_old = np.empty(ndof, dtype=np.int64)
+    new_of_old[perm] = np.arange(ndof)
+    new = np.where(free >= 0, new_of_old[np.maximum(free, 0)] if ndof else 0, -1)
+    new.setflags(write=False)
+    scatter = Scatter(new, coef, fam, ndof)
+    return new, scatter, scatter.bandwidth()
 
 
 class _Parts(BeamMeshing):
@@ -272,19 +293,9 @@ class _Parts(BeamMeshing):
             np.array(self.fd, dtype=np.int64).reshape(-1, 3),
             self.con_dofs,
         ]
-        scatter = Scatter(free, self.coef, self.fam, ndof)
-        # renumber free DOFs by reverse Cuthill-McKee: member chains become narrow bands, so
-        # the Newton solves can use a banded LU (banded.factor)
-        pattern = sp.csr_matrix(
-            (np.ones(scatter.nnz), scatter.indices, scatter.indptr), shape=(ndof, ndof)
-        )
-        # no free DOF (a member clamped at both ends): nothing to renumber, and csgraph's
-        # reordering fails on an empty graph
-        perm = reverse_cuthill_mckee(pattern, symmetric_mode=True) if ndof else np.arange(0)
-        new_of_old = np.empty(ndof, dtype=np.int64)
-        new_of_old[perm] = np.arange(ndof)
-        self.free = np.where(free >= 0, new_of_old[np.maximum(free, 0)] if ndof else 0, -1)
-        self.scatter = Scatter(self.free, self.coef, self.fam, ndof)
+        key = ("numbering", ndof, *family_key(free, self.coef, self.fam))
+        fam, coef = self.fam, self.coef
+        self.free, self.scatter, self.bw = kept(key, lambda: _renumber(free, coef, fam, ndof))
         self.is_rotation = np.ones(ndof, dtype=bool)
         m_ = self.free >= 0
         self.is_rotation[self.free[m_][~self.is_rot_full[m_]]] = False
@@ -360,7 +371,7 @@ class _Parts(BeamMeshing):
             mass_blocks=self._mass_blocks(),
             Lref=float(Lref),
             fscale=self._force_scale(),
-            bandwidth=self.scatter.bandwidth(),
+            bandwidth=self.bw,
             con_dofs=self.con_dofs,
             con_X=np.array(self.con_X, dtype=float).reshape(-1, 2),
             con_kappa=self.Kref / Lref**2,

@@ -40,7 +40,7 @@ TWO_PI = 2.0 * np.pi
 
 def wrap_angle(a: np.ndarray) -> np.ndarray:
     """Map angles (rad) to (-pi, pi]."""
-    return a - TWO_PI * np.round(a / TWO_PI)
+    return a - TWO_PI * np.rint(a / TWO_PI)  # rint: np.round's result without its wrapper
 
 
 @dataclass(frozen=True)
@@ -125,8 +125,10 @@ class LocalState:
     cs: np.ndarray | None = None  # (2, ne) = (c, s) stacked, when the kernel has it
 
 
-def _chord(p: SimpleNamespace, dT: np.ndarray) -> LocalState:
-    """Chord-frame state from entry-major element displacements ``dT`` (6, ne).
+def _chord(p: SimpleNamespace, dT: np.ndarray, f: np.ndarray) -> LocalState:
+    """Chord-frame state from entry-major element displacements ``dT`` (6, ne); the end
+    moments are written into rows 2 and 5 of ``f`` (6, ne), where the element force vector
+    holds them.
 
     Pairs of quantities are computed as (2, ne) arrays (x and y, the two end rotations and
     moments): at a few dozen elements the cost is the number of numpy calls, not their size.
@@ -143,7 +145,9 @@ def _chord(p: SimpleNamespace, dT: np.ndarray) -> LocalState:
     t = (p.X21T2 + d21) * d21
     ul = (t[0] + t[1]) / (ln + p.L0)
     th = wrap_angle(dT[2::3] - alpha)  # rows 2 and 5: the two end rotations
-    M = p.kcol1 * th[0] + p.kcol2 * th[1]  # (2, ne): kb @ (th1, th2)
+    M = f[2::3]  # (M1, M2) = kb @ (th1, th2)
+    np.multiply(p.kcol1, th[0], out=M)
+    M += p.kcol2 * th[1]
     return LocalState(ln, cs[0], cs[1], ul, th[0], th[1], p.ka * ul, M[0], M[1], cs)
 
 
@@ -155,7 +159,7 @@ def local_state(beams: BeamSet, de: np.ndarray) -> LocalState:
     beams : element constants.
     de : (ne, 6) element displacements ``[u1, v1, th1, u2, v2, th2]`` (length, rad).
     """
-    return _chord(beams.packed, np.ascontiguousarray(de.T))
+    return _chord(beams.packed, np.ascontiguousarray(de.T), np.empty((6, de.shape[0])))
 
 
 def kernel_forces(beams: BeamSet, dT: np.ndarray) -> tuple[np.ndarray, LocalState]:
@@ -167,17 +171,15 @@ def kernel_forces(beams: BeamSet, dT: np.ndarray) -> tuple[np.ndarray, LocalStat
     translational entries are ``fx1 = -c N - s q``, ``fy1 = c q - s N`` and their negatives
     at node 2.
     """
-    st = _chord(beams.packed, dT)
+    f = np.empty(dT.shape)
+    st = _chord(beams.packed, dT, f)  # rows 2 and 5 of f: M1, M2
     cs = st.cs
     q = (st.M1 + st.M2) / st.ln
-    f = np.empty((6, st.ln.shape[0]))
     # (fx1, fy1) = -(c, s) N + (-s, c) q
     np.multiply(cs[::-1], q, out=f[0:2])
     f[0] *= -1.0
     f[0:2] -= cs * st.N
     np.negative(f[0:2], out=f[3:5])
-    f[2] = st.M1
-    f[5] = st.M2
     return f, st
 
 

@@ -20,6 +20,8 @@ and runs the scene's analysis with the solvers of ``static.py``:
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from cases.schema import Scene
@@ -58,6 +60,9 @@ FEM_OPTIONS: dict[str, tuple] = {
     "bifurcation": ("bool", None, None, (), "detect bifurcations and switch branch"),
 }
 _OPTION_KEYS = tuple(FEM_OPTIONS)
+# applies_to's verdict per scene object (a weak reference tells a reused id apart): every
+# model instance of a run asks again, and the check builds the scene's topology
+_CHECKED: dict[int, tuple[weakref.ref, str | None]] = {}
 
 
 def _local(st: S.State) -> object | None:
@@ -209,12 +214,12 @@ class Runner:
 
     def run_load(self) -> None:
         st = self.initial()
-        self._push(st, 0.0)
-        f = load_factors(self.scene)
         watch = Watch(self.system, self.opts) if self.o.get("bifurcation", True) else None
         if watch is not None:
             watch.dense_max = int(self.o.get("dense_max", 60))
-        self.watch = watch
+        self.watch = watch  # before the first record: its verdict is the watch's first
+        self._push(st, 0.0)
+        f = load_factors(self.scene)
         for prev, fk in zip(f[:-1], f[1:]):
             new = S.reach_factor(self.system, st, float(fk), float(fk - prev), self.opts)
             if watch:
@@ -382,14 +387,17 @@ class FEM:
         """None, or why the FE reference cannot represent ``scene``."""
         if scene.analysis.kind == "sweep":
             return "sweep analyses are expanded into single scenes by the runner"
-        if getattr(self, "_checked", (None,))[0] is scene:  # scenes are frozen: same answer
-            return self._checked[1]
+        got = _CHECKED.get(id(scene))
+        if got is not None and got[0]() is scene:  # scenes are frozen: same answer
+            return got[1]
         try:
             build(scene, 1, check_only=True, exact_rigid=True)
             reason = None
         except (ModelError, KeyError) as err:
             reason = f"not representable: {err}"
-        self._checked = (scene, reason)
+        if len(_CHECKED) >= 256:
+            del _CHECKED[next(iter(_CHECKED))]  # the oldest
+        _CHECKED[id(scene)] = (weakref.ref(scene), reason)
         return reason
 
     def runner(self, scene: Scene) -> tuple[Runner, str, str]:

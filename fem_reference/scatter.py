@@ -18,8 +18,32 @@ Index maps are built once per system; every assembly is then one gather/multiply
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any
+
 import numpy as np
 import scipy.sparse as sp
+
+# index maps kept: two per mesh, so a case's few meshes (a 4096-element mesh's are ~5 MB)
+KEPT_MAX = 16
+_KEPT: dict[tuple, Any] = {}
+
+
+def family_key(free: np.ndarray, coef: np.ndarray, families: list[np.ndarray]) -> tuple:
+    """Hashable identity of a DOF map and its element families (bytes and shapes)."""
+    return (free.tobytes(), coef.tobytes(), *((f.shape, f.tobytes()) for f in families))
+
+
+def kept(key: tuple, make: Callable[[], Any]) -> Any:
+    """``make()`` once per ``key`` (the oldest of ``KEPT_MAX`` dropped): the index maps of a
+    mesh are the same on every solve of a case, and building them cost a tenth of a
+    16-element solve.  What is kept must not be written to (arrays are made read-only)."""
+    got = _KEPT.get(key)
+    if got is None:
+        if len(_KEPT) >= KEPT_MAX:
+            del _KEPT[next(iter(_KEPT))]
+        got = _KEPT[key] = make()
+    return got
 
 
 class Scatter:

@@ -36,7 +36,7 @@ def strains(
     )
     eps = np.abs(st.ln / system.beams.L0 - 1.0)
     return {
-        m.id: (m.kind, float(np.max(eps[m.elements], initial=0.0)))
+        m.id: (m.kind, float(np.maximum.reduce(eps[m.elements], initial=0.0)))
         for m in system.members
         if m.kind in ("rigid", "flexible")
     }
