@@ -19,11 +19,24 @@ def _counting() -> tuple[list[int], object]:
 
 def test_repeats_that_fill_the_budget_are_the_estimate_without_a_new_solve() -> None:
     calls, call = _counting()
-    runs = [0.09, 0.11, 0.10, 0.12]  # 0.42 CPU s >= BUDGET_S after MIN_SAMPLES
-    est = cost.measure(call, first_cpu_s=0.1, runs_cpu_s=runs)
+    runs = [0.009, 0.011, 0.010, 0.012] * 3  # 0.126 CPU s >= BUDGET_S after MIN_SAMPLES
+    est = cost.measure(call, first_cpu_s=0.01, runs_cpu_s=runs)  # cold: not a sample
     assert calls[0] == 0
-    assert est.n == 4 and est.cpu_s == pytest.approx(0.105, rel=1e-12)  # median of the four
-    assert est.noise_s == pytest.approx((0.12 - 0.09) / 2, rel=1e-12)  # range below 6 samples
+    assert est.n == 12 and est.cpu_s == pytest.approx(0.0105, rel=1e-12)  # their median
+
+
+def test_a_first_solve_of_20_ms_or_more_is_a_sample() -> None:
+    calls, call = _counting()
+    est = cost.measure(call, first_cpu_s=0.05, runs_cpu_s=[0.04, 0.06])  # 0.15 s >= BUDGET_S
+    assert calls[0] == 0
+    assert est.n == 3 and est.cpu_s == pytest.approx(0.05, rel=1e-12)
+    assert est.noise_s == pytest.approx((0.06 - 0.04) / 2, rel=1e-12)  # range below 6 samples
+
+
+def test_a_solve_of_the_budget_or_more_is_its_own_estimate() -> None:
+    calls, call = _counting()
+    est = cost.measure(call, first_cpu_s=cost.BUDGET_S)
+    assert calls[0] == 0 and (est.cpu_s, est.noise_s, est.n) == (cost.BUDGET_S, 0.0, 1)
 
 
 def test_k_single_calls_make_one_sample() -> None:
@@ -38,5 +51,5 @@ def test_k_single_calls_make_one_sample() -> None:
 
 def test_without_repeats_it_samples_the_call() -> None:
     calls, call = _counting()
-    est = cost.measure(call, first_cpu_s=0.1)
+    est = cost.measure(call, first_cpu_s=0.01)
     assert calls[0] > 0 and est.n >= cost.MIN_SAMPLES

@@ -21,15 +21,17 @@ def test_pair_cpu_counts_first_solve_repeats_post_and_uncached_estimate():
             "n_repeats": 5,
             "post_cpu_s": 0.001,
         },
-        "cost": {"cpu_s": 0.0004, "noise_s": 0.0, "n": 3, "cached": False},
+        "cost": {"cpu_s": 0.0004, "noise_s": 0.0, "n": 3, "cached": False, "spent_s": 0.003},
     }
     solve, post, est = timebudget.pair_cpu(rec)
     assert solve == pytest.approx(0.010 + 5 * 0.002)
     assert post == 0.001
-    assert est == pytest.approx(3 * timebudget.SAMPLE_S)  # a sample is at least 1 ms
+    assert est == 0.003  # what the sampling measured it spent
     slow = {"first_s": 0.5, "first_cpu_s": 0.4, "total_s": 0.5}
-    one = {"cpu_s": 0.4, "noise_s": 0.0, "n": 1, "cached": False}  # cost.measure: the first
+    one = {"cpu_s": 0.4, "noise_s": 0.0, "n": 1, "cached": False, "spent_s": 0.0}  # the first
     assert timebudget.pair_cpu({"timing": slow, "cost": one}) == (0.4, 0.0, 0.0)
+    spent = {"cpu_s": 0.05, "noise_s": 0.01, "n": 3, "cached": False, "spent_s": 0.1}
+    assert timebudget.pair_cpu({"timing": slow, "cost": spent})[2] == 0.1  # as measured
     rec["timing"]["total_s"] = rec["timing"]["first_s"]  # not repeated: the first call alone
     rec["cost"]["cached"] = True
     assert timebudget.pair_cpu(rec) == (0.010, 0.001, 0.0)
@@ -90,10 +92,10 @@ def test_time_panel_rows_from_hand_made_records():
 
     payload = {
         "results": [
-            rec("prb-1r", 0.2, 0.1, {"cpu_s": 0.01, "n": 10, "cached": False}),
+            rec("prb-1r", 0.2, 0.1, {"cpu_s": 0.01, "n": 10, "cached": False, "spent_s": 0.1}),
             rec("prb-3r", 0.3, 0.0),
             # a solve past the sampling budget is its own estimate: no sample to add
-            rec("fem-auto", 2.0, 0.0, {"cpu_s": 2.0, "n": 1, "cached": False}),
+            rec("fem-auto", 2.0, 0.0, {"cpu_s": 2.0, "n": 1, "cached": False, "spent_s": 0.0}),
             rec("replay", 5.0, 0.0) | {"cached": True},  # an earlier run's solve: 0 s here
             {"model": "bcm", "status": "not-applicable"},  # no timing: not a row
         ],

@@ -268,3 +268,22 @@ def test_the_shallow_von_mises_arch_snaps_at_its_exact_limit_load(model: str) ->
     w_far = brentq(lambda w: arch_P(w) - 0.4, 0.2, 0.3)
     assert -snap["to"]["outputs"]["apex.uy"] == pytest.approx(w_far, rel=1e-4)
     assert "snap at factor" in sol.message
+
+
+def test_a_start_settled_above_newtons_tolerance_is_located_without_probes(monkeypatch) -> None:
+    """A load step that starts on a state ``_relax`` accepted at its round-off floor (above
+    Newton's tolerance) cannot be followed by Newton at all: the start is the located point,
+    and no bisection probe (each failing only after all its step cuts) is made."""
+    from types import SimpleNamespace
+
+    from reduced_models.mechanism import snap
+    from reduced_models.mechanism.newton import State
+
+    def no_probe(*args: object) -> None:
+        raise AssertionError("bisection probe from a start above the tolerance")
+
+    monkeypatch.setattr(snap, "_reach", no_probe)
+    run = SimpleNamespace(solver=SimpleNamespace(tol=1e-10))
+    st = State(np.zeros(3), np.zeros(1), 0.45, residual=2e-10)
+    lam, found = snap._locate(run, st, 0.45, 0.5)
+    assert lam == 0.45 and found is st

@@ -102,6 +102,8 @@ class Run:
         points = self.extras.setdefault("critical_points", [])
         for prev, fk in zip(f[:-1], f[1:]):
             try:
+                if st.residual > self.solver.tol:  # settled at round-off (``snap._locate``)
+                    raise SolveError("Newton cannot follow from a state above its tolerance")
                 new = follow(self.solver, st, float(prev), float(fk), set_lam, "lam")
                 new.lam = float(fk)
                 lost = self.steps[-1].stable and (

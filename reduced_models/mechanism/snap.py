@@ -149,7 +149,14 @@ def _reach(run: object, st: State, lam0: float, lam: float) -> State | None:
 
 
 def _locate(run: object, st: State, lo: float, hi: float) -> tuple[float, State]:
-    """Bisection for the largest factor the fundamental path reaches stably (module doc)."""
+    """Bisection for the largest factor the fundamental path reaches stably (module doc).
+
+    A start ``st`` settled at round-off above Newton's tolerance (``_relax``'s ``STALL``:
+    long chained members on a far branch) is its own answer: Newton cannot follow the path
+    from it to the tolerance whatever the stability, so every probe would fail only after
+    all its step cuts (on DAS-2D Ex. 3 under load, 20 probes of ~0.15 s per load step)."""
+    if st.residual > run.solver.tol:
+        return lo, st
     tol = LOCATE_RTOL * abs(hi - lo)
     best = st
     while abs(hi - lo) > tol:

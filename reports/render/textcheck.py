@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.text import Text
+from matplotlib.transforms import Bbox
 
 MIN_AREA = 4.0  # px²: anti-aliasing fringes of touching glyph boxes are not overlaps
 EDGE = 1.0  # px a text may reach past the figure's edge
@@ -73,20 +74,20 @@ def _areas(boxes: np.ndarray) -> np.ndarray:
     return np.clip(w, 0, None) * np.clip(h, 0, None)
 
 
-def _frame(fig: Figure, tight: bool) -> tuple[float, float, float, float]:
-    """The saved image's extent in display px: the figure, or with ``bbox_inches="tight"``
-    the box around every artist (what the saved PNG then holds)."""
-    if not tight:
+def _frame(fig: Figure, tight: bool | Bbox) -> tuple[float, float, float, float]:
+    """The saved image's extent in display px: the figure, with ``bbox_inches="tight"`` the
+    box around every artist, with a ``Bbox`` (inches) that box: what the saved PNG holds."""
+    if tight is False:
         return 0.0, 0.0, fig.bbox.width, fig.bbox.height
-    box = fig.get_tightbbox(fig.canvas.get_renderer())
+    box = fig.get_tightbbox(fig.canvas.get_renderer()) if tight is True else tight
     return box.x0 * fig.dpi, box.y0 * fig.dpi, box.x1 * fig.dpi, box.y1 * fig.dpi
 
 
 def problems(
-    fig: Figure, min_area: float = MIN_AREA, edge: float = EDGE, tight: bool = False
+    fig: Figure, min_area: float = MIN_AREA, edge: float = EDGE, tight: bool | Bbox = False
 ) -> list[str]:
     """One line per overlapping pair of texts and per text outside the saved image
-    (``tight``: saved with ``bbox_inches="tight"``)."""
+    (``tight``: saved with ``bbox_inches="tight"``, or a ``Bbox``: with that box, inches)."""
     found = texts(fig)
     if not found:
         return []
@@ -138,7 +139,8 @@ def checking() -> Iterator[dict[str, list[str]]]:
         if "dpi" in kwargs:  # measured at the resolution it is written at
             self.set_dpi(kwargs["dpi"])
         key = str(fname) if not hasattr(fname, "write") else f"<buffer {len(found)}>"
-        found[key] = problems(self, tight=kwargs.get("bbox_inches") == "tight")
+        box = kwargs.get("bbox_inches")
+        found[key] = problems(self, tight=box if isinstance(box, Bbox) else box == "tight")
         return original(self, fname, *args, **kwargs)
 
     Figure.savefig = savefig

@@ -18,7 +18,6 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 from reports.render import frontpage as FP
-from reports.verdicts.cost import BUDGET_S, SAMPLE_S
 
 GROUPS = (  # model-name prefix -> row of the panel (first match)
     ("fem-", "reference: finite elements (fem-N, fem-auto)"),
@@ -41,16 +40,15 @@ def group(model: str) -> str:
 
 def pair_cpu(rec: Mapping) -> tuple[float, float, float]:
     """(solve, post-processing, cost estimate) CPU s of one pair: the first solve plus its
-    timing repeats (median x count), the post-processing, and the cost estimate's samples
-    (none when the estimate came from the cache, or is the first solve itself: a solve of
-    ``BUDGET_S`` or more is not sampled, ``cost.measure``)."""
+    timing repeats (median x count), the post-processing, and the CPU the cost estimate's
+    sampling spent (``spent_s``, ``cost.measure``: none when the estimate came from the cache
+    or is the first solve itself; a run older than ``spent_s`` shows it in the rest)."""
     t = rec.get("timing") or {}
     first = t.get("first_cpu_s") or 0.0
     repeated = (t.get("total_s") or 0.0) > (t.get("first_s") or 0.0)
     solve = first + ((t.get("cpu_median_s") or 0.0) * (t.get("n_repeats") or 0) if repeated else 0)
     est = rec.get("cost") or {}
-    sampled = not est.get("cached") and first < BUDGET_S
-    sample = est.get("n", 0) * max(est.get("cpu_s", 0), SAMPLE_S) if sampled else 0.0
+    sample = 0.0 if est.get("cached") else est.get("spent_s") or 0.0
     return solve, t.get("post_cpu_s") or 0.0, sample
 
 

@@ -6,17 +6,22 @@ no stress), in this process, with BLAS pinned to one thread and the garbage coll
 on a machine shared with other jobs wall time also counts the time the process was not
 scheduled).
 
-How long: the answer's own solve (cold caches) is not a sample.  Each sample runs the solve
+How long: the answer's own solve is a sample when it took ``FIRST_SAMPLE_S`` or more (below
+that, cold caches and the timer make a first call 4-33 % slow; above it the first CPU time was
+within 1-2 % of its repeats' median, ``reports.run.timing``).  Each sample runs the solve
 ``k`` times, ``k`` chosen from the first solve so that a sample takes at least ``SAMPLE_S``
 (timer resolution and call overhead stay below 1e-3 of it).  Samples are taken until the 95 %
 confidence interval of their median (distribution-free, ``scipy.stats.quantile_test``; the
 range of the samples below 6 of them) has a half-width of at most ``REL`` of the median, or
 ``MAX_SAMPLES`` samples, or ``BUDGET_S`` CPU seconds spent (at least ``MIN_SAMPLES``), or
 ``WALL_BUDGET_S`` of wall time (a solve that waits costs little CPU).  A
-solve slower than ``BUDGET_S`` is measured once (its first solve).  The runner's timing
+solve slower than ``BUDGET_S`` is measured once (its first solve; its noise is then not
+measured and given as 0: a first solve this long reads within a few % of its repeats, well
+inside the pick's 20 % tie band).  The runner's timing
 repeats of the same call (``reports.run.timing.repeat``, same conditions) are the first
 samples, not solved again.  The estimate is the median
-per solve, its noise that half-width (s).
+per solve, its noise that half-width (s); ``spent_s`` the CPU the samples cost beyond the solves
+already made (the answer's, the timing repeats).
 
 Cache: one JSON file per code version, ``$FLEXBENCH_CACHE`` (default ``~/.cache/flexbench/``)
 ``/costs-<version>.json``, keyed by the scene's content, the model name and its options.  The
@@ -53,7 +58,10 @@ MAX_SAMPLES = 20
 # 20 % tie band (reports.verdicts.pick.TIE); a tighter target mostly buys samples on a loaded
 # machine (at load 12 on 2 cores most estimates ran into a 30-sample cap at 3 %)
 REL = 0.05
-BUDGET_S = 0.3  # CPU s of samples after which the estimate stands as it is
+# CPU s of samples after which the estimate stands as it is: 0.3 s cost the default run ~55 s
+# of CPU on ~150 pairs of 20-300 ms, each solved again 3-7 times to move its estimate by a few %
+BUDGET_S = 0.1
+FIRST_SAMPLE_S = 0.02  # a first solve this long is a sample (module docstring)
 WALL_BUDGET_S = 2.0  # wall s after which it stands too (a solve that mostly waits)
 _PACKAGES = ("cases", "reduced_models", "fem_reference")
 _FILES = ("reports/api.py", "reports/verdicts/cost.py")
@@ -62,15 +70,17 @@ _FILES = ("reports/api.py", "reports/verdicts/cost.py")
 @dataclasses.dataclass(frozen=True)
 class Estimate:
     """CPU seconds per solve (median of samples), the half-width of its 95 % interval (s),
-    the number of samples and whether it came from the cache."""
+    the number of samples, whether it came from the cache and the CPU seconds its sampling
+    cost beyond the solves already made (0 from the cache)."""
 
     cpu_s: float
     noise_s: float
     n: int
     cached: bool = False
+    spent_s: float = 0.0
 
     def as_json(self) -> dict[str, Any]:
-        """``{"cpu_s", "noise_s", "n", "cached"}``."""
+        """``{"cpu_s", "noise_s", "n", "cached", "spent_s"}``."""
         return dataclasses.asdict(self)
 
 
@@ -172,13 +182,16 @@ def measure(
     ``runs_cpu_s`` are CPU times (s) of single calls of the same ``call`` already made under
     the same conditions (the runner's timing repeats: after the answer's solve, BLAS on one
     thread, GC off); each full group of ``k`` of them is a sample, so those solves are not
-    made again."""
+    made again; so is the first solve when it took ``FIRST_SAMPLE_S`` or more."""
     if first_cpu_s >= BUDGET_S:
         return Estimate(first_cpu_s, 0.0, 1)
     k = max(1, int(np.ceil(SAMPLE_S / max(first_cpu_s, 1e-7))))
     groups = len(runs_cpu_s) // k
     samples = [sum(runs_cpu_s[i * k : (i + 1) * k]) / k for i in range(groups)]
+    if first_cpu_s >= FIRST_SAMPLE_S:  # k = 1 here
+        samples.insert(0, first_cpu_s)
     wall_end = time.perf_counter() + WALL_BUDGET_S
+    cpu0 = time.process_time()
     with quiet_process():
         while not _stable(samples, k, wall_end):
             t0, n = time.process_time(), 0
@@ -186,7 +199,8 @@ def measure(
                 call()
                 n += 1
             samples.append((time.process_time() - t0) / n)
-    return Estimate(statistics.median(samples), half_width(samples), len(samples))
+    spent = time.process_time() - cpu0
+    return Estimate(statistics.median(samples), half_width(samples), len(samples), False, spent)
 
 
 def _stable(samples: list[float], k: int, wall_end: float) -> bool:
