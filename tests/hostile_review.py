@@ -29,6 +29,7 @@ from tests.hostile_scenes_review import all_scenes
 OUT = Path(__file__).parent / "hostile"
 HANG_S = 120
 SLOW_S = 60
+FAST_S = 8
 REL = 1e-8
 CATALOG = {
     "cantilever-tip-load": ["elastica", "linear-auto", "cbcm-auto", "fem-8", "fem-auto", "replay"],
@@ -36,12 +37,10 @@ CATALOG = {
     "pure-moment-rollup": ["elastica", "fem-8", "fem-auto", "prb-fsm-auto"],
     "fixed-guided-beam": ["elastica", "fem-8", "fem-auto", "bcm"],
     "cantilever-follower-load": ["elastica", "fem-8", "fem-auto", "replay"],
-    "lee-frame": ["fem-8", "fem-auto"],
     "shallow-arch-snap": ["fem-8", "fem-auto"],
     "von-mises-spring-truss": ["kinetostatic", "fem-8", "fem-auto", "replay"],
     "das2d-ex5-constant-force": ["kinetostatic", "fem-8", "fem-auto", "replay"],
-    "das2d-ex4-bistable-fourbar": ["kinetostatic", "fem-8", "mixed"],
-    "das2d-ex3-bistable-switch-load": ["fem-8", "fem-auto", "elastica", "mixed"],
+    "das2d-ex3-bistable-switch-load": ["fem-8", "mixed"],
 }
 
 
@@ -60,9 +59,13 @@ def solve(text: str, model: str):
     t0 = time.perf_counter()
     try:
         sol = reports.solve(cases.loads(text), model)
-        return sol, time.perf_counter() - t0, ""
+        dt = time.perf_counter() - t0
+        # reports.solve turns any exception, the alarm's too, into a failed solution
+        return sol, dt, "hang" if dt >= HANG_S - 1 else ""
     except Hang:
         return None, time.perf_counter() - t0, "hang"
+    except cases.CaseError as exc:  # the loader declines the scene: a reason, not a crash
+        return None, time.perf_counter() - t0, f"loader declined: {exc}"
     except Exception as exc:  # noqa: BLE001 -- a traceback is a finding, counted
         return None, time.perf_counter() - t0, f"traceback {type(exc).__name__}: {exc}"
     finally:
@@ -95,7 +98,7 @@ def _scales(steps):
             sc[k] = max(abs(s.outputs[k] - v0) for s in steps)
     sc["factor"] = max(abs(s.factor) for s in steps)
     floor = max([v for k, v in sc.items() if not k.endswith(".rot")] + [1e-300]) * 1e-6
-    return {k: max(v, floor if not k.endswith(".rot") else 1e-6) for k, v in sc.items()}
+    return {k: max(v, floor if not k.endswith(".rot") else 1e-3) for k, v in sc.items()}
 
 
 def compare(base, enc, back) -> str:
@@ -126,7 +129,10 @@ def compare(base, enc, back) -> str:
     if len(cb) != len(ce):
         return f"{len(cb)} snaps reported vs {len(ce)}"
     for a, b in zip(cb, ce):
-        if abs(a["factor"] - b["factor"]) > REL * max(1.0, abs(a["factor"])) and base.steps[0].factor == 0:
+        if (
+            abs(a["factor"] - b["factor"]) > REL * max(1.0, abs(a["factor"]))
+            and base.steps[0].factor == 0
+        ):
             return f"snap factor {a['factor']:.10g} vs {b['factor']:.10g}"
     return f"worst {worst:.3g} of the excursion ({what})" if worst > REL else ""
 
@@ -142,14 +148,16 @@ def catalog_scenes():
 
 def run(args) -> int:
     OUT.mkdir(exist_ok=True)
-    counts = dict(runs=0, converged=0, wrong=0, encoding=0, nonfinite=0, tracebacks=0, hangs=0)
+    counts = dict(
+        runs=0, converged=0, wrong=0, encoding=0, nonfinite=0, tracebacks=0, hangs=0, declined=0
+    )
     bad = []
     scenes = [] if args.catalog_only else all_scenes()
     if not args.no_catalog:
         scenes += list(catalog_scenes())
     for scene, judges, models in scenes:
         name = scene["case"]["name"]
-        if args.only and args.only not in name:
+        if args.only and args.only not in name or args.skip and args.skip in name:
             continue
         text = to_toml(scene)
         (OUT / f"{name}.toml").write_text(text)
@@ -160,11 +168,16 @@ def run(args) -> int:
             sol, dt, err = solve(text, model)
             counts["runs"] += 1
             line = f"{name:34s} {model:14s} {'drawn':26s}"
+            if err.startswith("loader declined"):
+                counts["declined"] += 1
+                print(f"{line} {err}", flush=True)
+                continue
             if err:
                 counts["hangs" if err == "hang" else "tracebacks"] += 1
                 bad.append((name, model, "drawn", err))
                 print(f"{line} {err}", flush=True)
-                continue
+                if err != "hang" or sol is None:
+                    continue
             print(f"{line} {sol.status:15s} {dt:6.1f}s {sol.message[:70]}", flush=True)
             if sol.status == "converged":
                 counts["converged"] += 1
@@ -173,12 +186,19 @@ def run(args) -> int:
                     counts["nonfinite"] += 1
                     bad.append((name, model, "drawn", "non-finite output: " + "; ".join(nf)))
                 elif judges is not None:
-                    for w in judges(model)(sol):
+                    try:
+                        found = judges(model)(sol)
+                    except Exception as exc:  # noqa: BLE001 -- the truth, not the model
+                        found = []
+                        print(f"  (no truth: {type(exc).__name__}: {exc})", flush=True)
+                    for w in found:
                         counts["wrong"] += 1
                         bad.append((name, model, "drawn", "converged but wrong: " + w))
             if dt > SLOW_S or args.quick:
                 continue
-            for ename, etext_scene, back in encs:
+            # a slow model (> FAST_S) gets two encodings: rotated and in other units
+            chosen = encs if dt < FAST_S else [encs[0], encs[2]]
+            for ename, etext_scene, back in chosen:
                 etext = to_toml(etext_scene)
                 tag = ename.replace(":", "-").replace("*", "_")
                 (OUT / f"{name}--{tag}.toml").write_text(etext)
@@ -196,7 +216,9 @@ def run(args) -> int:
                         counts["nonfinite"] += 1
                         bad.append((name, model, ename, "non-finite output: " + "; ".join(nf)))
                 diff = compare(sol, es, back)
-                print(f"{'':34s} {'':14s} {ename:26s} {es.status:15s} {edt:6.1f}s {diff}", flush=True)
+                print(
+                    f"{'':34s} {'':14s} {ename:26s} {es.status:15s} {edt:6.1f}s {diff}", flush=True
+                )
                 if diff:
                     counts["encoding"] += 1
                     bad.append((name, model, ename, "encoding-dependent: " + diff))
@@ -212,6 +234,7 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--quick", action="store_true", help="drawn scenes only, no encodings")
     p.add_argument("--only", default="", help="scenes whose name contains this")
+    p.add_argument("--skip", default="", help="skip scenes whose name contains this")
     p.add_argument("--models", default="", help="comma-separated subset of models")
     p.add_argument("--no-catalog", action="store_true")
     p.add_argument("--catalog-only", action="store_true")

@@ -336,7 +336,7 @@ def _shoot(m0, F, L, EI, EA, th0, follower_angle, tipM=0.0, thL=None):
             (1 + eps) * (Fx * math.sin(th) - Fy * math.cos(th)),
         ]
 
-    sol = solve_ivp(rhs, (0, L), [0.0, 0.0, th0, m0], rtol=1e-12, atol=1e-13, method="DOP853")
+    sol = solve_ivp(rhs, (0, L), [0.0, 0.0, th0, m0], rtol=1e-10, atol=1e-12, method="DOP853")
     return sol.y[:, -1]
 
 
@@ -379,13 +379,46 @@ def elastica_path(factors, L, EI, EA, th0, F1, follower=False, substeps=20, gues
     return res
 
 
+def natural_path(factors, L, EI, EA, th0, F1, ds=0.003):
+    """Natural path of a cantilever under a dead tip force F1 * factor, traced by
+    pseudo-arclength in (base moment / |F1| L, factor) -- no jump across a fold of the
+    complementary branches -- then each requested factor solved by Newton in the base moment
+    from the interpolated path.  Returns [(x_tip, y_tip, theta_tip)]."""
+    ms = math.hypot(*F1) * L
+
+    def res(m0, lam):
+        return _shoot(m0 * ms, (lam * F1[0], lam * F1[1]), L, EI, EA, th0, None)[3] / ms
+
+    z, t = np.array([0.0, 0.0]), np.array([0.0, 1.0])
+    pts = [z]
+    while z[1] < max(factors) + ds:
+        zp = z + ds * t
+
+        def g(v, zp=zp, t=t):
+            return [res(*v), float(t @ (np.asarray(v) - zp))]
+
+        zn = fsolve(g, zp, xtol=1e-12)
+        t = (zn - z) / np.linalg.norm(zn - z)
+        z = zn
+        pts.append(z)
+        if z[1] < pts[-2][1]:
+            raise RuntimeError("natural path folds: a limit point, not an imperfect column")
+    pts = np.array(pts)
+    out = []
+    for lam in factors:
+        m0 = np.interp(lam, pts[:, 1], pts[:, 0])
+        m0 = fsolve(lambda v, lam=lam: [res(v[0], lam)], [m0], xtol=1e-13)[0]
+        e = _shoot(m0 * ms, (lam * F1[0], lam * F1[1]), L, EI, EA, th0, None)
+        out.append((e[0], e[1], e[2]))
+    return out
+
+
 def buckled_column(P, L, EI, EA):
     """Tip of a perfect cantilever column (clamp at the origin pointing +y, axial load -P)
     on its buckled branch leaning to -x (theta rises above pi/2), from the inextensible
     closed form as the shooting guess."""
-    from scipy.special import ellipk
-
     from scipy.optimize import brentq
+    from scipy.special import ellipk
 
     k = brentq(lambda k: ellipk(k * k) * math.sqrt(EI / P) / L - 1.0, 1e-12, 1 - 1e-15)
     m0 = 2 * k * math.sqrt(P * EI)  # base moment, inextensible
