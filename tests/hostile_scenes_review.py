@@ -450,7 +450,8 @@ def bistable(variant="sym", units="m-N-Pa"):
         },
     ]
     sc["supports"] = [{"node": "F1", "type": "pin"}, {"node": "F2", "type": "pin"}]
-    sc["loads"] = [{"id": "push", "member": "shuttle", "fraction": 0.5, "fx": 30.0}]
+    frac = 0.6 if variant == "offload" else 0.5  # off-centre push: an imperfect bifurcation
+    sc["loads"] = [{"id": "push", "member": "shuttle", "fraction": frac, "fx": 30.0}]
     sc["analysis"] = {"kind": "load", "steps": 20}
     sc["outputs"] = [{"name": "sh", "node": "S2"}, {"name": "kn", "node": "K2"}]
     state = {}
@@ -545,6 +546,8 @@ def all_scenes():
         bistable("sym"),
         bistable("asym"),
         bistable("flexshuttle"),
+        bistable("offload"),
+        bistable("sym", units="mm-N-MPa"),
         pinned_root(0.0, -1.0),
         pinned_root(0.0, -1.0, k_root=1e-3),
         pinned_root(1.0, -1.0, k_root=1e-3),
