@@ -73,7 +73,8 @@ def member_changes(scene: Scene, n1: int, n2: int, options: dict) -> dict[str, f
     the path (path analyses: the end point); or why it could not be measured."""
     from fem_reference.models import FEM
 
-    opts = {**options, "stability": False, "bifurcation": False, "limit_points": False}
+    # the stability watch stays on: a path that snaps must land where the reference lands
+    opts = {**options, "stability": False, "limit_points": False}
     shapes = []
     for n in (n1, n2):
         r, status, msg = FEM(n, **opts).runner(scene)

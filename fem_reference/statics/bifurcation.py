@@ -157,13 +157,31 @@ class Watch:
             return cur
         if cur.info.get("snap"):
             return cur  # a limit point crossed by arc-length: the snapped-to state is judged
+        if path and self._fold_passed(prev, cur):
+            return cur  # arc-length went over a limit point within the step: traced, not a branch
         lam_c, crit, phi, located = self.locate(prev, cur)
         # not re-solvable inside the bracket: load control may have jumped the knee of an
         # imperfect structure's smooth path onto the complementary branch
         smooth = None if located or path else self.natural(prev, cur, target)
         if smooth is not None:
             return smooth
+        snapped = None if located or path else self._snap_limit(prev, cur, target)
+        if snapped is not None:
+            return snapped
         return self._act(lam_c, crit, phi, located, cur, target, path)
+
+    def _fold_passed(self, prev: S.State, cur: S.State) -> bool:
+        """Did the traced step ``prev -> cur`` (factor higher at ``cur``) pass over a limit
+        point?  Then the path's factor is falling at ``cur`` in the direction of travel: the
+        tangent ``K^-1 f`` there points against the step (W metric).  A bifurcation leaves the
+        fundamental path's factor rising: the stability loss it causes is a branch point."""
+        sysm = self.sys
+        try:
+            t = S.tangent_lu(sysm, cur.u, cur.lam).solve(sysm.external(cur.u))
+        except S.SolveError:
+            return False
+        sc = S.Scaler.of(sysm)
+        return float(np.dot(t * sc.w, cur.u - prev.u)) < 0.0
 
     def snap(self, prev: S.State, cur: S.State) -> S.State:
         """Record a snap passed within the load step ``prev -> cur``: a limit point that load
@@ -195,14 +213,10 @@ class Watch:
                 return cur
             self._step = (sc.unorm(smooth.u - prev.u), dl)
             return smooth
-        try:
-            to = S.newton(self.sys, cur.u, lim.lam, self.opts)
-        except S.SolveError:
-            to = cur
-        out = self.sys.outputs
-        point = {"factor": float(lim.lam), "kind": "snap", "switched": True}
-        self.points.append({**point, "from": out(lim.u), "to": out(to.u)})
-        return cur
+        land = self._settle_after(lim, cur)
+        if land is not cur:
+            self._step = (sc.unorm(land.u - prev.u), dl)
+        return land
 
     def _trace(self, prev: S.State, cur: S.State):  # noqa: ANN202 - a generator of S.State
         """States of the path traced by arc-length from ``prev`` towards ``cur.lam``: initial
@@ -259,6 +273,45 @@ class Watch:
                 return land if self.stable(land) else None
             last = st
         return None
+
+    def _snap_limit(self, prev: S.State, cur: S.State, target: float) -> S.State | None:
+        """Load control crossed a limit point of the path from the stable ``prev`` (the
+        fundamental path cannot be re-solved inside the bracket, and the path traced from
+        ``prev`` turns back: an imperfect structure's snap, not a bifurcation) and landed on
+        the unstable ``cur``.  The limit point is refined, the structure snaps there: the
+        stable state at ``target`` it settles at by energy descent from the limit state is
+        returned, and the limit point and the snap (states before and after at its factor)
+        are recorded.  None when the traced path does not turn back or the descent fails."""
+        lim = self._limit(prev, cur)
+        if lim is None:
+            return None
+        land = self._settle_after(lim, cur, target)
+        return None if land is cur else land
+
+    def _settle_after(self, lim: S.State, cur: S.State, target: float | None = None) -> S.State:
+        """Record the snap at the limit point ``lim`` and return where the structure settles
+        at ``target`` (default ``cur.lam``): energy descent from ``lim`` at that factor, the
+        first stable basin a damped structure falls into (not wherever Newton happened to
+        converge: a far branch on one mesh, an intermediate one on the next); ``cur`` when
+        the descent fails.  Recorded: the limit point and the snap, with the states before
+        (``lim``) and after (the landing brought back to the limit factor)."""
+        sysm = self.sys
+        target = cur.lam if target is None else target
+        try:
+            land = self._descend(lim.u, target)
+        except S.SolveError:
+            land = cur
+        try:
+            to = S.newton(sysm, land.u, lim.lam, self.opts)
+        except S.SolveError:
+            to = land
+        point = {"factor": float(lim.lam), "switched": True}
+        self.points.append({**point, "kind": "limit", "located": True})
+        self.points.append({**point, "kind": "snap", "from": sysm.outputs(lim.u)})
+        self.points[-1]["to"] = sysm.outputs(to.u)
+        if land is not cur:
+            land.info = {**land.info, "branch_switch": 1.0}
+        return land
 
     def locate(self, prev: S.State, cur: S.State) -> tuple:
         """``(lam_c, critical state, mode, located)`` of the stability loss between a stable
