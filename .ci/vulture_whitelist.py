@@ -43,3 +43,7 @@ __getattr__
 # numpy: ndarray.flags.writeable = False makes a cached array read-only (bcm_single.stations);
 # numpy reads the attribute, no code of ours does
 writeable
+
+# cost.Estimate.spent_s: a field read through dataclasses.asdict (the run records it, the
+# "Where the time goes" panel reads it from the JSON)
+spent_s
