@@ -309,8 +309,8 @@ class Watch:
         self.points.append({**point, "kind": "limit", "located": True})
         self.points.append({**point, "kind": "snap", "from": sysm.outputs(lim.u)})
         self.points[-1]["to"] = sysm.outputs(to.u)
-        if land is not cur:
-            land.info = {**land.info, "branch_switch": 1.0}
+        if land is not cur:  # the step snapped (and, past an unstable landing, switched)
+            land.info = {**cur.info, **land.info, "snap": 1.0, "branch_switch": 1.0}
         return land
 
     def locate(self, prev: S.State, cur: S.State) -> tuple:
