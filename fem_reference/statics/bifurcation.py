@@ -35,9 +35,13 @@ reported state of ``Runner.run_load`` (``models.py``):
    imperfect structure whose knee load control jumped (onto the complementary branch): a
    step too large, not a critical point, and its state at the target is kept.
 6. *Snaps* (``snap``): a load step that moved ``JUMP_RATIO`` x more per unit factor than the
-   one before (or passed a limit point by arc-length) is retraced likewise; where the
-   traced factor turns back, the limit point is refined and reported as a snap with the
-   states before and after the jump at that factor.
+   one before (or passed a limit point by arc-length), or that ended unstable where the
+   fundamental path cannot be re-solved (``_snap_limit``), is retraced likewise; where the
+   traced factor turns back, the limit point is refined, the structure lands by energy
+   descent from it at the step's factor (wherever Newton converged is not an answer: one
+   mesh on the far branch, the next on an intermediate one), and the limit point and the
+   snap (states before and after at its factor) are reported.  A path analysis's step that
+   went over a fold (``_fold_passed``) is traced on, not branched off.
 
 Reported in ``extras['critical_points']``: factor, kind, n_neg after it, the mode's largest
 component and whether the branch was switched (snaps: ``from`` / ``to`` outputs).
@@ -49,19 +53,14 @@ branch switching by eigenvector perturbation); Riks (1979) for the kind test.
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg as sla
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 from scipy.optimize import brentq
 
-from fem_reference.rigid import stability_view
 from fem_reference.statics import static as S
-from fem_reference.statics.descent import settle
+from fem_reference.statics.descent import lowest_mode, settle
 from fem_reference.statics.inertia import jacobi_verdict, state_stability
 
 KIND_TOL = 1e-3
 SWITCH_AMPLITUDE = 1e-2
-DENSE_MAX = 800
 NATURAL_STEPS = 32  # arc-length steps (to start with) retracing a load step that lost stability
 TRACE_STEPS = 8 * NATURAL_STEPS  # the most arc-length steps spent retracing one load step
 JUMP_RATIO = 4.0  # a load step moving this much more than the previous one (per unit factor)
@@ -72,36 +71,6 @@ def is_conservative(system: object) -> bool:
     """False when follower loads make the tangent unsymmetric (no static stability test)."""
     fol = getattr(system, "fol_dofs", None)
     return fol is None or fol.shape[0] == 0
-
-
-def lowest_mode(
-    system: object, u: np.ndarray, lam: float, scale: np.ndarray | None = None
-) -> tuple[float, np.ndarray, np.ndarray]:
-    """Lowest eigenvalue of the symmetrically scaled tangent ``S K_sym S`` and its mode in
-    displacement coordinates ``S v`` (ndof,), normalised to unit largest entry, and ``S``.
-
-    ``S = diag(1 / sqrt|K_ii|)`` (Jacobi scaling; computed here unless given): with axial
-    stiffness EA L^2/EI up to 1e8 the unscaled tangent has a condition number near 1e11 and
-    its lowest eigenvalue only an absolute accuracy of eps ||K||; scaled, the bending and
-    axial entries are both O(1), the sign (Sylvester's inertia) is the same and the zero
-    crossing -- the critical factor -- is found to round-off.  Pass one fixed ``S`` along a
-    path so that the eigenvalue is a continuous function of the load factor.
-    """
-    with stability_view(system):  # exact rigid links: the augmented Lagrangian Hessian
-        _, K = system.residual_and_tangent(u, lam)
-    Ks = (0.5 * (K + K.T)).tocsc()
-    if scale is None:
-        d = np.abs(Ks.diagonal())
-        scale = 1.0 / np.sqrt(np.where(d > 0.0, d, 1.0))
-    D = sp.diags(scale)
-    Ks = (D @ Ks @ D).tocsc()
-    if Ks.shape[0] <= DENSE_MAX:
-        w, v = sla.eigh(Ks.toarray(), subset_by_index=[0, 0])
-    else:
-        w, v = spla.eigsh(Ks, k=1, sigma=-1e-3, which="LM")
-    phi = scale * v[:, 0]
-    phi /= phi[np.argmax(np.abs(phi))]
-    return float(w[0]), phi, scale
 
 
 class Watch:
@@ -471,12 +440,7 @@ class Watch:
         critical state displaced along its mode) under the load step's factor (where the
         fundamental branch is unstable: the descent cannot return to it), by energy
         descent (``descent.settle``), as the reduced models land their snaps."""
-        sysm = self.sys
-
-        def mode(u: np.ndarray) -> tuple[float, np.ndarray]:
-            return lowest_mode(sysm, u, target)[:2]
-
-        return settle(sysm, u0, target, self.opts, mode, SWITCH_AMPLITUDE)
+        return settle(self.sys, u0, target, self.opts, SWITCH_AMPLITUDE)
 
     def _potential(self, st: S.State) -> float:
         """Total potential U(u) - lam f . u of a state (dead loads: conservative)."""
