@@ -8,6 +8,11 @@
 * ``static_limit``: a snap-through is reported at the factor where the *static* path loses
   stability (load control from the settled state before the jump stalls at the limit point);
   the dynamic onset seen in the transient lags behind by the ramp rate and is kept alongside.
+* ``same_branch``: an increment whose settled end is far from its settled start is a snap
+  only if the two lie on different branches: the static path traced by arc-length from the
+  start (``bifurcation.Watch.natural``, the FE's own natural-path test) reaches the end's
+  factor stably and lands on the end for the smooth path of an imperfect structure, and
+  turns back (a limit point), loses stability or lands elsewhere for a snap.
 * ``JUMP_MIN_DISTANCE``: a jump must move some point by at least this fraction of the scene's
   length scale (a 1e-9 L settling move dissipating energy is not a snap).
 * ``Deadline``: a wall-clock budget; a replay that runs past it fails with the reason.
@@ -25,6 +30,7 @@ from fem_reference.error.richardson import gci
 from fem_reference.statics import static as S
 
 JUMP_MIN_DISTANCE = 1e-4  # fraction of the length scale
+SAME_BRANCH = 1e-3  # a traced state this close (x the increment's move) is the settled end
 
 
 def mesh_error(
@@ -78,6 +84,34 @@ def static_limit(system: object, q: np.ndarray, lam: float, target: float) -> fl
         return stall
     except (AttributeError, TypeError, ValueError, np.linalg.LinAlgError, S.SolveError):
         return None
+
+
+def same_branch(
+    system: object,
+    q0: np.ndarray,
+    lam0: float,
+    q1: np.ndarray,
+    lam1: float,
+    w: np.ndarray,
+    dist: float,
+) -> bool | None:
+    """Whether the settled states ``(q0, lam0)`` and ``(q1, lam1)``, ``dist`` L apart
+    (weights ``w``: 1 on translations, L on rotations), lie on one stable static path: the
+    path traced from the first stays stable, its factor rising monotonically, and lands
+    within ``SAME_BRANCH`` x ``dist`` of the second.  None when the system has no static
+    path trace (a test system, a servo's)."""
+    from fem_reference.statics.bifurcation import Watch
+
+    try:
+        watch = Watch(system, S.Options())
+        start, end = S.State(np.array(q0, float), float(lam0)), S.State(np.array(q1), lam1)
+        land = watch.natural(start, end, lam1) if watch.active else None
+    except (AttributeError, TypeError, NotImplementedError):
+        return None
+    if land is None:
+        return False
+    L = system.length_scale()
+    return bool(np.max(np.abs(w * (land.u - q1))) / L <= SAME_BRANCH * dist)
 
 
 class Deadline:
