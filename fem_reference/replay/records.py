@@ -48,7 +48,8 @@ def jump(
     T_ramp) of it).  It is a jump unless the static path traced from the start stays stable
     and lands on the settled end (``honesty.same_branch``: the smooth, fast natural path of
     an imperfect column past its Euler load, which the lagging ramp also crosses with a
-    burst of motion); systems without a static trace keep the dissipation verdict.
+    burst of motion); systems without a static trace (or with boom events) keep the
+    dissipation verdict.
     ``jump_dissipation`` = inf switches jumps off (a driver or servo does unbooked work).
 
     The onset is the last history state (before the kinetic-energy peak) whose tangent is
@@ -68,7 +69,9 @@ def jump(
         dissipative or dist > BRANCH_RATIO * _predicted(run, q_prev, prev.factor, after.factor)
     ):
         return None
-    same = honest.same_branch(run.sys, q_prev, prev.factor, h.q[-1], after.factor, run.w, dist)
+    same = None  # boom events: the static trace knows no pushes or locks
+    if not run.integ.pairs:
+        same = honest.same_branch(run.sys, q_prev, prev.factor, h.q[-1], after.factor, run.w, dist)
     if same or same is None and not dissipative:
         return None
     kin = np.asarray(h.kinetic[i0:])
