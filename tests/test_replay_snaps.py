@@ -85,7 +85,9 @@ def test_symmetric_switch_snap_from_its_bifurcation():
 
 
 @pytest.mark.parametrize(
-    "scene", [HOSTILE / "col-6x-eps0-001-a10000.toml", "column-postbuckling"], ids=str
+    "scene",
+    [HOSTILE / "col-6x-eps0-001-a10000.toml", "column-postbuckling"],
+    ids=lambda s: Path(s).stem,
 )
 def test_imperfect_column_natural_path_has_no_snap(scene):
     """An imperfect column past its Euler load moves far more in one report increment than

@@ -35,12 +35,14 @@ def jump(
     prev: Step | None,
     after: Step,
     stable_from: tuple[np.ndarray, float] | None = None,
+    predicted: float | None = None,
 ) -> dict | None:
     """Report the increment of replay ``run`` since ``mark`` (history index, W, U, D, q at
     its start) as a jump (a snap-through) if its settled end lies on another branch than
     its settled start.  ``stable_from``: (q, factor) of the last settled state found stable,
     where the static path's stability loss is looked for (``factor_static``; by default the
-    increment's start).
+    increment's start).  ``predicted``: the tangent's motion for the increment / L, when
+    the reach knows it (``sweep.ContinuousRamp.move``; else computed, ``_predicted``).
 
     A candidate moved at least ``JUMP_MIN_DISTANCE`` and either ``BRANCH_RATIO`` x more
     than the tangent at the start predicts for the load step, or dissipated more than
@@ -63,11 +65,11 @@ def jump(
     scale = max(abs(run.W - W0), abs(run.strain(-1) - U0), 1e-300)
     dissipative = dD > run.o.jump_dissipation * scale
     dist = np.max(np.abs(run.w * (h.q[-1] - q_prev))) / run.L
-    if dist < honest.JUMP_MIN_DISTANCE:  # a settling move, not a snap
+    if prev is None or dist < honest.JUMP_MIN_DISTANCE:  # a settling move, not a snap
         return None
-    if prev is None or not (
-        dissipative or dist > BRANCH_RATIO * _predicted(run, q_prev, prev.factor, after.factor)
-    ):
+    if predicted is None and not dissipative:
+        predicted = _predicted(run, q_prev, prev.factor, after.factor)
+    if not (dissipative or dist > BRANCH_RATIO * predicted):
         return None
     same = None  # boom events: the static trace knows no pushes or locks
     if not run.integ.pairs:

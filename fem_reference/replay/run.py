@@ -450,6 +450,7 @@ def replay_system(
     for k, lam in enumerate(np.asarray(factors, dtype=float)):
         it0, h = run.integ.newton_iterations, run.hist
         mark = (len(h.t), run.W, run.strain(-1), run.D - run.D_impact, prev_q)
+        move = getattr(reach, "move", 0.0)  # the ramp's tangent prediction (0: unknown)
         try:
             s, chk = reach(run, float(lam))
             want = probe_plan(o, k, len(factors), verdict)
@@ -477,7 +478,7 @@ def replay_system(
         st = system.step(s.q, s.lam, run.integ.newton_iterations - it0, pr["stable"])
         st = replace(st, info={**dict(st.info), **info}, stable=pr["stable"])
         if k > 0:
-            jp = records.jump(run, mark, prev_step, st, stable_from)
+            jp = records.jump(run, mark, prev_step, st, stable_from, move or None)
             if jp is not None:
                 jumps.append(jp)
         steps.append(st)
