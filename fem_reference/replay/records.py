@@ -47,11 +47,12 @@ def jump(
     A candidate moved at least ``JUMP_MIN_DISTANCE`` and either ``BRANCH_RATIO`` x more
     than the tangent at the start predicts for the load step, or dissipated more than
     ``jump_dissipation`` of the work done (a quasi-static ramp dissipates ~ 1 / (omega_1
-    T_ramp) of it).  It is a jump unless the static path traced from the start stays stable
-    and lands on the settled end (``honesty.same_branch``: the smooth, fast natural path of
-    an imperfect column past its Euler load, which the lagging ramp also crosses with a
-    burst of motion); systems without a static trace (or with boom events) keep the
-    dissipation verdict.
+    T_ramp) of it).  It is a jump if (1) the static path traced from the start does not
+    stay stable up to the end's factor and land on the settled end (``honesty.same_branch``;
+    it does for the smooth, fast natural path of an imperfect column past its Euler load,
+    which the lagging ramp also crosses with a burst of motion), and (2) its trajectory
+    passed a state whose tangent is not positive definite, or it was dissipative (a failed
+    trace of a smooth increment is no snap).
     ``jump_dissipation`` = inf switches jumps off (a driver or servo does unbooked work).
 
     The onset is the last history state (before the kinetic-energy peak) whose tangent is
@@ -74,7 +75,7 @@ def jump(
     same = None  # boom events: the static trace knows no pushes or locks
     if not run.integ.pairs:
         same = honest.same_branch(run.sys, q_prev, prev.factor, h.q[-1], after.factor, run.w, dist)
-    if same or same is None and not dissipative:
+    if same:
         return None
     kin = np.asarray(h.kinetic[i0:])
     ipk = i0 + int(np.argmax(kin))
@@ -86,6 +87,8 @@ def jump(
     # the first of ~12 samples up to the peak that is unstable, then bisection
     grid = np.unique(np.linspace(max(i0 - 1, 0), ipk, 12).round().astype(int))
     neg = [i for i in grid if eig(i) < 0.0]
+    if not (neg or dissipative):  # never left the stable region, nor dissipated like a snap
+        return None
     if neg:
         hi = neg[0]
         lo = int(grid[max(int(np.searchsorted(grid, hi)) - 1, 0)])

@@ -443,7 +443,7 @@ def replay_system(
         return Solution(case, "replay", "failed", f"replay set-up failed: {exc}")
     status, message = "converged", ""
     prev_q, prev_step = run.s.q, None
-    stable_from = None  # (q, factor) of the last settled state with a stable tangent
+    stable_from = None  # (q, factor) of the last settled state found stable
     # follower loads: no potential energy, so neither the tangent test nor a settled probe
     # decides static stability (flutter needs a dynamic analysis): no verdict, as fem-auto
     verdict = is_conservative(system)
@@ -483,8 +483,8 @@ def replay_system(
                 jumps.append(jp)
         steps.append(st)
         prev_q, prev_step = s.q, st
-        if verdict and eig > 0.0:  # the static path from it starts stable
-            stable_from = (s.q, float(lam))
+        if verdict and (st.stable or eig >= PROBE_MARGIN * run.w1**2):  # clearly stable:
+            stable_from = (s.q, float(lam))  # the static path from it starts stable
         if getattr(reach, "ended", False):  # the reach ended the path (a servo at factor_end)
             break
     extras = records.extras(run, system, jumps, probes)
