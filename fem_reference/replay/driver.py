@@ -172,7 +172,7 @@ def solve_energy(scene: Scene, n_elements: int, options: object) -> Solution:
     extras["settle"] = settle
     # the jump test compares dissipation with the booked work, which misses the driver's:
     # it is not meaningful here
-    extras["jumps"] = []
+    extras["jumps"], extras["critical_points"] = [], []
     extras["jumps_note"] = "not assessed under a prescribed driver motion"
     fr = dict(extras.get("frames", {}))
     if "q" in fr and len(fr["q"]):  # frames in FE coordinates (the animation rebuilds the FE)

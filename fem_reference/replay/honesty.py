@@ -5,9 +5,15 @@
   mesh and on half of it gives the two-mesh estimate per output at the last factor, by the
   same rule as ``fem-auto``'s (``richardson.gci``: ``3 |f_n - f_{n/2}| / (2^2 - 1)``, order 2
   of the corotational element assumed, Roache's safety factor 3); the replay states it.
-* ``static_limit``: a snap-through is reported at the factor where the *static* path loses
-  stability (load control from the settled state before the jump stalls at the limit point);
-  the dynamic onset seen in the transient lags behind by the ramp rate and is kept alongside.
+* ``static_limit``: where the *static* path from the last stable settled state before a
+  snap-through loses stability (a bifurcation, or the limit point where load control
+  stalls): reported alongside the dynamic onset seen in the transient, which lags behind
+  it by the ramp rate.
+* ``same_branch``: an increment whose settled end is far from its settled start is a snap
+  only if the two lie on different branches: the static path traced by arc-length from the
+  start (``bifurcation.Watch.natural``, the FE's own natural-path test) reaches the end's
+  factor stably and lands on the end for the smooth path of an imperfect structure, and
+  turns back (a limit point), loses stability or lands elsewhere for a snap.
 * ``JUMP_MIN_DISTANCE``: a jump must move some point by at least this fraction of the scene's
   length scale (a 1e-9 L settling move dissipating energy is not a snap).
 * ``Deadline``: a wall-clock budget; a replay that runs past it fails with the reason.
@@ -25,6 +31,7 @@ from fem_reference.error.richardson import gci
 from fem_reference.statics import static as S
 
 JUMP_MIN_DISTANCE = 1e-4  # fraction of the length scale
+SAME_BRANCH = 1e-3  # a traced state this close (x the increment's move) is the settled end
 
 
 def mesh_error(
@@ -56,28 +63,74 @@ def worst_mesh_error(est: dict[str, float], length: float) -> float:
     return max(vals, default=0.0)
 
 
-def static_limit(system: object, q: np.ndarray, lam: float, target: float) -> float | None:
-    """Factor at which the static path from the equilibrium ``(q, lam)`` towards ``target``
-    loses stability: a bifurcation on the way (``bifurcation.Watch.locate``) or else the
-    limit point where load control stalls; None if it gets there stably (no static snap)."""
+def static_limit(
+    system: object, q: np.ndarray, lam: float, target: float, substeps: int = 8
+) -> float | None:
+    """Factor at which the static path from the stable equilibrium ``(q, lam)`` towards
+    ``target`` loses stability: marched by load control in ``substeps`` equal steps (short
+    enough to stay on the branch next to a bifurcation, where one long step may land on
+    the other branch and leave the bracket without a path through it), located in the
+    first step that ends unstable (``bifurcation.Watch.locate``: Brent's method on the
+    lowest eigenvalue, or its linear interpolation across that short step where the path
+    cannot be re-solved inside it), or the limit point where load control stalls (traced
+    by arc-length and refined, ``Watch._limit``; else the stall); None if it gets there
+    stably.  A load-control step that lands past a fold on its unstable side is located
+    inside that step (bistable-offload: 0.1554 where the elastica's limit point is 0.1574).
+    """
+
     from fem_reference.statics.bifurcation import Watch
 
     opts = S.Options()
-    start = S.State(np.array(q, float), lam)
     try:
-        try:
-            end = S.load_control(system, start, target, abs(target - lam) / 4, opts)
-            stall = None
-        except S.SolveError as err:
-            if err.state is None:
-                return None
-            end, stall = err.state, float(err.state.lam)
         watch = Watch(system, opts)
-        if watch.active and watch.stable(start) and not watch.stable(end):
-            return watch.locate(start, end)[0]
-        return stall
+        prev = S.State(np.array(q, float), lam)
+        if not (watch.active and watch.stable(prev)):
+            return None
+        for k in range(1, substeps + 1):
+            lam_k = lam + (target - lam) * k / substeps
+            try:
+                cur, stalled = S.load_control(system, prev, lam_k, abs(lam_k - prev.lam), opts), 0
+            except S.SolveError as err:  # load control stalls: a limit point ahead
+                if err.state is None:
+                    return None
+                cur, stalled = err.state, 1
+            if not watch.stable(cur):
+                return watch.locate(prev, cur)[0]
+            if stalled:  # the limit point, traced over by arc-length and refined
+                lim = watch._limit(prev, S.State(cur.u, lam_k))
+                return float(cur.lam if lim is None else lim.lam)
+            prev = cur
+        return None
     except (AttributeError, TypeError, ValueError, np.linalg.LinAlgError, S.SolveError):
         return None
+
+
+def same_branch(
+    system: object,
+    q0: np.ndarray,
+    lam0: float,
+    q1: np.ndarray,
+    lam1: float,
+    w: np.ndarray,
+    dist: float,
+) -> bool | None:
+    """Whether the settled states ``(q0, lam0)`` and ``(q1, lam1)``, ``dist`` L apart
+    (weights ``w``: 1 on translations, L on rotations), lie on one stable static path: the
+    path traced from the first stays stable, its factor rising monotonically, and lands
+    within ``SAME_BRANCH`` x ``dist`` of the second.  None when the system has no static
+    path trace (a test system, a servo's)."""
+    from fem_reference.statics.bifurcation import Watch
+
+    try:
+        watch = Watch(system, S.Options())
+        start, end = S.State(np.array(q0, float), float(lam0)), S.State(np.array(q1), lam1)
+        land = watch.natural(start, end, lam1) if watch.active else None
+    except (AttributeError, TypeError, NotImplementedError):
+        return None
+    if land is None:
+        return False
+    L = system.length_scale()
+    return bool(np.max(np.abs(w * (land.u - q1))) / L <= SAME_BRANCH * dist)
 
 
 class Deadline:

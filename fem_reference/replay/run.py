@@ -54,9 +54,10 @@ class ReplayOptions:
     and the last; the others get the tangent's verdict, ``probe_plan``);
     probe_amplitude : modal kick (excursion ~ amplitude * L);
     probe_node, probe_impulse : nodal impulse (node id, (Ix, Iy)) instead.
-    jump_dissipation : an increment is a jump (snap-through) when the energy it dissipates
-    exceeds this fraction of the work done (or strain energy change); a quasi-static ramp
-    dissipates ~ 1 / (omega_1 T_ramp) of it, a snap most of it.
+    jump_dissipation : an increment that dissipates more than this fraction of the work
+    done (or strain energy change) is checked for a jump (snap-through; ``records.jump``:
+    its settled end on another branch than its start); a quasi-static ramp dissipates
+    ~ 1 / (omega_1 T_ramp) of it, a snap most of it.  inf: jumps are not assessed.
     history_samples, frames : caps on stored samples.  locks : boom events (``LengthLock``).
     deploy_start : on a deploy scene, "dynamic" (the booms push from the drawn pose) or
     "static" (start locked at the FE deploy equilibrium and only probe it: a sweep's verdicts
@@ -427,8 +428,9 @@ def replay_system(
     Returns
     -------
     Solution with one settled Step per factor; extras: ``history`` (time series, lists),
-    ``jumps`` (snap-throughs), ``events`` (boom locks), ``probes``, ``frames`` (arrays for the
-    animation), ``settle`` (timing/damping figures).
+    ``jumps`` (snap-throughs), ``critical_points`` (the jumps as snaps), ``events`` (boom
+    locks), ``probes``, ``frames`` (arrays for the animation), ``settle`` (timing/damping
+    figures).
     """
     o = options or ReplayOptions()
     reach = reach or ContinuousRamp(factors)
@@ -441,12 +443,14 @@ def replay_system(
         return Solution(case, "replay", "failed", f"replay set-up failed: {exc}")
     status, message = "converged", ""
     prev_q, prev_step = run.s.q, None
+    stable_from = None  # (q, factor) of the last settled state found stable
     # follower loads: no potential energy, so neither the tangent test nor a settled probe
     # decides static stability (flutter needs a dynamic analysis): no verdict, as fem-auto
     verdict = is_conservative(system)
     for k, lam in enumerate(np.asarray(factors, dtype=float)):
         it0, h = run.integ.newton_iterations, run.hist
         mark = (len(h.t), run.W, run.strain(-1), run.D - run.D_impact, prev_q)
+        move = getattr(reach, "move", 0.0)  # the ramp's tangent prediction (0: unknown)
         try:
             s, chk = reach(run, float(lam))
             want = probe_plan(o, k, len(factors), verdict)
@@ -474,17 +478,23 @@ def replay_system(
         st = system.step(s.q, s.lam, run.integ.newton_iterations - it0, pr["stable"])
         st = replace(st, info={**dict(st.info), **info}, stable=pr["stable"])
         if k > 0:
-            jp = records.jump(run, mark, prev_step, st)
+            jp = records.jump(run, mark, prev_step, st, stable_from, move or None)
             if jp is not None:
                 jumps.append(jp)
         steps.append(st)
         prev_q, prev_step = s.q, st
+        if verdict and (st.stable or eig >= PROBE_MARGIN * run.w1**2):  # clearly stable:
+            stable_from = (s.q, float(lam))  # the static path from it starts stable
         if getattr(reach, "ended", False):  # the reach ended the path (a servo at factor_end)
             break
     extras = records.extras(run, system, jumps, probes)
     if status == "converged":
         res = max(s.info["residual"] for s in steps)
         message = f"settled {len(steps)} states; max residual {res:.2e}; {len(jumps)} jump(s)"
+        message += "".join(  # where, as the FE says it
+            f"; snap at factor {p['factor']:.6g} (critical_points: from, to)"
+            for p in extras["critical_points"]
+        )
         if not verdict:
             extras["stability"] = NO_VERDICT
             message += f"; {NO_VERDICT}"

@@ -380,6 +380,7 @@ def solve(scene: Scene, n_elements: int, options: object) -> Solution:
     extras["settle"] = {**extras.get("settle", {}), "energy_balance_error": math.nan}
     extras["settle"]["note"] = "servo-held coordinate: the servo's work is not booked"
     extras["jumps"], extras["jumps_note"] = [], "not assessed under a servo-held coordinate"
+    extras["critical_points"] = []
     extras["servo"] = {"dof": i, "compliance_ell": system.ell}
     steps, msg = sol.steps, sol.message + note
     end = ""
