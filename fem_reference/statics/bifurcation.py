@@ -126,8 +126,8 @@ class Watch:
             return cur
         if cur.info.get("snap"):
             return cur  # a limit point crossed by arc-length: the snapped-to state is judged
-        if path and self._fold_passed(prev, cur):
-            return cur  # arc-length went over a limit point within the step: traced, not a branch
+        if path and self._fold_passed(prev, cur) and self.stability(cur).get("n_neg", 1) <= 1:
+            return cur  # arc-length went over a limit point (alone) within the step: traced
         lam_c, crit, phi, located = self.locate(prev, cur)
         # not re-solvable inside the bracket: load control may have jumped the knee of an
         # imperfect structure's smooth path onto the complementary branch
@@ -143,7 +143,8 @@ class Watch:
         """Did the traced step ``prev -> cur`` (factor higher at ``cur``) pass over a limit
         point?  Then the path's factor is falling at ``cur`` in the direction of travel: the
         tangent ``K^-1 f`` there points against the step (W metric).  A bifurcation leaves the
-        fundamental path's factor rising: the stability loss it causes is a branch point."""
+        fundamental path's factor rising: the stability loss it causes is a branch point (one
+        passed in the same step as a fold leaves two negative eigenvalues: ``check`` locates it)."""
         sysm = self.sys
         try:
             t = S.tangent_lu(sysm, cur.u, cur.lam).solve(sysm.external(cur.u))
