@@ -85,6 +85,7 @@ class Watch:
         self.dense_max = 60
         self._fast: tuple = (None, None)  # (state, jacobi_verdict) of the last fast check
         self._step: tuple | None = None  # (|du|_W, |dlam|) of the last load step
+        self.tied = False  # the last switch chose between two mirror branches of equal energy
 
     def _eig(self, st: S.State, scale: np.ndarray | None = None) -> float:
         return lowest_mode(self.sys, st.u, st.lam, scale)[0]
@@ -348,6 +349,8 @@ class Watch:
             )
             return cur
         point["switched"] = True
+        if self.tied:
+            point["tied"], self.tied = True, False
         self._jump(crit, new, lam_c)
         return new
 
@@ -405,9 +408,13 @@ class Watch:
                 found.append((self._potential(land), land))
         if not found:
             return None
-        # the lower total potential: an imperfect structure's own branch (ties -> first sign)
+        # the lower total potential: an imperfect structure's own branch (ties -> first sign;
+        # two distinct landings of equal energy are a perfect structure's mirror branches,
+        # which no rule drawn from the scene can tell apart: ``tied`` says so)
         best = min(found, key=lambda e: e[0])
         if abs(found[0][0] - best[0]) <= 1e-12 * max(abs(found[0][0]), 1e-300):
+            far = len(found) == 2 and S.Scaler.of(sysm).unorm(found[1][1].u - found[0][1].u)
+            self.tied = bool(far and far > 1e-6 * S.Scaler.of(sysm).unorm(found[0][1].u))
             return found[0][1]
         return best[1]
 
