@@ -236,12 +236,6 @@ class Runner:
                 for p in watch.points
                 if p["kind"] == "snap"
             ]
-            self.notes += [
-                f"bifurcation at factor {p['factor']:.8g}: two branches of equal energy (mirror "
-                "images); the one along the critical mode's largest component is taken"
-                for p in watch.points
-                if p.get("tied")
-            ]
             if not watch.note and watch.active and not watch.stable(st):
                 watch.note = f"the path ends on an unstable equilibrium (factor {st.lam:.6g})"
             if watch.note:  # the runner does not score models against such a path

@@ -412,9 +412,11 @@ class Watch:
         # two distinct landings of equal energy are a perfect structure's mirror branches,
         # which no rule drawn from the scene can tell apart: ``tied`` says so)
         best = min(found, key=lambda e: e[0])
-        if abs(found[0][0] - best[0]) <= 1e-12 * max(abs(found[0][0]), 1e-300):
-            far = len(found) == 2 and S.Scaler.of(sysm).unorm(found[1][1].u - found[0][1].u)
-            self.tied = bool(far and far > 1e-6 * S.Scaler.of(sysm).unorm(found[0][1].u))
+        tol = 1e-12 * max(abs(found[0][0]), 1e-300)
+        if abs(found[0][0] - best[0]) <= tol:
+            if len(found) == 2 and abs(found[1][0] - found[0][0]) <= tol:
+                apart = sc.unorm(found[1][1].u - found[0][1].u)
+                self.tied = apart > 1e-6 * sc.unorm(found[0][1].u)
             return found[0][1]
         return best[1]
 
