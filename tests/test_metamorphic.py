@@ -15,9 +15,9 @@ encoding (and reversed) only.  The auto family, ``elastica-bvp``, ``fem-auto`` a
 run on the sample ``SLOW`` (marked slow).  Hostile scenes (``HOSTILE``, written outside the
 catalog): DAS-2D scenes driven past reach or load-ramped, a flexure in other units, an
 imperfect column at 6x Euler and a stiff one at 3x, a crank driven along itself, a beam
-pinned at its root with a weak spring to ground, hanging and pushed.  Measured 2026-11-27 on the shared
-2-core machine at load 2+: the whole file (both tiers, 686 tests) 11 min 44 s wall; 2 min 51 s
-on a quiet one (622 tests).
+pinned at its root with a weak spring to ground, hanging and pushed.  Measured 2026-11-27 on
+the shared 2-core machine at load 2+: the whole file (both tiers, 686 tests) 11 min 44 s
+wall; 2 min 51 s on a quiet one (622 tests).
 
 Not compared: the approximate models of a mechanism member (linear-N, BCM, CBCM-N, PRB)
 describe the member in a frame at its end ``a`` (PRB pivots at gamma L from it, BCM's
