@@ -1,8 +1,10 @@
 """Analyses on an assembled mechanism: load, distance, energy, kinematics (and the steps).
 
 * ``load``: load factor 0 -> factor_end at the scene's steps (continuation with cuts); a step
-  that loses stability or stalls at a limit point jumps to the stable state at its factor
-  (``snap``), reported in ``extras["critical_points"]`` and marked ``info["snap"] = 1``.
+  that loses stability or stalls is taken again with every substep kept on the stable branch
+  (``Run._stable_step``); one that still cannot be followed stably passes a limit or
+  bifurcation point and jumps to the stable state at its factor (``snap``), reported in
+  ``extras["critical_points"]`` and marked ``info["snap"] = 1``.
 * ``distance``: the driver coordinate is a target; the load factor is the unknown
   (``Step.factor`` = load factor), DAS-2D "Distance analysis".
 * ``energy``: scene loads held at factor_end, the driver prescribed from start to stop;
