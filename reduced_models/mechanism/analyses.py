@@ -153,7 +153,7 @@ class Run:
             return sv.stable(b, False)[0] is True and not jumped(self, a, b, dt)
 
         try:
-            new = follow(sv, st, lam0, lam1, set_lam, "lam", max_cuts=24, accept=keep)
+            new = follow(sv, st, lam0, lam1, set_lam, "lam", max_cuts=16, accept=keep)
         except SolveError:
             return None, True
         new.lam = lam1
