@@ -1,8 +1,10 @@
 """Analyses on an assembled mechanism: load, distance, energy, kinematics (and the steps).
 
 * ``load``: load factor 0 -> factor_end at the scene's steps (continuation with cuts); a step
-  that loses stability or stalls at a limit point jumps to the stable state at its factor
-  (``snap``), reported in ``extras["critical_points"]`` and marked ``info["snap"] = 1``.
+  that loses stability or stalls is taken again with every substep kept on the stable branch
+  (``Run._stable_step``); one that still cannot be followed stably passes a limit or
+  bifurcation point and jumps to the stable state at its factor (``snap``), reported in
+  ``extras["critical_points"]`` and marked ``info["snap"] = 1``.
 * ``distance``: the driver coordinate is a target; the load factor is the unknown
   (``Step.factor`` = load factor), DAS-2D "Distance analysis".
 * ``energy``: scene loads held at factor_end, the driver prescribed from start to stop;
@@ -112,6 +114,8 @@ class Run:
                 )
             except SolveError:
                 new, lost = None, self.steps[-1].stable
+            if lost:  # the step again, every substep kept on the stable branch
+                new, lost = self._stable_step(st, float(prev), float(fk), set_lam)
             found = []
             if lost:  # a limit or bifurcation point inside the step: jump (``snap``)
                 new, found = snap_step(self, st, float(prev), float(fk))
@@ -129,6 +133,31 @@ class Run:
             self.record(st, fk, False)
             if found:  # as fem-auto marks a state beyond a limit point
                 self.steps[-1].info["snap"] = 1.0
+
+    def _stable_step(
+        self, st: State, lam0: float, lam1: float, set_lam: Callable
+    ) -> tuple[State | None, bool]:
+        """(state at ``lam1``, False) by load control from the stable ``st`` with every
+        substep refused (and cut) that ends unstable or ``jumped``; (None, True) where no
+        stable path reaches ``lam1`` (a limit or bifurcation point inside the step).
+
+        A whole load step that lands unstable, jumps or fails may only have been too long
+        for a steep, strongly curved stretch of a smooth path (a weakly held pin swinging
+        round): whether Newton then landed on the complementary branch is round-off, and
+        with it the snap a report would give.  Refined this way, only a path that cannot be
+        followed stably at any step down to the cut limit is handed to ``snap_step``."""
+        sv = self.solver
+
+        def keep(a: State, b: State, dt: float) -> bool:
+            b.lam = a.lam + dt
+            return sv.stable(b, False)[0] is True and not jumped(self, a, b, dt)
+
+        try:
+            new = follow(sv, st, lam0, lam1, set_lam, "lam", max_cuts=16, accept=keep)
+        except SolveError:
+            return None, True
+        new.lam = lam1
+        return new, False
 
     def driver(self, kind: str) -> None:
         a = self.scene.analysis

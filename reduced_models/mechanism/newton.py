@@ -375,11 +375,20 @@ def follow(
     lam_free: bool = False,
     max_cuts: int = 12,
     rate: float = 1.0,
+    accept: Callable[[State, State, float], bool] | None = None,
 ) -> State:
     """Move the path parameter from t0 to t1 (``set_t(state, t) -> state`` applies it),
-    with tangent predictor and step halving; raises SolveError after ``max_cuts`` cuts.
-    ``rate``: d(solver parameter)/dt (driver in degrees: pi/180)."""
-    t, h, cuts, its = t0, t1 - t0, 0, 0
+    with tangent predictor, step halving on a failure and doubling after an easy step;
+    raises SolveError once a step would be shorter than ``|t1 - t0| / 2^max_cuts``.
+    ``rate``: d(solver parameter)/dt (driver in degrees: pi/180).  ``accept(state, new,
+    step) -> bool``: a converged substep it refuses (one that left the branch) is cut too.
+
+    The give-up rule is a step length, not a count of the cuts so far: a count grows with
+    the path's curvature over the whole interval, and where a steep but smooth stretch
+    spends about ``max_cuts`` of them the round-off of the drawing (its orientation, its
+    units) decided whether the step succeeded or was taken for a limit point."""
+    t, h, its = t0, t1 - t0, 0
+    shortest = abs(t1 - t0) * 0.5**max_cuts
     nf = solver.nf
     d = solver.driver_index() if lam_free else None
     while (t1 - t) * (t1 - t0) > 1e-14 * max(abs(t1 - t0), 1e-300):
@@ -401,11 +410,14 @@ def follow(
             except SolveError:
                 solver.memo = None
                 new = solver.newton(set_t(State(st.q, st.mu, st.lam), t + step), lam_free)
+            if accept is not None and not accept(st, new, step):
+                raise SolveError("the substep left the branch")
         except SolveError as err:
-            cuts += 1
-            if cuts > max_cuts:
-                raise SolveError(f"step cut {max_cuts} times near t = {t:.6g}: {err}") from None
             h = step / 2.0
+            if abs(h) < shortest:
+                raise SolveError(
+                    f"step cut below 1/2^{max_cuts} of the interval near t = {t:.6g}: {err}"
+                ) from None
             continue
         solver.memo = ((wrt, lam_free), t, x, dx)
         its += new.iterations
