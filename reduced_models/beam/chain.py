@@ -31,8 +31,8 @@ well defined for an inextensible beam (k = 0, EA not given), where the eliminate
 0/0 at the straight state; and it covers the linear chain (whose axial constraint has no
 energy) with the same code.  The price is an indefinite Hessian: it is solved by banded LU
 (half-bandwidth 7), and stability is judged by its inertia (stable iff exactly N negative
-eigenvalues, one per multiplier -- Haynsworth inertia additivity), decided in O(N) in the
-chain's minimal coordinates (``ChainProblem.stability``).
+eigenvalues, one per multiplier -- Haynsworth inertia additivity), decided in O(N) by
+condensing each p_i inside its segment and a banded Cholesky factorisation.
 
 Total potential: Pi = N sum_i l_i - lam * (fX X_N + fY Y_N + m phi_N) for dead loads; a
 follower force turns with phi_N (residual Newton with the unsymmetric Jacobian, stability
@@ -54,7 +54,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from reduced_models.beam.chain_path import ChainPath
     from reduced_models.paths.linalg import Banded
 
 
@@ -254,11 +253,16 @@ class ChainProblem:
         return _band_index(self.N)
 
     @functools.cached_property
-    def _minimal(self) -> ChainPath:
-        """The chain in minimal coordinates (``chain_path``), for the stability test."""
-        from reduced_models.beam.chain_path import ChainPath  # imports this module
-
-        return ChainPath(self)
+    def _condensed(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(ridx, rfixed, keep)``: scatter map of the condensed (X, Y, phi) segment
+        Hessians (N, 6, 6) to upper band storage ab[5 + i - j, j] for i <= j (lower-triangle
+        entries go to a dump slot), the held rows, the kept local unknowns."""
+        N = self.N
+        rdof = 3 * np.arange(N)[:, None] + np.arange(6)[None, :]
+        r, cc = rdof[:, :, None], rdof[:, None, :]
+        ridx = np.where(r <= cc, (5 + r - cc) * 3 * (N + 1) + cc, 6 * 3 * (N + 1)).ravel()
+        rfixed = np.array([0, 1, 2] + ([3 * N + 2] if self.guided else []))
+        return ridx, rfixed, np.array([0, 1, 2, 4, 5, 6])
 
     def split(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Node states (..., N + 1, 3) and segment axial forces (..., N) from unknowns (..., n)."""
@@ -365,25 +369,30 @@ class ChainProblem:
     def stability(self, x: np.ndarray, lam: float, H: Banded) -> bool | None:
         """Is the equilibrium a strict minimum of the strain energy minus the load work?
 
-        Decided in the chain's minimal coordinates (``chain_path``: segment deformations and
-        node angles; congruent to these at an equilibrium): every segment block has exactly
-        one negative eigenvalue and the tridiagonal angle matrix is positive definite by
-        ``chain_path.STABLE_MARGIN`` on its lowest Jacobi-scaled eigenvalue
-        (``chain_path.angles_stable``).  No penalty on the axial constraint: in node
-        coordinates an inextensible segment needs one, and its stiffness against the
-        bending (condition ~N^3 / penalty) left the verdict of a long chain to round-off.
+        The axial forces are condensed out segment by segment (each p_i lives in one
+        segment only), which leaves the Hessian of the energy in (X, Y, phi) with 3x3-block
+        tridiagonal structure; a banded Cholesky factorisation then decides positive
+        definiteness in O(N).  Where a segment has no axial compliance (linear segments,
+        BCM with EA not given) the condensation uses D = max(k - w.Q.w, 1e-9), i.e. an
+        axial penalty that can only move a critical load by a relative ~1e-9 N^-2.
         Follower loads are not conservative: None.
         """
         if self.follower:
             return None
-        from reduced_models.beam.chain_path import angles_stable
+        from scipy.linalg import lapack  # lazy: a chain law's import needs no scipy
 
-        path = self._minimal
-        z, _ = self._coords(x)
-        q = x.reshape(self.N + 1, NB)
-        s = np.stack((z.real - 1.0, z.imag, q[1:, 2], q[1:, 3]))
-        _, d, off, _, _, _, blocks_ok = path._system(s, lam)
-        return blocks_ok and angles_stable(d, off, path.free)
+        from reduced_models.paths.linalg import Banded
+
+        _, Hloc = self.local(x)
+        Hpp = np.minimum(Hloc[:, 7, 7], -self.N * 1e-9)
+        ridx, rfixed, keep = self._condensed
+        Hc = Hloc[:, keep, 7]
+        Hr = Hloc[:, keep[:, None], keep] - Hc[:, :, None] * (Hc / Hpp[:, None])[:, None, :]
+        nr = 3 * (self.N + 1)
+        ab = np.bincount(ridx, Hr.ravel(), minlength=6 * nr + 1)[: 6 * nr]
+        R = Banded(ab.reshape(6, nr), 0, 5)
+        R.fix(rfixed)
+        return lapack.dpbtrf(R.ab)[1] == 0
 
     def tip_loads_of(
         self,

@@ -22,10 +22,10 @@ N x N symmetric tridiagonal matrix in the angles, solved and factorised by LAPAC
 Stability: the mixed Hessian is stable iff it has exactly N negative eigenvalues (one per
 axial multiplier, ``ChainProblem.stability``); by inertia additivity (Haynsworth) that is
 every segment block having exactly one (its determinant is -N^3 K00: K00 > 0) and the angle
-matrix positive definite (``angles_stable``: by a stated margin on its lowest Jacobi-scaled
-eigenvalue, so that a verdict never rests on round-off).  At an equilibrium the minimal
-coordinates' Hessian is congruent to the node coordinates' one; ``ChainProblem.stability``
-makes this same test at the general path's states.
+matrix positive definite, which ``dptsv`` decides on the way.  At an equilibrium the
+minimal coordinates' Hessian is congruent to the node coordinates' one, so the verdict is
+``ChainProblem.stability``'s (which caps the axial pivot of an inextensible segment at
+-N 1e-9, a relative 1e-9 penalty this exact elimination does not need).
 
 This path follows the load ramp one increment per reported factor, Newton from the Hermite
 polynomial through the last three converged states and their exact tangents (``predict``),
@@ -52,29 +52,9 @@ from scipy.linalg import lapack
 from reduced_models.beam.chain import NB, ChainProblem
 from reduced_models.paths.path_result import PathResult
 
-_dptsv, _dpttrs, _dgtsv, _dpttrf = lapack.dptsv, lapack.dpttrs, lapack.dgtsv, lapack.dpttrf
+_dptsv, _dpttrs, _dgtsv = lapack.dptsv, lapack.dpttrs, lapack.dgtsv
 _ZERO = np.zeros(1)
 _GRAD_ROWS = (0, 1, 3)  # state rows u, y, p (row 2: phi)
-# A state is stable when the angle matrix's lowest Jacobi-scaled eigenvalue (of
-# D^-1/2 A D^-1/2, D = diag(A): the same number in any units and frame) exceeds this margin.
-# Its round-off is ~eps times the scaled condition number (~N^2), far below it, so a
-# state within round-off of critical (a perfect bifurcation, a limit point) is decided
-# unstable in every encoding instead of by the sign of its round-off.
-STABLE_MARGIN = 1e-10
-
-
-def angles_stable(d: np.ndarray, off: np.ndarray, n: int) -> bool:
-    """Whether the leading n x n block of the symmetric tridiagonal angle matrix (diagonal
-    ``d`` (N,), off-diagonal ``off`` (N - 1,)) is positive definite by ``STABLE_MARGIN``:
-    Jacobi-scaled, minus the margin, factorised by LAPACK ``dpttrf``."""
-    dn = d[:n]
-    if not float(dn.min(initial=np.inf)) > 0.0:
-        return False
-    if n <= 1:  # a positive 1 x 1 (or empty) matrix: LAPACK wants an off-diagonal entry
-        return True
-    r = np.sqrt(dn)
-    e = off[: n - 1] / (r[:-1] * r[1:])
-    return _dpttrf(np.full(n, 1.0 - STABLE_MARGIN), e)[2] == 0
 
 
 @functools.lru_cache(maxsize=64)
@@ -234,8 +214,7 @@ class ChainPath:
             if not size < 1e6:  # diverged or not finite
                 return None, it
             if size <= xtol:
-                # not stable (``ChainProblem.stability``'s test): the general path decides
-                if ang[0] is None or not (blocks_ok and angles_stable(d, off, self.free)):
+                if ang[0] is None or not blocks_ok:  # not stable: the general path decides
                     return None, it
                 dphi = self._resolve_angles(ang[0], rt)
                 res = float(np.abs(g).max())
