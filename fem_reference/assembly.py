@@ -38,6 +38,7 @@ Modelling choices (what the scene format means here)
 from __future__ import annotations
 
 import math
+import weakref
 
 import numpy as np
 import scipy.sparse as sp
@@ -56,6 +57,7 @@ __all__ = [
     "ModelError",
     "Scatter",
     "build",
+    "representable",
 ]
 
 
@@ -108,6 +110,29 @@ def build(
     system = b.system()
     system.fast  # noqa: B018 - build the fast-path index maps now, not inside a timed solve
     return system
+
+
+# ``representable``'s verdict per scene object (a weak reference tells a reused id apart):
+# every model instance of a run asks again, and the check builds the scene's topology
+_VERDICTS: dict[tuple, tuple[weakref.ref, str | None]] = {}
+
+
+def representable(scene: Scene, **build_options: bool) -> str | None:
+    """None, or why ``build(scene, 1, **build_options)`` refuses ``scene`` ("not
+    representable: ..."), asked once per scene object (scenes are frozen: same answer)."""
+    key = (id(scene), *sorted(build_options.items()))
+    got = _VERDICTS.get(key)
+    if got is not None and got[0]() is scene:
+        return got[1]
+    try:
+        build(scene, 1, **build_options)
+        reason = None
+    except (ModelError, KeyError) as err:
+        reason = f"not representable: {err}"
+    if len(_VERDICTS) >= 256:
+        del _VERDICTS[next(iter(_VERDICTS))]  # the oldest
+    _VERDICTS[key] = (weakref.ref(scene), reason)
+    return reason
 
 
 def _renumber(

@@ -20,12 +20,10 @@ and runs the scene's analysis with the solvers of ``static.py``:
 
 from __future__ import annotations
 
-import weakref
-
 import numpy as np
 
 from cases.schema import Scene
-from fem_reference.assembly import FEMSystem, ModelError, build
+from fem_reference.assembly import FEMSystem, build, representable
 from fem_reference.statics import static as S
 from fem_reference.statics.bifurcation import Watch, is_conservative
 from fem_reference.statics.driver_post import post_process
@@ -60,9 +58,6 @@ FEM_OPTIONS: dict[str, tuple] = {
     "bifurcation": ("bool", None, None, (), "detect bifurcations and switch branch"),
 }
 _OPTION_KEYS = tuple(FEM_OPTIONS)
-# applies_to's verdict per scene object (a weak reference tells a reused id apart): every
-# model instance of a run asks again, and the check builds the scene's topology
-_CHECKED: dict[int, tuple[weakref.ref, str | None]] = {}
 
 
 def _local(st: S.State) -> object | None:
@@ -387,18 +382,7 @@ class FEM:
         """None, or why the FE reference cannot represent ``scene``."""
         if scene.analysis.kind == "sweep":
             return "sweep analyses are expanded into single scenes by the runner"
-        got = _CHECKED.get(id(scene))
-        if got is not None and got[0]() is scene:  # scenes are frozen: same answer
-            return got[1]
-        try:
-            build(scene, 1, check_only=True, exact_rigid=True)
-            reason = None
-        except (ModelError, KeyError) as err:
-            reason = f"not representable: {err}"
-        if len(_CHECKED) >= 256:
-            del _CHECKED[next(iter(_CHECKED))]  # the oldest
-        _CHECKED[id(scene)] = (weakref.ref(scene), reason)
-        return reason
+        return representable(scene, check_only=True, exact_rigid=True)
 
     def runner(self, scene: Scene) -> tuple[Runner, str, str]:
         """Run and return the runner (states kept) with status and message."""

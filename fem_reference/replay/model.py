@@ -10,7 +10,7 @@ from dataclasses import replace
 import numpy as np
 
 from cases.schema import Scene
-from fem_reference.assembly import ModelError, build
+from fem_reference.assembly import build, representable
 from fem_reference.replay import honesty as honest
 from fem_reference.replay.events import locks_from_options
 from fem_reference.replay.run import ReplayOptions, replay_system
@@ -136,15 +136,7 @@ class Replay:
             return f"{kind} analyses: {_DECLINED[kind]}"
         if kind not in ("load", "deploy") and self.factors is None:
             return f"{kind} analyses: the replay only ramps a load factor"
-        if getattr(self, "_checked", (None,))[0] is scene:  # scenes are frozen: same answer
-            return self._checked[1]
-        try:
-            build(scene, 1)
-            reason = None
-        except (ModelError, KeyError) as err:
-            reason = f"not representable: {err}"
-        self._checked = (scene, reason)
-        return reason
+        return representable(scene)
 
     def solve(self, scene: Scene) -> Solution:
         """Settled equilibrium path of ``scene`` with probes, histories, jumps."""
