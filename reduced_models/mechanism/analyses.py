@@ -103,8 +103,11 @@ class Run:
 
         points = self.extras.setdefault("critical_points", [])
         for prev, fk in zip(f[:-1], f[1:]):
+            # a state settled at round-off above Newton's tolerance (``snap._locate``): Newton
+            # cannot follow from it, neither in one step nor in substeps
+            stuck = st.residual > self.solver.tol
             try:
-                if st.residual > self.solver.tol:  # settled at round-off (``snap._locate``)
+                if stuck:
                     raise SolveError("Newton cannot follow from a state above its tolerance")
                 new = follow(self.solver, st, float(prev), float(fk), set_lam, "lam")
                 new.lam = float(fk)
@@ -114,7 +117,7 @@ class Run:
                 )
             except SolveError:
                 new, lost = None, self.steps[-1].stable
-            if lost:  # the step again, every substep kept on the stable branch
+            if lost and not stuck:  # the step again, every substep kept on the stable branch
                 new, lost = self._stable_step(st, float(prev), float(fk), set_lam)
             found = []
             if lost:  # a limit or bifurcation point inside the step: jump (``snap``)
