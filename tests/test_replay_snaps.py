@@ -26,7 +26,7 @@ from fem_reference.replay.run import ReplayOptions, replay_system
 from reports.api import make_model
 from tests.test_verify_replay import VonMisesTruss, truss_branch, truss_limit
 
-HOSTILE = Path(__file__).parent / "hostile"
+HOSTILE = Path(__file__).parent / "fixtures"  # scenes of the outside review, kept
 
 
 def snaps(sol) -> list[dict]:
