@@ -103,11 +103,6 @@ KNOWN: dict[tuple[str, str], str] = {
         "verdict past Euler flips with the encoding (a minimal-coordinate test fixed it but "
         "is exact only at equilibria; reverted)"
     ),
-    ("tests/fixtures/column-imperfect-3x-euler-stiff.toml", "prb-2rpr"): (
-        "PRB's Newton accepts an iterate once its residual is below RESIDUAL_TOL EI/L: just "
-        "below Euler that test sits at its threshold and the units encoding's round-off "
-        "takes one more iteration (2.2e-8 of tip.x's excursion, inside the model's xtol)"
-    ),
 }
 
 

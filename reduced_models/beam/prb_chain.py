@@ -378,7 +378,7 @@ def equilibrium_path(
     f1: np.ndarray,
     factors: np.ndarray,
     guided: bool = False,
-    xtol: float = 1e-6,
+    xtol: float = 1e-10,
 ) -> PathResult:
     """Equilibria for loads ``lambda * f1`` at the reported ``factors`` (from the unloaded
     state) through the shared continuation engine (``reduced_models.paths.engine``).
