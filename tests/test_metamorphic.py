@@ -23,8 +23,8 @@ Not compared: the approximate models of a mechanism member (linear-N, BCM, CBCM-
 describe the member in a frame at its end ``a`` (PRB pivots at gamma L from it, BCM's
 base): drawn from the other end, the same member gets another approximation -- a property of
 the formulation.  A single cantilever is always oriented from its clamp: reversal compared.
-Compared at a model's own stated tolerance: ``MODEL_RTOL``, ``SYNTHESIS_RTOL``.  Listed
-(expected to fail, ``KNOWN``): encoding-dependent answers found and not fixed here.
+Compared at a model's own stated tolerance: ``MODEL_RTOL``, ``SYNTHESIS_RTOL``.  No pair
+is expected to fail.
 """
 
 from __future__ import annotations
@@ -93,17 +93,6 @@ SLOW = (
     ("tests/fixtures/pinned-root-weak-spring-pushed.toml", "linear-auto"),
     ("tests/fixtures/pinned-root-weak-spring-pushed.toml", "cbcm-auto"),
 )
-
-
-# encoding-dependent answers found and not fixed here (listed in issue 23's closing note)
-KNOWN: dict[tuple[str, str], str] = {
-    ("tests/fixtures/column-imperfect-3x-euler-stiff.toml", "linear-auto"): (
-        "ChainProblem.stability condenses an inextensible segment's axial multiplier with a "
-        "1e-9 penalty pivot: for linear-512 the condition is ~1e17 and the stable/unstable "
-        "verdict past Euler flips with the encoding (a minimal-coordinate test fixed it but "
-        "is exact only at equilibria; reverted)"
-    ),
-}
 
 
 def directional(scene: cases.Scene, model: str) -> bool:
@@ -195,33 +184,14 @@ def check(scene: cases.Scene, model: str, every: bool = False) -> tuple[int, lis
     return n, bad
 
 
-def pairs() -> list:
-    """(case, model) for every case and reduced model; the listed ones expected to fail."""
-    return [
-        pytest.param(c, m, marks=pytest.mark.xfail(reason=KNOWN[c, m], strict=False))
-        if (c, m) in KNOWN
-        else (c, m)
-        for m in REDUCED
-        for c in CASES + HOSTILE
-    ]
-
-
-@pytest.mark.parametrize("case,model", pairs())
+@pytest.mark.parametrize("case,model", [(c, m) for m in REDUCED for c in CASES + HOSTILE])
 def test_reduced_models_answer_the_same_in_every_encoding(case, model):
     n, bad = check(cases.load(case), model)
     assert not bad, "\n".join(bad)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(
-    "case,model",
-    [
-        pytest.param(c, m, marks=pytest.mark.xfail(reason=KNOWN[c, m], strict=False))
-        if (c, m) in KNOWN
-        else (c, m)
-        for c, m in SLOW
-    ],
-)
+@pytest.mark.parametrize("case,model", SLOW)
 def test_references_answer_the_same_in_every_encoding(case, model):
     n, bad = check(cases.load(case), model, every=True)
     assert n > 0

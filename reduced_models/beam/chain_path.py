@@ -25,7 +25,7 @@ every segment block having exactly one (its determinant is -N^3 K00: K00 > 0) an
 matrix positive definite, which ``dptsv`` decides on the way.  At an equilibrium the
 minimal coordinates' Hessian is congruent to the node coordinates' one, so the verdict is
 ``ChainProblem.stability``'s (which caps the axial pivot of an inextensible segment at
--N 1e-9, a relative 1e-9 penalty this exact elimination does not need).
+-1e-9 N^3, an axial penalty EA = 1e9 EI/L^2 this exact elimination does not need).
 
 This path follows the load ramp one increment per reported factor, Newton from the Hermite
 polynomial through the last three converged states and their exact tangents (``predict``),
