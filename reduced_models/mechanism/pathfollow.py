@@ -141,7 +141,7 @@ def run_path(run: object) -> None:
         name, q = a.stop_output.rsplit(".", 1)
         node = next(o.node for o in s.scene.outputs if o.name == name)
         if q == "rot":
-            i = s.lay.node_rot[node]
+            i = s.lay.node_rot[node][0]  # one unknown: the loader refuses a mean of several
             off = 0.0
         else:
             i = s.lay.node_dof[node] + (1 if q in ("y", "uy") else 0)
