@@ -32,15 +32,20 @@ def pinned_ends(members: Iterable[Member], node_id: str) -> tuple[tuple[str, str
     return tuple(ends)
 
 
-def stop_error(members: Iterable[Member], output: str, node_id: str) -> str | None:
-    """Why output ``output`` (a ``name.q`` key at node ``node_id``) cannot drive or stop a
-    path, or None: a ``rot`` that is the mean of several pinned member ends."""
-    if not output.endswith(".rot") or len(pinned_ends(members, node_id)) < 2:
-        return None
+def no_own_rotation(output: str) -> str:
+    """The reason a ``rot`` output at an all-pinned node cannot stop or drive a path."""
     return (
         f"output {output!r}: the node has no rotation of its own (every member end is "
         "pinned, its rot is their mean); a path cannot be stopped on or driven by it"
     )
 
 
-__all__ = ["pinned_ends", "stop_error"]
+def stop_error(members: Iterable[Member], output: str, node_id: str) -> str | None:
+    """Why output ``output`` (a ``name.q`` key at node ``node_id``) cannot drive or stop a
+    path, or None: a ``rot`` that is the mean of several pinned member ends."""
+    if not output.endswith(".rot") or len(pinned_ends(members, node_id)) < 2:
+        return None
+    return no_own_rotation(output)
+
+
+__all__ = ["no_own_rotation", "pinned_ends", "stop_error"]

@@ -26,6 +26,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from cases.node_rotation import no_own_rotation
 from cases.schema import Scene
 from fem_reference import corotational as cr
 from fem_reference import rigid
@@ -407,8 +408,8 @@ class FEMSystem:
             rs, off = self.out_rot[name], 0.0
             if not rs:
                 return -1, 0.0, 0.0
-            if len(rs) > 1:  # the loader refuses such a stop output (cases.node_rotation)
-                raise ModelError(f"output {key!r} is a mean of {len(rs)} pinned member ends")
+            if len(rs) > 1:  # a mean: the controls take one unknown (the loader refuses it)
+                raise ModelError(no_own_rotation(key))
             f = rs[0]
         else:
             raise KeyError(key)

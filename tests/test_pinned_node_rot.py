@@ -204,7 +204,12 @@ def test_a_path_cannot_stop_on_a_mean_rotation() -> None:
     with pytest.raises(CaseError, match="J.rot.*no rotation of its own"):
         cases.loads(scene_text(100.0, 0.3, -1.0, 0.0, "path", path.format("J.rot")))
     # one member end at A: its rotation is A's own
-    cases.loads(scene_text(100.0, 0.3, -1.0, 0.0, "path", path.format("A.rot")))
+    ok = cases.loads(scene_text(100.0, 0.3, -1.0, 0.0, "path", path.format("A.rot")))
+    # a scene built past the loader: the models decline with the same reason
+    bad = replace(ok, analysis=replace(ok.analysis, stop_output="J.rot"))
+    for model in ("fem-8", "bcm"):
+        sol = reports.solve(bad, model)
+        assert sol.status != "converged" and "no rotation of its own" in sol.message, model
 
 
 def test_a_follower_force_at_the_node_declines_in_the_fe() -> None:
