@@ -150,6 +150,18 @@ def test_a_moment_at_the_node_is_shared_among_its_member_ends(model: str) -> Non
     assert out["J.rot"] == pytest.approx(np.mean(ends), rel=1e-5)
 
 
+@pytest.mark.parametrize("model", ("fem-8", "bcm", "cbcm-2"))
+def test_a_moment_on_one_member_end_turns_that_end(model: str) -> None:
+    """A moment given on member m1's end at J (member = "m1", fraction = 1) loads that end
+    only: J.rot = (M L_1 / (3 EI_1)) / 3, the other two ends unloaded."""
+    M = 1e-5
+    on_end = f'[[loads]]\nmember = "m1"\nfraction = 1.0\nmoment = {M}'
+    scene = cases.loads(scene_text(1e6, 0.0, 0.0, 0.0, extra=on_end))
+    a, b, I = BARS["m1"]
+    out = solve(scene, model).steps[-1].outputs
+    assert out["J.rot"] == pytest.approx(M * math.dist(XY[a], XY[b]) / (3.0 * I) / 3.0, rel=1e-5)
+
+
 @pytest.mark.parametrize("scene", (FORCES, MOMENT, BOTH), ids=("forces", "moment", "both"))
 @pytest.mark.parametrize("model", MODELS)
 def test_listing_the_members_otherwise_changes_no_output(scene: cases.Scene, model: str) -> None:
