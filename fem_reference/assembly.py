@@ -26,7 +26,9 @@ Modelling choices (what the scene format means here)
   ground) with energy ``k/2 (rot_a - rot_b - free_angle)^2``; linear springs (member kind
   ``spring``) have energy ``k/2 (l - free_length)^2`` and no rotation DOFs.
 * Follower forces turn with the rotation DOF of the point they act on; moments are the same
-  dead or follower in 2-D.
+  dead or follower in 2-D.  At a node whose member ends are all pinned a moment is shared
+  equally among them (``cases.node_rotation``) and a follower force declines (which end
+  would it turn with?): it is given on one member's end instead.
 * Mass (for the dynamic replay): consistent P1 mass ``rho A`` on translations and ``rho I`` on
   rotations (scikit-fem forms), constant and frame invariant.  ``rho`` = ``Member.density``
   or, if absent, steel in the scene's units (``beam_mesh.DEFAULT_DENSITY``), 1.0 in
