@@ -7,6 +7,7 @@ import math
 
 from cases import limits
 from cases.load_checks import Checks, check_finite
+from cases.node_rotation import stop_error
 from cases.schema import (
     ANALYSIS_KINDS,
     NODE_QUANTITIES,
@@ -71,6 +72,12 @@ class AnalysisPart(Checks):
         stop_output = self.str_(t, "stop_output", p)
         if stop_output is not None and stop_output not in keys:
             raise self.fail(f"{p}.stop_output", f"{stop_output!r} is not an output key")
+        if stop_output is not None:
+            name = stop_output.rsplit(".", 1)[0]
+            node = next(o.node for o in outputs if o.name == name)
+            why = stop_error(self._members, stop_output, node)
+            if why:
+                raise self.fail(f"{p}.stop_output", why)
         stop_value = self.num(t, "stop_value", p)
         if (stop_output is None) != (stop_value is None):
             raise self.fail(f"{p}.stop_value", "stop_output and stop_value go together")

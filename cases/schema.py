@@ -11,7 +11,8 @@ Sign conventions (used by every model and by the FE reference)
 * A *follower* force keeps its angle relative to the tangent of the member end (or the body)
   it acts on; a dead force keeps its global direction.
 * Output ``<name>.rot`` is the rotation (rad) of the material cross-section at the node
-  (for a node with only pinned member ends: the rotation of the first member end listed).
+  (for a node with only pinned member ends: the mean of their rotations, and a moment
+  applied there is split equally among them: ``cases.node_rotation``).
 * ``Step.energy`` is the elastic strain energy stored (beams + springs) in the scene's units.
 """
 

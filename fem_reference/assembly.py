@@ -26,7 +26,9 @@ Modelling choices (what the scene format means here)
   ground) with energy ``k/2 (rot_a - rot_b - free_angle)^2``; linear springs (member kind
   ``spring``) have energy ``k/2 (l - free_length)^2`` and no rotation DOFs.
 * Follower forces turn with the rotation DOF of the point they act on; moments are the same
-  dead or follower in 2-D.
+  dead or follower in 2-D.  At a node whose member ends are all pinned a moment is shared
+  equally among them (``cases.node_rotation``) and a follower force declines (which end
+  would it turn with?): it is given on one member's end instead.
 * Mass (for the dynamic replay): consistent P1 mass ``rho A`` on translations and ``rho I`` on
   rotations (scikit-fem forms), constant and frame invariant.  ``rho`` = ``Member.density``
   or, if absent, steel in the scene's units (``beam_mesh.DEFAULT_DENSITY``), 1.0 in
@@ -201,21 +203,21 @@ class _Parts(BeamMeshing):
             self.tk.append(t.stiffness)
             self.tp.append(math.radians(t.free_angle_deg))
 
-    def _load_point(self, ld: object) -> tuple[int, int | None]:
-        """(point id, rotation DOF or None) a load acts on."""
+    def _load_point(self, ld: object) -> tuple[int, tuple[int, ...]]:
+        """(point id, rotation DOFs) a load acts on: a moment is shared equally among the
+        DOFs (``cases.node_rotation``), a follower force needs exactly one."""
         if ld.node is not None:
             return self.nodes[ld.node], self.node_rot(ld.node)
         m = self.scene.member(ld.member)
         f = float(ld.fraction or 0.0)
         if f <= 0.0 or f >= 1.0:
             nid = m.a if f <= 0.0 else m.b
-            return self.nodes[nid], self.end_rot.get(
-                (m.id, "a" if f <= 0.0 else "b"), self.node_rot(nid)
-            )
+            k = (m.id, "a" if f <= 0.0 else "b")
+            return self.nodes[nid], (self.end_rot[k],) if k in self.end_rot else self.node_rot(nid)
         if m.kind == "spring":
             raise ModelError(f"load {ld.id!r} along linear spring {m.id!r}")
         p = self.load_points[(m.id, f)][0]
-        return p, self.rot_of_point[p]
+        return p, (self.rot_of_point[p],)
 
     def add_loads(self, driver_load: bool) -> None:
         """Dead load vectors (lam-scaled and constant) and follower forces."""
@@ -227,13 +229,19 @@ class _Parts(BeamMeshing):
             p, r = self._load_point(ld)
             target = self.dead_c if driver_load else self.dead
             if ld.moment:
-                if r is None:
+                if not r:
                     raise ModelError(f"load {ld.id!r}: moment at a point without rotation DOF")
-                target[r] += ld.moment
+                np.add.at(target, list(r), ld.moment / len(r))
             if ld.follower and (ld.fx or ld.fy):
-                if r is None:
+                if not r:
                     raise ModelError(f"load {ld.id!r}: follower force needs a member end")
-                self.fd.append([trans[p, 0], trans[p, 1], r])
+                if len(r) > 1:  # which end it turns with would depend on the listing order
+                    raise ModelError(
+                        f"load {ld.id!r}: a follower force turns with one member end, and the "
+                        f"{len(r)} at node {ld.node!r} are all pinned; give it as member = "
+                        "..., fraction = 0 or 1"
+                    )
+                self.fd.append([trans[p, 0], trans[p, 1], r[0]])
                 self.ff.append([ld.fx, ld.fy])
                 self.fg.append(1 if driver_load else 0)
             else:

@@ -13,6 +13,7 @@ from functools import partial
 import numpy as np
 
 from cases.arc import arc_points
+from cases.node_rotation import pinned_ends
 from cases.schema import Member, Scene
 from fem_reference import corotational as cr
 from fem_reference.dofs import number_dofs
@@ -49,16 +50,13 @@ def density(scene: Scene, m: Member) -> float:
 
 def node_rotation(
     weld_rot: dict[str, int], beams_m: list[Member], end_rot: dict, nid: str
-) -> int | None:
-    """Output / load rotation DOF of node ``nid``: its welded rotation, else the rotation of
-    the first member end pinned there (None: no member end there)."""
+) -> tuple[int, ...]:
+    """Rotation DOFs whose mean is node ``nid``'s output rotation (and which share a moment
+    applied there equally): its welded rotation, else every member end pinned there
+    (``cases.node_rotation``); ``()`` where no member end is there."""
     if nid in weld_rot:
-        return weld_rot[nid]
-    for m in beams_m:
-        for end, e_n in (("a", m.a), ("b", m.b)):
-            if e_n == nid:
-                return end_rot[(m.id, end)]
-    return None
+        return (weld_rot[nid],)
+    return tuple(end_rot[k] for k in pinned_ends(beams_m, nid))
 
 
 class BeamMeshing:

@@ -26,6 +26,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from cases.node_rotation import no_own_rotation
 from cases.schema import Scene
 from fem_reference import corotational as cr
 from fem_reference import rigid
@@ -105,7 +106,7 @@ class FEMSystem:
     fol_group: np.ndarray
     dead: np.ndarray
     dead_const: np.ndarray
-    out_rot: dict
+    out_rot: dict  # name -> rotation DOFs, rot is their mean (beam_mesh.node_rotation)
     out_point: dict
     scatter: Scatter
     weights: np.ndarray
@@ -404,9 +405,12 @@ class FEMSystem:
             f = self.trans[p, 0 if q in ("x", "ux") else 1]
             off = self.points[p, 0 if q == "x" else 1] if q in ("x", "y") else 0.0
         elif q == "rot":
-            f, off = self.out_rot[name], 0.0
-            if f is None:
+            rs, off = self.out_rot[name], 0.0
+            if not rs:
                 return -1, 0.0, 0.0
+            if len(rs) > 1:  # a mean: the controls take one unknown (the loader refuses it)
+                raise ModelError(no_own_rotation(key))
+            f = rs[0]
         else:
             raise KeyError(key)
         return int(self.free[f]), float(self.coef[f]), float(off)
@@ -414,9 +418,11 @@ class FEMSystem:
     def node_dofs(self, node_id: str) -> tuple[int | None, int | None, int | None]:
         """Free DOF indices (ux, uy, rot) of a scene node; None where fixed or absent.
 
-        For a slider both translations may map to the same free DOF (with coefficients)."""
+        For a slider both translations may map to the same free DOF (with coefficients); a
+        node whose member ends are all pinned has no rotation of its own (None)."""
         p = self.extra["nodes"][node_id]
-        r = self.extra["node_rot"](node_id)
+        rs = self.extra["node_rot"](node_id)
+        r = rs[0] if len(rs) == 1 else None
         out = []
         for f in (self.trans[p, 0], self.trans[p, 1], r):
             ok = f is not None and self.free[f] >= 0 and self.coef[f] != 0.0
@@ -439,12 +445,12 @@ class FEMSystem:
         out: dict[str, float] = {}
         for name, p in self.out_point.items():
             ux, uy = d[self.trans[p, 0]], d[self.trans[p, 1]]
-            r = self.out_rot[name]
+            rs = list(self.out_rot[name])  # mean of pinned member ends (cases.node_rotation)
             out[f"{name}.x"] = float(self.points[p, 0] + ux)
             out[f"{name}.y"] = float(self.points[p, 1] + uy)
             out[f"{name}.ux"] = float(ux)
             out[f"{name}.uy"] = float(uy)
-            out[f"{name}.rot"] = float(d[r]) if r is not None else 0.0
+            out[f"{name}.rot"] = float(np.mean(d[rs])) if rs else 0.0
         return out
 
     def shapes(self, u: np.ndarray) -> dict[str, np.ndarray]:

@@ -46,8 +46,7 @@ class Encoding:
         scene from ``units`` by ``for_scene``.
     units : scene units label -> (new label, Lf, Ff): a change of units (None: unchanged).
     rename : give every node a new id (and reverse the node list).
-    reverse : draw every member from its end b to its end a (and reverse the member list,
-        unless an output's rotation is by contract its first listed member's).
+    reverse : draw every member from its end b to its end a and reverse the member list.
     weld_pin : write a pinned support holding one welded member as a clamp and a pinned end.
     """
 
@@ -147,7 +146,7 @@ class Encoding:
         outputs = tuple(replace(o, node=self.node_id(o.node)) for o in scene.outputs)
         if self.rename:
             nodes = nodes[::-1]
-        if self.reverse and not self._order_matters(scene):
+        if self.reverse:
             members = members[::-1]
         if self.weld_pin:
             supports, members = self._weld_pin(scene, supports, members)
@@ -308,20 +307,6 @@ class Encoding:
         if q == "length":
             return Lf
         return 1.0
-
-    def _order_matters(self, scene: Scene) -> bool:
-        """True when an output node joins only pinned member ends: its ``rot`` is the first
-        listed member's by the contract (cases.schema), so the member list keeps its order."""
-        for o in scene.outputs:
-            ends = [
-                getattr(m, f"end_{e}")
-                for m in scene.members
-                for e, nid in (("a", m.a), ("b", m.b))
-                if nid == o.node
-            ]
-            if len(ends) > 1 and all(e == "pin" for e in ends):
-                return True
-        return False
 
     # -- the weld + pin rewrite --------------------------------------------------------------
     def _weld_pin_nodes(self, scene: Scene) -> list[str]:

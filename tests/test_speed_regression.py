@@ -18,7 +18,10 @@ answers since issue 9 (they were skipped) were recorded as they are now (``--wri
 those pairs); nothing is skipped.  Issue 23, item 5: lee-frame|elastica rewritten: the
 arc-length corrector polishes its converged state to round-off, so a drawing's iteration
 counts no longer differ at tol level; the path is sampled differently after its 82nd step
-(step 83 at factor -0.69298 instead of -1.36001, on the same curve).
+(step 83 at factor -0.69298 instead of -1.36001, on the same curve).  Issue 23, item 5: an
+output's rot at a node whose member ends are all pinned is their mean (cases.node_rotation),
+not the first listed member's: only those ``.rot`` values were rewritten (shallow-arch-snap's
+apex, 0 by symmetry; thesis-sixbar-config4(-stall)'s J2, J3, J5, J6 under fem-N).
 """
 
 from __future__ import annotations

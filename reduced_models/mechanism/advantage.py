@@ -19,12 +19,13 @@ import numpy as np
 from reduced_models.base import Step
 
 
-def _out_index(run: object, name: str, direction: str) -> int:
+def _out_index(run: object, name: str, direction: str) -> list[int]:
+    """Unknowns whose mean is the output coordinate (a rot: ``cases.node_rotation``)."""
     s = run.s
     node = next(o.node for o in s.scene.outputs if o.name == name)
     if direction == "rot":
-        return s.lay.node_rot[node]
-    return s.lay.node_dof[node] + (0 if direction == "x" else 1)
+        return list(s.lay.node_rot[node])
+    return [s.lay.node_dof[node] + (0 if direction == "x" else 1)]
 
 
 def _nan_div(a: float, b: float) -> float:
@@ -47,7 +48,7 @@ def add_ma(run: object) -> list[Step]:
             rhs[solver.driver_index()] = 1.0
             dq = np.zeros(s.n)
             dq[f] = np.linalg.lstsq(J[:, f], rhs, rcond=None)[0]
-            ma = _nan_div(1.0, dq[io])
+            ma = _nan_div(1.0, dq[io].mean())
         elif spec.input == "driver" and s.driver_row is not None:
             lam_free = a.kind == "distance"
             dx = solver.tangent(st, "driver", lam_free)
@@ -55,7 +56,7 @@ def add_ma(run: object) -> list[Step]:
             dq[f] = dx[: len(f)]
             gU, _ = s.grad_hess(st.q, 0.0)
             F_in = -float(st.mu[solver.driver_index()]) if not lam_free else float("nan")
-            ma = _nan_div(1.0 - _nan_div(float(gU @ dq), F_in), dq[io])
+            ma = _nan_div(1.0 - _nan_div(float(gU @ dq), F_in), dq[io].mean())
         elif spec.input != "driver" and a.kind == "load":
             ld = next(x for x in s.scene.loads if x.id == spec.input)
             mag = float(np.hypot(ld.fx, ld.fy))
@@ -67,7 +68,7 @@ def add_ma(run: object) -> list[Step]:
                 ds_in = (ld.fx * dq[i] + ld.fy * dq[i + 1]) / mag
                 gU, _ = s.grad_hess(st.q, 0.0)
                 work = st.lam * mag * ds_in
-                ma = _nan_div(1.0 - _nan_div(float(gU @ dq), work), _nan_div(dq[io], ds_in))
+                ma = _nan_div(1.0 - _nan_div(float(gU @ dq), work), _nan_div(dq[io].mean(), ds_in))
         outs = dict(step.outputs)
         outs["ma"] = ma
         out.append(replace(step, outputs=outs))

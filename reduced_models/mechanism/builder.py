@@ -304,10 +304,13 @@ def _loads(scene: Scene, lay: Layout) -> LoadTerm:
         lin[i] -= ld.fx
         lin[i + 1] -= ld.fy
         if ld.moment:
-            r = lay.node_rot.get(nid)
-            if r is None:
+            r = lay.node_rot[nid]
+            if ld.node is None and m.kind != "spring":  # that member's end, as in the FE
+                p = lay.piece(m.id, nid)
+                r = (lay.end_rot[(p.id, "a" if p.a == nid else "b")],)
+            if not r:
                 raise SceneError(f"load {ld.id!r}: moment at a node without rotation")
-            lin[r] -= ld.moment
+            np.subtract.at(lin, list(r), ld.moment / len(r))  # shared (cases.node_rotation)
     # rigid-link forces: lever term measured from the drawn angle (q is the rotation)
     return LoadTerm(lin, rigid)
 

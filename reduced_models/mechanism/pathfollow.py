@@ -22,8 +22,10 @@ from dataclasses import replace
 
 import numpy as np
 
+from cases.node_rotation import no_own_rotation
 from reduced_models.mechanism.kkt import bordered_solve
 from reduced_models.mechanism.newton import POLISH_BELOW, SolveError, State
+from reduced_models.mechanism.system import SceneError
 
 # a corrector whose secant leaves the tangent by more than acos(JUMP_COS), or that needs more
 # than JUMP_ITERATIONS Newton iterations, has left the path's neighbourhood (members with a
@@ -141,7 +143,10 @@ def run_path(run: object) -> None:
         name, q = a.stop_output.rsplit(".", 1)
         node = next(o.node for o in s.scene.outputs if o.name == name)
         if q == "rot":
-            i = s.lay.node_rot[node]
+            rs = s.lay.node_rot[node]
+            if len(rs) > 1:  # a mean: the controls take one unknown (the loader refuses it)
+                raise SceneError(no_own_rotation(a.stop_output))
+            i = rs[0]
             off = 0.0
         else:
             i = s.lay.node_dof[node] + (1 if q in ("y", "uy") else 0)

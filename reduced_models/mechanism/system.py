@@ -268,12 +268,12 @@ class MechanismSystem:
         for o in self.scene.outputs:
             n = self.scene.node(o.node)
             i = self.lay.node_dof[o.node]
-            r = self.lay.node_rot.get(o.node)
+            r = list(self.lay.node_rot[o.node])  # their mean (cases.node_rotation)
             out[f"{o.name}.x"] = float(q[i]) + self.origin[0]
             out[f"{o.name}.y"] = float(q[i + 1]) + self.origin[1]
             out[f"{o.name}.ux"] = float(q[i] - n.x)
             out[f"{o.name}.uy"] = float(q[i + 1] - n.y)
-            out[f"{o.name}.rot"] = float(q[r]) if r is not None else 0.0
+            out[f"{o.name}.rot"] = float(np.mean(q[r])) if r else 0.0
         return out
 
     def shapes(self, q: np.ndarray) -> dict[str, np.ndarray]:

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from cases.node_rotation import pinned_ends
 from cases.schema import Load, Member, Node, Scene
 
 
@@ -33,8 +34,9 @@ class Layout:
     scene : the scene as solved (flexible members split at interior load points).
     node_dof : node id -> index of its x unknown (y follows).
     end_rot : (member id, "a" | "b") -> index of that member end's rotation unknown.
-    node_rot : node id -> rotation unknown reported as ``<output>.rot`` (welded group, else the
-        first member end listed), absent when only springs end there.
+    node_rot : node id -> rotation unknowns whose mean is ``<output>.rot`` and which share a
+        moment applied there (welded group, else every pinned member end:
+        ``cases.node_rotation``), ``()`` when only springs end there.
     q0 : drawn state, grows as member laws add internals.
     kind : per unknown "t" (translation), "r" (rotation), "p" (axial multiplier),
         "u" (stretch) -- for residual scaling.
@@ -45,7 +47,7 @@ class Layout:
     scene: Scene
     node_dof: dict[str, int]
     end_rot: dict[tuple[str, str], int]
-    node_rot: dict[str, int]
+    node_rot: dict[str, tuple[int, ...]]
     q0: list[float]
     kind: list[str]
     fixed: set[int] = field(default_factory=set)
@@ -175,15 +177,12 @@ def layout(scene: Scene) -> Layout:
             q0.append(0.0)
             kinds.append("r")
         end_rot[k] = group_dof[r]
-    node_rot = {}
-    for n in scene.nodes:
-        if n.id in weld_first:
-            node_rot[n.id] = end_rot[weld_first[n.id]]
-            continue
-        for m in beams:
-            if n.id in (m.a, m.b):
-                node_rot[n.id] = end_rot[(m.id, "a" if m.a == n.id else "b")]
-                break
+    node_rot = {
+        n.id: (end_rot[weld_first[n.id]],)
+        if n.id in weld_first
+        else tuple(end_rot[k] for k in pinned_ends(beams, n.id))
+        for n in scene.nodes
+    }
     lengths = [scene.member_length(m.id) for m in scene.members]
     lay = Layout(scene, node_dof, end_rot, node_rot, q0, kinds, Lref=max(lengths or [1.0]))
     lay.ground = int(lay.add([0.0], "r")[0])  # the ground's rotation, held at 0

@@ -45,6 +45,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from cases.node_rotation import pinned_ends
 from cases.schema import Scene
 from cases.units import SYSTEMS
 from reduced_models.base import ModelCard, Solution, Step, not_applicable
@@ -313,6 +314,22 @@ def structure(
     return out
 
 
+def _rot(scene: Scene, chain: Chain, turn: np.ndarray, node: str) -> float:
+    """Output rotation (rad) of a chain node from the bar rotations ``turn`` (chain order):
+    the first welded bar end's there, else the mean over its pinned bar ends
+    (``cases.node_rotation``)."""
+    bar = {m.id: chain.bars.index(i) for i, m in enumerate(scene.members)}
+    ends = pinned_ends(scene.members, node)
+    if ends:
+        return float(np.mean([turn[bar[mid]] for mid, _ in ends]))
+    first = next(
+        m.id
+        for m in scene.members
+        if (m.a == node and m.end_a == "weld") or (m.b == node and m.end_b == "weld")
+    )
+    return float(turn[bar[first]])
+
+
 class ThesisForceMethod:
     """``thesis-force-method``: the thesis's Appendix C incremental force method.
 
@@ -482,11 +499,8 @@ class ThesisForceMethod:
         for o in scene.outputs:
             n = scene.node(o.node)
             x, y = where.get(o.node, (n.x, n.y))
-            # rot: the first member listed at the node (schema convention)
-            first = next(i for i, m in enumerate(scene.members) if o.node in (m.a, m.b))
             out |= {f"{o.name}.x": x, f"{o.name}.y": y, f"{o.name}.ux": x - n.x}
-            rot = float(turn[chain.bars.index(first)])
-            out |= {f"{o.name}.uy": y - n.y, f"{o.name}.rot": rot}
+            out |= {f"{o.name}.uy": y - n.y, f"{o.name}.rot": _rot(scene, chain, turn, o.node)}
         for b, L in zip(scene.booms, boom_lengths(chain, pos)):
             out[f"{b.id}.length"] = L
         return Step(factor=factor, outputs=out)
