@@ -34,7 +34,7 @@ def newton_finish(run: object, s: ev.State) -> tuple[ev.State | None, str]:
 
     Returns
     -------
-    (state, "") : the finished state (velocities zero, accelerations consistent: ~0), or
+    (state, "") : the finished state (velocities and accelerations zero), or
     (None, reason) : Newton did not converge within ``FINISH_ITER`` iterations, hit a
         singular tangent, or left the ball of ``FINISH_BALL`` settle_tol L around ``s.q``.
     """
@@ -59,8 +59,11 @@ def newton_finish(run: object, s: ev.State) -> tuple[ev.State | None, str]:
         moved = float(np.max(np.abs(w * (q - s.q)), initial=0.0))
         if not (moved <= ball):  # nan too
             return None, f"Newton left the settled state by {moved / L:.1e} L"
-        if err <= FINISH_TOL * L:
-            return integ.start(s.t, s.lam, q, np.zeros_like(q)), ""
+        if err <= FINISH_TOL * L:  # at rest in equilibrium: no acceleration (M^-1 r would
+            # be the residual's round-off sent through the stiff, light modes)
+            rest = integ.start(s.t, s.lam, q, np.zeros_like(q))
+            rest.acc[:], rest.a[:], rest.mu = 0.0, 0.0, mu
+            return rest, ""
     return None, f"Newton did not converge in {FINISH_ITER} iterations (last {err / L:.1e} L)"
 
 
