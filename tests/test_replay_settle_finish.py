@@ -9,6 +9,7 @@ import numpy as np
 
 import cases
 from fem_reference.assembly import build
+from fem_reference.replay.model import Replay
 from fem_reference.replay.run import ReplayOptions, _stability, replay_system
 
 
@@ -37,3 +38,14 @@ def test_held_states_are_static_equilibria_to_round_off():
         r = np.asarray(system.residual(q, lam))
         # settled alone (no finish): ~1e-6 of the load; an equilibrium: round-off
         assert np.max(np.abs(r)) <= 1e-10 * np.max(np.abs(f)), np.max(np.abs(r))
+
+
+def test_a_deploy_with_locked_booms_is_finished_to_its_constrained_equilibrium():
+    """The thesis six-bar (config 4): the booms lock as bars (exact constraints, Lagrange
+    multipliers); Newton bordered by their rows finishes the settled state to a static
+    distance at round-off (held alone: up to 1e-7 L)."""
+    sol = Replay().solve(cases.load("thesis-sixbar-config4"))
+    assert sol.status == "converged" and sol.extras["boom_reached"], sol.message
+    (st,) = sol.steps
+    assert st.info["finished"] == 1.0, sol.message
+    assert st.info["distance"] <= 1e-12

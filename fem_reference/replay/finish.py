@@ -52,7 +52,7 @@ def newton_finish(run: object, s: ev.State) -> tuple[ev.State | None, str]:
         dq = -solve(r + Gc.T @ mu)
         if Gc.shape[0]:  # bordered by the locked booms' rows: G dq = -g
             X = solve(Gc.T)
-            dmu = np.linalg.solve(Gc @ X, -gc - Gc @ dq)
+            dmu = np.linalg.solve(Gc @ X, Gc @ dq + gc)
             dq, mu = dq - X @ dmu, mu + dmu
         err = float(np.max(np.abs(w * dq), initial=0.0))
         q = q + dq
