@@ -70,14 +70,18 @@ def newton_finish(run: object, s: ev.State) -> tuple[ev.State | None, str]:
 def finished(run: object, s: ev.State, chk: dict) -> tuple[ev.State, dict]:
     """The held-settled state ``s`` (the run's current state, its ``_Run.static_check``
     ``chk``) finished by ``newton_finish``, with the finished state's own check; or ``s``
-    and ``chk`` with ``chk["unfinished"]`` saying why the finish was not accepted.  The run
-    and its history stay on the motion (the held state, within settle_tol L of the answer):
-    going on from the finished state instead left a symmetric switch's snap landing to
-    round-off (DAS-2D Ex. 3 ramped in other units landed on the other branch)."""
+    and ``chk`` with ``chk["unfinished"]`` saying why the finish was not accepted.  The
+    history's sample of ``s`` shows the finished state, at rest (the time history holds
+    each answer and ends on the last); the motion goes on from ``s`` itself, within
+    settle_tol L of it: going on from the finished state left a symmetric switch's snap
+    landing to round-off (DAS-2D Ex. 3 ramped in other units landed on the other branch)."""
     rest, why = newton_finish(run, s)
     chk_rest = None if rest is None else run.static_check(rest)
     if chk_rest is None:
         return s, {**chk, "unfinished": why or "the finished state failed the settling test"}
+    h = run.hist
+    if h.q and h.q[-1] is s.q:
+        h.q[-1], h.kinetic[-1], h.strain[-1] = rest.q, 0.0, None
     return rest, chk_rest
 
 
