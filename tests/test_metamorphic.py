@@ -92,6 +92,9 @@ SLOW = (
     ("tests/fixtures/pinned-root-weak-spring-hanging.toml", "linear-auto"),
     ("tests/fixtures/pinned-root-weak-spring-pushed.toml", "linear-auto"),
     ("tests/fixtures/pinned-root-weak-spring-pushed.toml", "cbcm-auto"),
+    # the replay's held states, settled only to 1e-7 L: the imperfect column past Euler
+    # differed by 1.5e-8 of its excursion (rotated) before the Newton finish
+    ("tests/fixtures/column-imperfect-6x-euler.toml", "replay"),
 )
 
 

@@ -30,6 +30,7 @@ import scipy.sparse as sp
 
 from cases.schema import Scene
 from fem_reference.assembly import build
+from fem_reference.replay.finish import note as finish_note
 from fem_reference.statics.driver_post import post_process
 from reduced_models.base import Solution, Step
 
@@ -182,4 +183,5 @@ def solve_energy(scene: Scene, n_elements: int, options: object) -> Solution:
     if sol.status == "converged":
         res = max(st.info["residual"] for st in sol.steps)
         msg = f"settled {len(sol.steps)} driver positions; max residual {res:.2e}"
+        msg += finish_note(extras)
     return post_process(scene, Solution(sol.case, sol.model, sol.status, msg, sol.steps, extras))

@@ -6,11 +6,14 @@ through the reported factors in one continuous ramp (``ramp_periods`` lowest per
 increment, ``sweep.ContinuousRamp``) and each sample settled -- directly when it is
 quasi-static (Newton to the stable equilibrium it comes to rest at), else by holding the load
 until max|w v|/omega_1, max|w qdd|/omega_1^2 and the static distance max|w K^-1 r| are all
-below ``settle_tol * L`` (w: 1 for translations, L for rotations); a settled state passes
-that same test.  The equation of motion holds exactly at every step, so a state at rest is an
-exact static equilibrium: the settled states equal the static FE ones to the settling
-tolerance, whatever the step, density or damping (those shape only the transient, and so
-which branch a snap lands on).  Each settled
+below ``settle_tol * L`` (w: 1 for translations, L for rotations), and then finished by
+Newton on the same mesh and load from the held state (``finish``: where a held state lies
+within that ball is round-off, and differs between encodings of one scene) -- kept as held,
+and said in the message, if Newton does not converge or leaves a ball of 100 settle_tol L.
+The equation of motion holds exactly at every step, so a state at rest is an exact static
+equilibrium: the settled states are the static FE ones of that mesh to round-off (to the
+settling tolerance where a finish was not accepted), whatever the step, density or damping
+(those shape only the transient, and so which branch a snap lands on).  Each settled
 state gets the tangent test (lowest eigenvalue of (K, M)); under conservative loads that is
 its stability verdict where it is clear, and the state is kicked (lowest mode, or a nodal
 impulse as the thesis did with 1 N pulses in ADAMS) and watched -- returns = stable,
@@ -33,6 +36,7 @@ from cases.schema import Scene
 from fem_reference.replay import events, records
 from fem_reference.replay import honesty as honest
 from fem_reference.replay import integrator as ev
+from fem_reference.replay.finish import finished, note
 from fem_reference.replay.sweep import ContinuousRamp
 from fem_reference.statics.bifurcation import is_conservative
 from fem_reference.statics.integrity import violation
@@ -257,12 +261,13 @@ class _Run:
         return {"residual": float(np.max(np.abs(rt))), "distance": dist, "K": K, "G": Gc}
 
     def hold(self, lam: float) -> tuple[ev.State, dict]:
-        """Hold the load at ``lam`` until settled (static_check passes)."""
+        """Hold the load at ``lam`` until settled (static_check passes), then finish by
+        Newton (``finish.finished``: the equilibrium it came to rest at, at rest)."""
         if any(p.lock.force and not p.locked for p in self.integ.pairs):
             self.advance(self.integ.act_ramp, lambda t: lam)  # let the boom pushes ramp in
         chk = self.static_check(self.s) if self.s.lam == lam else None  # else: a step change
         if chk is not None:
-            return self.s, chk
+            return finished(self, self.s, chk)
         t_end = self.s.t + self.o.max_hold * self.T1
         t_soft = min(t_end, self.s.t + SOFT_AFTER * self.T1)
         s, chk = self.advance(t_soft, lambda t: lam, until=self.static_check)
@@ -276,7 +281,7 @@ class _Run:
         self.integ.a0, self.integ._C0 = a0, None
         if chk is None:
             raise ev.ReplayError(f"did not settle at factor {lam:.6g} within {self.o.max_hold} T1")
-        return s, chk
+        return finished(self, s, chk)
 
     # -- stability -----------------------------------------------------------------------------
     def probe(self, s: ev.State, eig: float, mode: np.ndarray, scene: Scene | None) -> dict:
@@ -437,6 +442,7 @@ def replay_system(
     steps: list[Step] = []
     jumps: list[dict] = []
     probes: list[dict] = []
+    unfinished: list[dict] = []  # held states the Newton finish was not accepted on
     try:
         run = _Run(system, scene, o)
     except (ev.ReplayError, RuntimeError, ValueError) as exc:
@@ -464,7 +470,10 @@ def replay_system(
             break
         pr.update(factor=float(lam), eigenvalue=eig, tangent_stable=verdict and bool(eig > 0))
         probes.append(pr)
+        if "unfinished" in chk:
+            unfinished.append({"factor": float(lam), "why": chk["unfinished"]})
         info = {
+            "finished": float("unfinished" not in chk),
             "residual": chk["residual"],
             "distance": chk["distance"],
             "t_settled": s.t,
@@ -488,9 +497,11 @@ def replay_system(
         if getattr(reach, "ended", False):  # the reach ended the path (a servo at factor_end)
             break
     extras = records.extras(run, system, jumps, probes)
+    extras["settle"]["unfinished"] = unfinished
     if status == "converged":
         res = max(s.info["residual"] for s in steps)
         message = f"settled {len(steps)} states; max residual {res:.2e}; {len(jumps)} jump(s)"
+        message += note(extras)
         message += "".join(  # where, as the FE says it
             f"; snap at factor {p['factor']:.6g} (critical_points: from, to)"
             for p in extras["critical_points"]

@@ -46,6 +46,7 @@ from fem_reference.assembly import build
 from fem_reference.error.richardson import gci
 from fem_reference.replay import honesty as honest
 from fem_reference.replay import integrator as ev
+from fem_reference.replay.finish import note as finish_note
 from fem_reference.statics.driver_post import post_process
 from reduced_models.base import Solution, Step, not_applicable
 
@@ -395,6 +396,7 @@ def solve(scene: Scene, n_elements: int, options: object) -> Solution:
     if sol.status == "converged":
         res = max(st.info["residual"] for st in steps)
         msg = f"settled {len(steps)} servo-held states; max residual {res:.2e}{note}{end}"
+        msg += finish_note(extras)
         if "stability" in extras:  # follower loads: no static verdict, said as load replays do
             msg += f"; {extras['stability']}"
     else:
