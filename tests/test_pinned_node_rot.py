@@ -162,13 +162,19 @@ def test_a_moment_on_one_member_end_turns_that_end(model: str) -> None:
     assert out["J.rot"] == pytest.approx(M * math.dist(XY[a], XY[b]) / (3.0 * I) / 3.0, rel=1e-5)
 
 
-@pytest.mark.parametrize("scene", (FORCES, MOMENT, BOTH), ids=("forces", "moment", "both"))
-@pytest.mark.parametrize("model", MODELS)
+@pytest.mark.parametrize(
+    "scene,model",
+    [
+        (scene, model)
+        for scene in (FORCES, MOMENT, BOTH)
+        for model in MODELS
+        # elastica declines the moment-only scene in any listing ("limit point at load
+        # factor 0"): its stiff members' (EA L^2 / EI = 1e6) round-off floor sits above
+        # Newton's tolerance at these small loads (noted in issue 23's closing note)
+        if not (scene is MOMENT and model == "elastica")
+    ],
+)
 def test_listing_the_members_otherwise_changes_no_output(scene: cases.Scene, model: str) -> None:
-    if scene is MOMENT and model in ("elastica", "replay"):
-        # elastica: "limit point at load factor 0" in any listing (also before this rule);
-        # the replay settles to 1e-8 of its force scale, 1 % of these rotations
-        pytest.skip(f"{model} does not resolve the moment-only scene")
     a = solve(scene, model).steps
     b = solve(reordered(scene, flip=model in EXACT), model).steps
     assert len(a) == len(b)
