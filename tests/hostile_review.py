@@ -20,6 +20,7 @@ import tomllib
 from pathlib import Path
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 import cases
 import reports
@@ -238,7 +239,10 @@ def main(argv=None) -> int:
     p.add_argument("--models", default="", help="comma-separated subset of models")
     p.add_argument("--no-catalog", action="store_true")
     p.add_argument("--catalog-only", action="store_true")
-    return run(p.parse_args(argv))
+    # BLAS on one thread, as the benchmark pins it: on a loaded machine a multithreaded
+    # factorisation oversubscribes the cores, and a 3 s solve passed the hang limit
+    with threadpool_limits(limits=1, user_api="blas"):
+        return run(p.parse_args(argv))
 
 
 if __name__ == "__main__":

@@ -73,7 +73,7 @@ def static_limit(
     first step that ends unstable (``bifurcation.Watch.locate``: Brent's method on the
     lowest eigenvalue, or its linear interpolation across that short step where the path
     cannot be re-solved inside it), or the limit point where load control stalls (traced
-    by arc-length and refined, ``Watch._limit``; else the stall); None if it gets there
+    by arc-length and refined, ``Watch.limit``; else the stall); None if it gets there
     stably.  A load-control step that lands past a fold on its unstable side is located
     inside that step (bistable-offload: 0.1554 where the elastica's limit point is 0.1574).
     """
@@ -97,7 +97,7 @@ def static_limit(
             if not watch.stable(cur):
                 return watch.locate(prev, cur)[0]
             if stalled:  # the limit point, traced over by arc-length and refined
-                lim = watch._limit(prev, S.State(cur.u, lam_k))
+                lim = watch.limit(prev, S.State(cur.u, lam_k))
                 return float(cur.lam if lim is None else lim.lam)
             prev = cur
         return None

@@ -177,7 +177,7 @@ class Watch:
         jumped = last is not None and du * last[1] > JUMP_RATIO * last[0] * dl
         if not (jumped or cur.info.get("snap")):
             return cur
-        lim = self._limit(prev, cur)
+        lim = self.limit(prev, cur)
         if lim is None:
             smooth = self.natural(prev, cur, cur.lam)
             if smooth is None or sc.unorm(smooth.u - cur.u) <= NATURAL_SAME * du:
@@ -206,7 +206,7 @@ class Watch:
         except S.SolveError:
             return
 
-    def _limit(self, prev: S.State, cur: S.State) -> S.State | None:
+    def limit(self, prev: S.State, cur: S.State) -> S.State | None:
         """The first limit point on the path traced from ``prev`` towards ``cur.lam`` (None
         if the factor reaches it monotonically or tracing fails)."""
         sgn = 1.0 if cur.lam >= prev.lam else -1.0
@@ -253,7 +253,7 @@ class Watch:
         stable state at ``target`` it settles at by energy descent from the limit state is
         returned, and the limit point and the snap (states before and after at its factor)
         are recorded.  None when the traced path does not turn back or the descent fails."""
-        lim = self._limit(prev, cur)
+        lim = self.limit(prev, cur)
         if lim is None:
             return None
         land = self._settle_after(lim, cur, target)
