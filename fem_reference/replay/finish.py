@@ -27,10 +27,13 @@ FINISH_BALL = 100.0  # finished state within this x settle_tol L of the settled 
 FINISH_ITER = 6  # Newton iterations at most (quadratic from settle_tol: two or three)
 
 
-def newton_finish(run: object, s: ev.State) -> tuple[ev.State | None, str]:
+def newton_finish(
+    run: object, s: ev.State, step: tuple[np.ndarray, np.ndarray] | None
+) -> tuple[ev.State | None, str]:
     """The static equilibrium at rest that the settled state ``s`` of replay ``run`` lies
     next to: Newton on r(q, lam) + G^T mu = 0, g(q) = 0 (locked booms; boom pushes at time
-    s.t) from (s.q, s.mu).
+    s.t) from (s.q, s.mu), its first correction ``step`` = (dq, dmu) the settling test's
+    (``_Run.static_check``: the same evaluation and factorisation, not done again).
 
     Returns
     -------
@@ -40,20 +43,23 @@ def newton_finish(run: object, s: ev.State) -> tuple[ev.State | None, str]:
     """
     integ, L, w = run.integ, run.L, run.w
     ball = FINISH_BALL * run.o.settle_tol * L
+    if step is None:
+        return None, "singular tangent"
     q, mu = s.q.copy(), s.mu.copy()
-    for _ in range(FINISH_ITER):
-        r, K, _, Gc, gc, Hs = integ.forces(q, s.lam, s.t)
-        Kt = ev.combine([(1.0, K)] + [(m_, H) for m_, H in zip(mu, Hs)])
-        try:
-            solve = ev.factor(Kt, integ.bw)
-        except RuntimeError:
-            return None, "singular tangent"
+    for it in range(FINISH_ITER):
+        if it:
+            r, K, _, Gc, gc, Hs = integ.forces(q, s.lam, s.t)
+            Kt = ev.combine([(1.0, K)] + [(m_, H) for m_, H in zip(mu, Hs)])
+            try:
+                solve = ev.factor(Kt, integ.bw)
+            except RuntimeError:
+                return None, "singular tangent"
+            step = (-solve(r + Gc.T @ mu), np.zeros(0))
+            if Gc.shape[0]:  # bordered by the locked booms' rows: G dq = -g
+                step = ev.bordered(solve, Gc, step[0], gc)
         integ.newton_iterations += 1
-        dq = -solve(r + Gc.T @ mu)
-        if Gc.shape[0]:  # bordered by the locked booms' rows: G dq = -g
-            X = solve(Gc.T)
-            dmu = np.linalg.solve(Gc @ X, Gc @ dq + gc)
-            dq, mu = dq - X @ dmu, mu + dmu
+        dq, dmu = step
+        mu = mu + dmu if dmu.size else mu
         err = float(np.max(np.abs(w * dq), initial=0.0))
         q = q + dq
         moved = float(np.max(np.abs(w * (q - s.q)), initial=0.0))
@@ -75,7 +81,7 @@ def finished(run: object, s: ev.State, chk: dict) -> tuple[ev.State, dict]:
     each answer and ends on the last); the motion goes on from ``s`` itself, within
     settle_tol L of it: going on from the finished state left a symmetric switch's snap
     landing to round-off (DAS-2D Ex. 3 ramped in other units landed on the other branch)."""
-    rest, why = newton_finish(run, s)
+    rest, why = newton_finish(run, s, chk.get("step"))
     chk_rest = None if rest is None else run.static_check(rest)
     if chk_rest is None:
         return s, {**chk, "unfinished": why or "the finished state failed the settling test"}

@@ -85,6 +85,17 @@ def combine(terms: list[tuple[float, sp.spmatrix]]) -> sp.csr_matrix:
     return out.tocsr()
 
 
+def bordered(
+    solve: Callable[[np.ndarray], np.ndarray], Gc: np.ndarray, dq: np.ndarray, gc: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """A Newton correction ``dq`` = -A^-1 R of the unconstrained system (``solve`` = A^-1)
+    bordered by the locked booms' rows, so that G dq = -g: (dq - X dmu, dmu) with
+    X = A^-1 G^T, (m,) multiplier update dmu (G (m, n), g (m,))."""
+    X = solve(Gc.T)
+    dmu = np.linalg.solve(Gc @ X, Gc @ dq + gc)
+    return dq - X @ dmu, dmu
+
+
 def factor(A: sp.spmatrix, bw: int | None = None) -> Callable[[np.ndarray], np.ndarray]:
     """LU of A; returns solve(b).  Within half-bandwidth ``bw`` (the FE system's, when narrow):
     LAPACK banded LU (``dgbtrf``; 2-3x cheaper than SuperLU at 100 DOFs).  Otherwise (or when
@@ -312,9 +323,7 @@ class GenAlpha:
             dq = -solve(R)
             dmu = None
             if mu.size:
-                X = solve(Gc.T)
-                dmu = np.linalg.solve(Gc @ X, Gc @ dq + gc)
-                dq = dq - X @ dmu
+                dq, dmu = bordered(solve, Gc, dq, gc)
             if not np.all(np.isfinite(dq)):
                 return None
             err = float(np.max(np.abs(self.w * dq)))

@@ -235,7 +235,8 @@ class _Run:
 
     # -- settling ------------------------------------------------------------------------------
     def static_check(self, s: ev.State) -> dict | None:
-        """Static residual r + G^T mu at ``s`` and the distance K^-1 r to equilibrium."""
+        """Static residual r + G^T mu at ``s``, its Newton correction ``step`` = (dq, dmu)
+        (bordered by the locked booms) and the distance max|w dq| / L to equilibrium."""
         o, tol = self.o, self.o.settle_tol * self.L
         if np.max(np.abs(self.w * s.v)) / self.w1 > tol:
             return None
@@ -244,13 +245,14 @@ class _Run:
         r, K, _, Gc, gc, Hs = self.integ.forces(s.q, s.lam, s.t)
         rt = r + Gc.T @ s.mu
         K = ev.combine([(1.0, K)] + [(m_, H) for m_, H in zip(s.mu, Hs)])
+        step = None
         try:
             solve = ev.factor(K, getattr(self.sys, "bandwidth", None))
-            d = solve(rt)
+            dq, dmu = -solve(rt), np.zeros(0)
             if Gc.shape[0]:
-                X = solve(Gc.T)
-                d = d - X @ np.linalg.solve(Gc @ X, Gc @ d - gc)
-            dist = float(np.max(np.abs(self.w * d))) / self.L
+                dq, dmu = ev.bordered(solve, Gc, dq, gc)
+            dist = float(np.max(np.abs(self.w * dq))) / self.L
+            step = (dq, dmu)
         except RuntimeError:  # singular tangent: no distance; the residual itself must be tiny
             dist = float("nan")
         if not (dist <= o.settle_tol):  # nan passes only on a residual at the settle level
@@ -258,7 +260,8 @@ class _Run:
             rf = float(np.max(np.abs(rt), initial=0.0)) / max(fs, 1e-300)
             if not (math.isnan(dist) and rf <= o.settle_tol):
                 return None
-        return {"residual": float(np.max(np.abs(rt))), "distance": dist, "K": K, "G": Gc}
+        res = float(np.max(np.abs(rt)))
+        return {"residual": res, "distance": dist, "K": K, "G": Gc, "step": step}
 
     def hold(self, lam: float) -> tuple[ev.State, dict]:
         """Hold the load at ``lam`` until settled (static_check passes), then finish by
