@@ -20,7 +20,7 @@ from fem_reference.assembly import build
 from fem_reference.models import FEM
 from fem_reference.replay.integrator import GenAlpha, ramp
 from fem_reference.replay.model import Replay, write_animation, write_vtu_series
-from fem_reference.replay.run import ReplayOptions, replay_system
+from fem_reference.replay.run import ReplayOptions, ramp_and_hold, replay_system
 from fem_reference.statics import static
 from reduced_models.base import Step
 
@@ -200,9 +200,10 @@ def test_energy_balance_through_a_snap():
 
 @pytest.mark.parametrize("lam", [0.2, 0.37, 0.39, 0.6])
 def test_probe_agrees_with_exact_stability_column(lam):
-    """Two-link column: straight state stable iff lam P l / k < (3 - sqrt 5) / 2."""
+    """Two-link column: straight state stable iff lam P l / k < (3 - sqrt 5) / 2 (held
+    there by ``ramp_and_hold``: the default ramp leaves a saddle, ``test_ramp_leaves_...``)."""
     col = TwoLinkColumn()
-    sol = replay_system(col, np.array([0.0, lam]))
+    sol = replay_system(col, np.array([0.0, lam]), reach=ramp_and_hold)
     assert sol.ok, sol.message
     st = sol.steps[-1]
     exact_eig = (3.0 - 2.0 * lam - math.sqrt(5.0)) / 2.0  # lowest eigenvalue of K at theta = 0
@@ -217,7 +218,7 @@ def test_auto_probe_kicks_only_near_the_limit_and_the_last_state():
     omega_1^2 = (3 - sqrt 5) / 2 away from zero (lam outside (0.363, 0.401)), the kick
     decides within that band and at the last state."""
     factors = np.array([0.0, 0.1, 0.2, 0.3, 0.37, 0.39, 0.5, 0.6])
-    sol = replay_system(TwoLinkColumn(), factors)
+    sol = replay_system(TwoLinkColumn(), factors, reach=ramp_and_hold)  # straight throughout
     assert sol.ok, sol.message
     verdicts = [p["verdict"] for p in sol.extras["probes"]]
     expected = ["tangent"] * 4 + ["returned", "departed", "tangent", "departed"]
@@ -264,10 +265,17 @@ node = "B"
 
 def test_fe_probe_agrees_with_fe_tangent_test():
     """FE column (P_cr = pi^2 / 4 = 2.47): straight at P = 1.5 stable, at P = 3 unstable; the
-    kick verdicts agree with the static FE reference's tangent test."""
+    kick verdicts on the straight states (held there by ``ramp_and_hold``) agree with the
+    static FE reference's tangent test."""
     sc = cases.loads(COLUMN)
-    fs = FEM(8, bifurcation=False).solve(sc)  # the straight branch, as the replay settles
-    rp = Replay(8).solve(sc)
+    fs = FEM(8, bifurcation=False).solve(sc)  # the straight branch, as the replay is held
+    factors = [s.factor for s in fs.steps]
+
+    def held(**options):
+        o = ReplayOptions(**options)
+        return replay_system(build(sc, 8), factors, scene=sc, options=o, reach=ramp_and_hold)
+
+    rp = held()
     assert fs.ok and rp.ok, (fs.message, rp.message)
     assert [s.stable for s in fs.steps] == [True, True, False]
     assert [s.stable for s in rp.steps] == [True, True, False]
@@ -275,8 +283,42 @@ def test_fe_probe_agrees_with_fe_tangent_test():
     assert abs(rp.steps[-1].outputs["tip.ux"]) < 1e-9  # settled on the (unstable) straight state
     assert "unstable" in rp.message and rp.extras["reference_usable"] is False
     # the thesis's probe: a lateral nodal impulse at the tip instead of the modal kick
-    rn = Replay(8, probe_node="B", probe_impulse=(1e-3, 0.0)).solve(sc)
+    rn = held(probe_node="B", probe_impulse=(1e-3, 0.0))
     assert [s.stable for s in rn.steps] == [True, True, False]
+
+
+def test_ramp_leaves_a_saddle_onto_the_fe_switched_branch():
+    """The default ramp past the perfect column's Euler load: the straight state it is held
+    at is a saddle, so it is displaced along the unstable mode (the FE's switch rule) and
+    settles on the buckled branch -- the FE's, switched by its bifurcation watch, on the same
+    mesh -- stable and usable, with the bifurcation located as the FE locates it."""
+    sc = cases.loads(COLUMN)
+    fs, rp = FEM(8).solve(sc), Replay(8).solve(sc)
+    assert fs.ok and rp.ok, (fs.message, rp.message)
+    assert [s.stable for s in rp.steps] == [True, True, True]
+    assert rp.extras.get("reference_usable", True) is not False
+    tip, fe_tip = rp.steps[-1].outputs, fs.steps[-1].outputs
+    assert abs(fe_tip["tip.ux"]) > 0.3  # buckled (P = 1.2 P_cr)
+    for k in ("tip.ux", "tip.uy", "tip.rot"):
+        assert tip[k] == pytest.approx(fe_tip[k], abs=1e-7), k
+    (cp,) = rp.extras["critical_points"]
+    (fe_cp,) = [p for p in fs.extras["critical_points"] if p["kind"] == "bifurcation"]
+    assert cp["factor"] == pytest.approx(fe_cp["factor"], rel=1e-8)
+
+
+def test_ramp_leaves_the_two_link_saddle_for_its_exact_buckled_state():
+    """Two-link column at lam = 0.6 (straight state unstable past 0.382): the default ramp
+    settles on the exact buckled equilibrium Ks th = lam P l sin(th), which is stable."""
+    col = TwoLinkColumn()
+    sol = replay_system(col, np.array([0.0, 0.3, 0.6]))
+    assert sol.ok, sol.message
+    th = np.array([sol.steps[-1].outputs["th1"], sol.steps[-1].outputs["th2"]])
+    assert np.max(np.abs(th)) > 0.1
+    assert np.max(np.abs(col.residual(th, 0.6))) < 1e-10
+    exact = so.fsolve(lambda u: col.residual(u, 0.6), th, xtol=1e-14)
+    assert th == pytest.approx(exact, abs=1e-9)
+    eig = np.linalg.eigvalsh(col.residual_and_tangent(th, 0.6)[1].toarray())
+    assert eig[0] > 0.0 and sol.steps[-1].stable is True
 
 
 def test_cantilever_settles_to_static_fe_reference():

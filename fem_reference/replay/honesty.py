@@ -35,13 +35,16 @@ SAME_BRANCH = 1e-3  # a traced state this close (x the increment's move) is the 
 
 
 def mesh_error(
-    scene: Scene, n: int, fine: dict[str, float] | None = None
+    scene: Scene, n: int, fine: dict[str, float] | None = None, switched: bool = False
 ) -> dict[str, float] | None:
     """Estimate (``richardson.gci``) of the n-element discretisation error of every output at
     the last load factor, from static FE solves on n and n // 2 elements (None if either
     fails).  ``fine``: the n-element outputs there, when known (the replay's own last
     settled state: the static FE one of that mesh to the settling tolerance), so that only
-    the coarse mesh is solved."""
+    the coarse mesh is solved.  ``switched``: the replay left its starting branch (a snap,
+    a bifurcation): the FE solves watch their stability and switch branch as the FE
+    reference does (without, a perfect column's FE stays on its unstable straight path,
+    and the "error" is the buckled replay's whole deflection)."""
     from fem_reference.models import FEM
 
     if n < 2:
@@ -49,7 +52,7 @@ def mesh_error(
     a = dataclasses.replace(scene.analysis, steps=max(1, min(scene.analysis.steps, 4)))
     sc = dataclasses.replace(scene, analysis=a)
     meshes = (n // 2,) if fine is not None else (n // 2, n)
-    runs = [FEM(m, stability=False, bifurcation=False).solve(sc) for m in meshes]
+    runs = [FEM(m, stability=switched, bifurcation=switched).solve(sc) for m in meshes]
     if any(r.status != "converged" or not r.steps for r in runs):
         return None
     coarse = runs[0].steps[-1].outputs
@@ -95,7 +98,12 @@ def static_limit(
                     return None
                 cur, stalled = err.state, 1
             if not watch.stable(cur):
-                return watch.locate(prev, cur)[0]
+                lam_c, _, _, located = watch.locate(prev, cur)
+                # not re-solvable inside the step: load control jumped onto the unstable
+                # side of a fold, which lies ahead, not inside the step (the eigenvalue's
+                # interpolation would put it there): the path traced towards ``target``
+                lim = None if located else watch.limit(prev, S.State(cur.u, target))
+                return lam_c if lim is None else float(lim.lam)
             if stalled:  # the limit point, traced over by arc-length and refined
                 lim = watch.limit(prev, S.State(cur.u, lam_k))
                 return float(cur.lam if lim is None else lim.lam)

@@ -161,7 +161,8 @@ class Replay:
         if sol.status != "converged" or self.factors is not None:
             return sol
         # its error against fem-auto, stated (the fine mesh's answer: its own last state)
-        est = honest.mesh_error(scene, self.n_elements, dict(sol.steps[-1].outputs))
+        switched = bool(sol.extras.get("jumps"))
+        est = honest.mesh_error(scene, self.n_elements, dict(sol.steps[-1].outputs), switched)
         if est is None:
             return sol
         worst = honest.worst_mesh_error(est, system.length_scale())

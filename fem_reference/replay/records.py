@@ -118,13 +118,17 @@ def jump(
 
 def critical_point(jp: dict) -> dict:
     """The jump ``jp`` as ``extras["critical_points"]`` reports a snap (DESIGN.md, "Critical
-    points"; the FE's ``bifurcation.Watch`` form): ``factor`` where the dynamic jump started
-    (the ramp's state left the stable region; it lags the static critical factor by the
-    ramp rate), ``from`` the outputs there, ``to`` the settled outputs after the jump, and
-    the static path's stability loss alongside (``factor_static``, None if not found)."""
-    point = {"kind": "snap", "factor": jp["factor_dynamic"], "switched": True}
+    points"; the FE's ``bifurcation.Watch`` form): ``factor`` where the static path from the
+    last stable settled state loses stability (``factor_static``: the scene's critical
+    factor on the replay's mesh, as the FE locates it), else where the dynamic jump started
+    (``factor_dynamic``, alongside: the ramp's state left the stable region, lagging the
+    static factor by the ramp rate, at a time step of the adaptive grid), ``from`` the
+    outputs at the dynamic onset, ``to`` the settled outputs after the jump."""
+    lam = jp["factor_dynamic"] if jp["factor_static"] is None else jp["factor_static"]
+    point = {"kind": "snap", "factor": lam, "switched": True}
     point.update({"from": dict(jp["before"]), "to": dict(jp["after"])})
-    point.update(factor_static=jp["factor_static"], to_factor=jp["to_factor"])
+    point.update(factor_static=jp["factor_static"], factor_dynamic=jp["factor_dynamic"])
+    point["to_factor"] = jp["to_factor"]
     return point
 
 

@@ -38,7 +38,7 @@ import numpy as np
 from fem_reference.banded import BandedLU
 from fem_reference.replay import integrator as ev
 from fem_reference.replay.band import lowest_mode_band
-from fem_reference.statics.bifurcation import is_conservative
+from fem_reference.statics.bifurcation import SWITCH_AMPLITUDE, is_conservative
 
 CLOSE = 5e-2  # velocity / omega_1 and distance to equilibrium (/ L) that a sample may have
 QUASI_STATIC = 0.25  # and at most this fraction of the increment's own motion (a ramp's lag)
@@ -47,6 +47,7 @@ NEWTON_MAX = 12
 RAMP_NEWTON = 1e-3  # Newton tolerance on a ramp / lte_tol
 RAMP_DT = 2.0  # largest ramp step / T1 (two per increment at ramp_periods = 4)
 RAMP_RTOL = 0.03  # local error per ramp step / the motion the tangent predicts for it
+SADDLE_KICKS = 3  # displacements off a held saddle (``off_saddle``) at most
 
 
 def _ease(x: float) -> float:
@@ -84,7 +85,7 @@ class ContinuousRamp:
             self.q_last = run.s.q
             if self.factors.size and self.factors[0] == run.s.lam:  # starts where it is
                 self.k, self.j0 = 2, 1
-                out = run.hold(lam)
+                out = off_saddle(run, run.hold(lam))
                 if banded(run) and self.sched.size > 2:
                     chk = at_rest(run, out[0].t, lam, out[0].q)[1]
                     self.move = 0.0 if chk is None else self._ahead(run, out[0], chk, 2)
@@ -110,7 +111,7 @@ class ContinuousRamp:
         last = j == self.sched.size - 1
         out = None if last else settle(run, run.s, lam, self.q_last)
         if out is None:  # held on the ramp itself: it starts again from rest
-            out = run.hold(lam)
+            out = off_saddle(run, run.hold(lam))
             self.j0, self.t0 = j, out[0].t
             self.move = 0.0
         elif not last:
@@ -151,6 +152,35 @@ def settle(
     if is_conservative(run.sys) and not chk["tangent"][0] > 0.0:
         return None  # a damped motion does not come to rest at an unstable equilibrium
     return rest, chk
+
+
+def off_saddle(run: object, held: tuple[ev.State, dict]) -> tuple[ev.State, dict]:
+    """The held state, or -- where it is a saddle of the potential (conservative loads, the
+    tangent test's lowest eigenvalue negative) -- the state the motion settles at once
+    displaced off it along the unstable mode.
+
+    A damped motion comes to rest at a saddle only when it has no component along the
+    unstable mode: a perfectly symmetric structure loaded on its symmetry axis, ramped past
+    its bifurcation, stays on the symmetric path while that path is unstable (a real one,
+    or the same scene in another encoding, leaves it by its imperfections or round-off, at
+    an undetermined time and onto an undetermined side).  It is displaced as the FE's branch
+    switch does (``bifurcation.SWITCH_AMPLITUDE`` of the length scale, or rad, along the
+    mode's largest weighted component, positive) and held again, at most ``SADDLE_KICKS``
+    times.  The tangent test is kept in ``chk["tangent"]`` (the stability verdict uses it)."""
+    s, chk = held
+    if not is_conservative(run.sys):
+        return held
+    for _ in range(SADDLE_KICKS):
+        eig, mode = chk.get("tangent") or run.tangent_test(chk)
+        chk["tangent"] = (eig, mode)
+        if not eig < 0.0 or s.mu.size:  # locked booms: held where the lock holds them
+            break
+        wm = run.w * mode
+        i = int(np.argmax(np.abs(wm)))
+        q = s.q + SWITCH_AMPLITUDE * run.L * mode / wm[i]
+        run.s = run.integ.start(s.t, s.lam, q, np.zeros_like(q))
+        s, chk = run.hold(s.lam)
+    return s, chk
 
 
 def banded(run: object) -> bool:
