@@ -291,7 +291,7 @@ def test_ramp_leaves_a_saddle_onto_the_fe_switched_branch():
     """The default ramp past the perfect column's Euler load: the straight state it is held
     at is a saddle, so it is displaced along the unstable mode (the FE's switch rule) and
     settles on the buckled branch -- the FE's, switched by its bifurcation watch, on the same
-    mesh -- stable and usable, with the bifurcation located as the FE locates it."""
+    mesh -- stable and usable, with the bifurcation located and classified as the FE does."""
     sc = cases.loads(COLUMN)
     fs, rp = FEM(8).solve(sc), Replay(8).solve(sc)
     assert fs.ok and rp.ok, (fs.message, rp.message)
@@ -301,8 +301,9 @@ def test_ramp_leaves_a_saddle_onto_the_fe_switched_branch():
     assert abs(fe_tip["tip.ux"]) > 0.3  # buckled (P = 1.2 P_cr)
     for k in ("tip.ux", "tip.uy", "tip.rot"):
         assert tip[k] == pytest.approx(fe_tip[k], abs=1e-7), k
-    (cp,) = rp.extras["critical_points"]
+    (cp,) = rp.extras["critical_points"]  # supercritical: a bifurcation, not a snap
     (fe_cp,) = [p for p in fs.extras["critical_points"] if p["kind"] == "bifurcation"]
+    assert cp["kind"] == "bifurcation" and cp["switched"] is True
     assert cp["factor"] == pytest.approx(fe_cp["factor"], rel=1e-8)
 
 

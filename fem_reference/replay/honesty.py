@@ -6,9 +6,10 @@
   same rule as ``fem-auto``'s (``richardson.gci``: ``3 |f_n - f_{n/2}| / (2^2 - 1)``, order 2
   of the corotational element assumed, Roache's safety factor 3); the replay states it.
 * ``static_limit``: where the *static* path from the last stable settled state before a
-  snap-through loses stability (a bifurcation, or the limit point where load control
-  stalls): reported alongside the dynamic onset seen in the transient, which lags behind
-  it by the ramp rate.
+  jump loses stability (a bifurcation, or the limit point where load control stalls), and
+  whether the jump is a snap or the switch onto a supercritical branch: reported as the
+  jump's factor, the dynamic onset seen in the transient (which lags behind it by the ramp
+  rate) alongside.
 * ``same_branch``: an increment whose settled end is far from its settled start is a snap
   only if the two lie on different branches: the static path traced by arc-length from the
   start (``bifurcation.Watch.natural``, the FE's own natural-path test) reaches the end's
@@ -67,21 +68,30 @@ def worst_mesh_error(est: dict[str, float], length: float) -> float:
 
 
 def static_limit(
-    system: object, q: np.ndarray, lam: float, target: float, substeps: int = 8
-) -> float | None:
+    system: object,
+    q: np.ndarray,
+    lam: float,
+    target: float,
+    substeps: int = 8,
+) -> tuple[float, str] | None:
     """Factor at which the static path from the stable equilibrium ``(q, lam)`` towards
-    ``target`` loses stability: marched by load control in ``substeps`` equal steps (short
-    enough to stay on the branch next to a bifurcation, where one long step may land on
-    the other branch and leave the bracket without a path through it), located in the
-    first step that ends unstable (``bifurcation.Watch.locate``: Brent's method on the
+    ``target`` loses stability, and its kind: marched by load control in ``substeps`` equal
+    steps (short enough to stay on the branch next to a bifurcation, where one long step may
+    land on the other branch and leave the bracket without a path through it), located in
+    the first step that ends unstable (``bifurcation.Watch.locate``: Brent's method on the
     lowest eigenvalue, or its linear interpolation across that short step where the path
     cannot be re-solved inside it), or the limit point where load control stalls (traced
     by arc-length and refined, ``Watch.limit``; else the stall); None if it gets there
-    stably.  A load-control step that lands past a fold on its unstable side is located
-    inside that step (bistable-offload: 0.1554 where the elastica's limit point is 0.1574).
-    """
+    stably.  A load-control step that lands past a fold on its unstable side is located on
+    the path traced ahead of it (bistable-offload: 0.15743, the elastica's limit point
+    0.15737; the interpolation inside the step said 0.1554).
 
-    from fem_reference.statics.bifurcation import Watch
+    The kind is "bifurcation" where the stability loss is a located bifurcation (the load
+    does no work on its mode, ``bifurcation.KIND_TOL``) whose branch through the settled
+    end ``landed`` returns to the critical state at its factor (supercritical: a buckled
+    column, which does not snap; as ``Watch._jump`` decides), else "snap"."""
+
+    from fem_reference.statics.bifurcation import KIND_TOL, Watch
 
     opts = S.Options()
     try:
@@ -98,19 +108,40 @@ def static_limit(
                     return None
                 cur, stalled = err.state, 1
             if not watch.stable(cur):
-                lam_c, _, _, located = watch.locate(prev, cur)
-                # not re-solvable inside the step: load control jumped onto the unstable
-                # side of a fold, which lies ahead, not inside the step (the eigenvalue's
-                # interpolation would put it there): the path traced towards ``target``
-                lim = None if located else watch.limit(prev, S.State(cur.u, target))
-                return lam_c if lim is None else float(lim.lam)
+                lam_c, crit, phi, located = watch.locate(prev, cur)
+                if not located:  # load control jumped onto the unstable side of a fold
+                    lim = watch.limit(prev, S.State(cur.u, target))  # ahead, not inside
+                    return (lam_c if lim is None else float(lim.lam)), "snap"
+                f = np.asarray(system.external(crit.u), dtype=float)
+                work = abs(float(phi @ f)) / max(np.linalg.norm(phi) * np.linalg.norm(f), 1e-300)
+                return lam_c, "bifurcation" if work < KIND_TOL and _rises(
+                    system, crit, phi
+                ) else "snap"
             if stalled:  # the limit point, traced over by arc-length and refined
                 lim = watch.limit(prev, S.State(cur.u, lam_k))
-                return float(cur.lam if lim is None else lim.lam)
+                return float(cur.lam if lim is None else lim.lam), "snap"
             prev = cur
         return None
     except (AttributeError, TypeError, ValueError, np.linalg.LinAlgError, S.SolveError):
         return None
+
+
+def _rises(system: object, crit: S.State, phi: np.ndarray) -> bool:
+    """Whether the branch through the critical state ``crit`` along its mode ``phi`` rises
+    (the factor at a mode amplitude of ``SWITCH_AMPLITUDE`` above the critical one: the
+    FE's test, ``Watch._switch``); False where that state cannot be solved."""
+    from fem_reference.statics.bifurcation import SWITCH_AMPLITUDE
+
+    i = int(np.argmax(np.abs(phi) * np.sqrt(S.Scaler.of(system).w)))
+    a = SWITCH_AMPLITUDE * (1.0 if system.is_rotation[i] else system.length_scale())
+    try:
+        off = S.newton(
+            system, crit.u + a * phi / phi[i], crit.lam, S.Options(),
+            constraint=(i, 1.0, crit.u[i] + a),
+        )  # fmt: skip
+    except S.SolveError:
+        return False
+    return bool(off.lam > crit.lam)
 
 
 def same_branch(

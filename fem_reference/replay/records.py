@@ -104,9 +104,9 @@ def jump(
     lam_eq = float(r0 @ f / (f @ f)) if f @ f > 0 else math.nan
     # reported at the static path's stability loss; the dynamic onset alongside
     q_s, lam_0 = (q_prev, float(prev.factor)) if stable_from is None else stable_from
-    lam_s = honest.static_limit(run.sys, q_s, lam_0, after.factor)
+    lam_s, kind = honest.static_limit(run.sys, q_s, lam_0, after.factor) or (None, "snap")
     lam_d = float(h.factor[lo])
-    out = dict(factor=lam_d if lam_s is None else lam_s, factor_dynamic=lam_d)
+    out = dict(factor=lam_d if lam_s is None else lam_s, factor_dynamic=lam_d, kind=kind)
     out.update(factor_static=lam_s, factor_equilibrium=lam_eq, t=float(h.t[lo]))
     out.update(from_factor=float(prev.factor), to_factor=after.factor)
     out.update(dissipated=float(dD), dissipated_ratio=float(dD / scale))
@@ -117,15 +117,17 @@ def jump(
 
 
 def critical_point(jp: dict) -> dict:
-    """The jump ``jp`` as ``extras["critical_points"]`` reports a snap (DESIGN.md, "Critical
-    points"; the FE's ``bifurcation.Watch`` form): ``factor`` where the static path from the
+    """The jump ``jp`` as ``extras["critical_points"]`` reports it (DESIGN.md, "Critical
+    points"; the FE's ``bifurcation.Watch`` form): kind "snap", or "bifurcation" where the
+    settled end lies on a supercritical branch through the static critical state (a buckled
+    column; ``honesty.static_limit``), ``factor`` where the static path from the
     last stable settled state loses stability (``factor_static``: the scene's critical
     factor on the replay's mesh, as the FE locates it), else where the dynamic jump started
     (``factor_dynamic``, alongside: the ramp's state left the stable region, lagging the
     static factor by the ramp rate, at a time step of the adaptive grid), ``from`` the
     outputs at the dynamic onset, ``to`` the settled outputs after the jump."""
     lam = jp["factor_dynamic"] if jp["factor_static"] is None else jp["factor_static"]
-    point = {"kind": "snap", "factor": lam, "switched": True}
+    point = {"kind": jp["kind"], "factor": lam, "switched": True}
     point.update({"from": dict(jp["before"]), "to": dict(jp["after"])})
     point.update(factor_static=jp["factor_static"], factor_dynamic=jp["factor_dynamic"])
     point["to_factor"] = jp["to_factor"]

@@ -506,7 +506,7 @@ def replay_system(
         message = f"settled {len(steps)} states; max residual {res:.2e}; {len(jumps)} jump(s)"
         message += note(extras)
         message += "".join(  # where, as the FE says it
-            f"; snap at factor {p['factor']:.6g} (critical_points: from, to)"
+            f"; {p['kind']} at factor {p['factor']:.6g} (critical_points: from, to)"
             for p in extras["critical_points"]
         )
         if not verdict:
