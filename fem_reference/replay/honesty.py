@@ -33,6 +33,7 @@ from fem_reference.statics import static as S
 
 JUMP_MIN_DISTANCE = 1e-4  # fraction of the length scale
 SAME_BRANCH = 1e-3  # a traced state this close (x the increment's move) is the settled end
+REFINE_DEPTH = 3  # ``static_limit``: shorter steps (1 / substeps each) round an unlocated loss
 
 
 def mesh_error(
@@ -73,6 +74,7 @@ def static_limit(
     lam: float,
     target: float,
     substeps: int = 8,
+    depth: int = 0,
 ) -> tuple[float, str] | None:
     """Factor at which the static path from the stable equilibrium ``(q, lam)`` towards
     ``target`` loses stability, and its kind: marched by load control in ``substeps`` equal
@@ -111,12 +113,18 @@ def static_limit(
                 lam_c, crit, phi, located = watch.locate(prev, cur)
                 if not located:  # load control jumped onto the unstable side of a fold
                     lim = watch.limit(prev, S.State(cur.u, target))  # ahead, not inside
-                    return (lam_c if lim is None else float(lim.lam)), "snap"
+                    if lim is not None:
+                        return float(lim.lam), "snap"
+                    # or Brent's Newton diverged right at a bifurcation (singular there to
+                    # round-off): the eigenvalue's interpolation is refined in a shorter step
+                    inner = None
+                    if depth < REFINE_DEPTH:
+                        inner = static_limit(system, prev.u, prev.lam, cur.lam, substeps, depth + 1)
+                    return inner or (lam_c, "snap")
                 f = np.asarray(system.external(crit.u), dtype=float)
                 work = abs(float(phi @ f)) / max(np.linalg.norm(phi) * np.linalg.norm(f), 1e-300)
-                return lam_c, "bifurcation" if work < KIND_TOL and _rises(
-                    system, crit, phi
-                ) else "snap"
+                rises = work < KIND_TOL and _rises(system, crit, phi, lam_c)
+                return lam_c, "bifurcation" if rises else "snap"
             if stalled:  # the limit point, traced over by arc-length and refined
                 lim = watch.limit(prev, S.State(cur.u, lam_k))
                 return float(cur.lam if lim is None else lim.lam), "snap"
@@ -126,10 +134,11 @@ def static_limit(
         return None
 
 
-def _rises(system: object, crit: S.State, phi: np.ndarray) -> bool:
-    """Whether the branch through the critical state ``crit`` along its mode ``phi`` rises
-    (the factor at a mode amplitude of ``SWITCH_AMPLITUDE`` above the critical one: the
-    FE's test, ``Watch._switch``); False where that state cannot be solved."""
+def _rises(system: object, crit: S.State, phi: np.ndarray, lam_c: float) -> bool:
+    """Whether the branch through the critical state ``crit`` (at or next to the critical
+    factor ``lam_c``) along its mode ``phi`` rises: the factor at a mode amplitude of
+    ``SWITCH_AMPLITUDE`` above ``lam_c`` (the FE's test, ``Watch._switch``); False where
+    that state cannot be solved."""
     from fem_reference.statics.bifurcation import SWITCH_AMPLITUDE
 
     i = int(np.argmax(np.abs(phi) * np.sqrt(S.Scaler.of(system).w)))
@@ -141,7 +150,7 @@ def _rises(system: object, crit: S.State, phi: np.ndarray) -> bool:
         )  # fmt: skip
     except S.SolveError:
         return False
-    return bool(off.lam > crit.lam)
+    return bool(off.lam > lam_c)
 
 
 def same_branch(
