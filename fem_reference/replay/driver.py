@@ -31,6 +31,7 @@ import scipy.sparse as sp
 from cases.schema import Scene
 from fem_reference.assembly import build
 from fem_reference.replay.finish import note as finish_note
+from fem_reference.replay.integrator import factor
 from fem_reference.statics.driver_post import post_process
 from reduced_models.base import Solution, Step
 
@@ -111,11 +112,37 @@ class DrivenSystem:
         return float(self.full.length_scale())
 
     def reaction(self, u: np.ndarray, lam: float) -> float:
-        """Driving force/torque holding the state: the static energy analysis' ``lam``."""
+        """Driving force/torque holding the equilibrium next to the state ``u`` (driver at
+        ``lam``): the static energy analysis' ``lam``, condensed onto the driver DOF i.
+
+        The driver-DOF residual r_i alone is the sum of element forces that include the rigid
+        links' (stiff elements, ``EA_r`` ~ 1e6 x the scene's stiffness): a position error of
+        one ulp in the free DOFs k -- a round-off any encoding of the scene makes
+        differently -- stretches them by eps L and moves r_i by eps EA_r (1e-8 N, 2e-8 of
+        the excursion, on DAS-2D Ex. 5), and the settled free residual r_k is that round-off
+        too.  Condensed, the reaction is that of the state one Newton correction
+        dq_k = K_kk^-1 (f e_k - r_k) away, which balances the free DOFs::
+
+            f = (r_i - K_ik K_kk^-1 r_k) / (e_i - K_ik K_kk^-1 e_k)
+
+        To first order it does not depend on an error dq_k in the state (K_ik dq_k cancels
+        between the two terms), and the stiff elements' forces enter only through the
+        virtual motion (1, -K_kk^-1 K_ki), which does not stretch them: the round-off is then
+        that of the force itself.  A singular K_kk (the state is critical with the driver
+        held) has no such correction: the residual r_i / e_i is returned.  Driver replays
+        lock no booms, so the free DOFs carry no constraint forces.
+        """
         d = self._d(u, lam)
-        r = np.asarray(self.full.residual(d, 0.0))[self.i]
-        e = np.asarray(self.full.external(d))[self.i]
-        return float(r / e)
+        ev = self.full.evaluate(d, 0.0)
+        r, e = np.asarray(ev.r), np.asarray(self.full.external(d))
+        K = self.full.tangent_csr(ev)
+        try:
+            solve = factor(K[self.keep][:, self.keep], self.bandwidth)
+        except RuntimeError:
+            return float(r[self.i] / e[self.i])
+        Kik = K[self.i].toarray().ravel()[self.keep]
+        x = solve(np.column_stack([r[self.keep], e[self.keep]]))
+        return float((r[self.i] - Kik @ x[:, 0]) / (e[self.i] - Kik @ x[:, 1]))
 
     def step(self, u: np.ndarray, lam: float, iterations: int, stable: bool | None) -> Step:
         st = self.full.step(self._d(u, lam), 0.0, iterations, stable)
