@@ -30,6 +30,7 @@ import scipy.sparse as sp
 
 from cases.schema import Scene
 from fem_reference.assembly import build
+from fem_reference.banded import BandedLU
 from fem_reference.replay.finish import note as finish_note
 from fem_reference.replay.integrator import factor
 from fem_reference.statics.driver_post import post_process
@@ -55,6 +56,7 @@ class DrivenSystem:
         self._lam = 0.0
         bw = full.fast.scatter.bw
         self.bandwidth = full.bandwidth  # the deletion keeps the band (GenAlpha reads it)
+        self._bw = bw
         self._gather = None if bw is None else _band_gather(n, bw, self.i)
 
     def evaluate(self, u: np.ndarray, lam: float) -> SimpleNamespace:
@@ -65,8 +67,12 @@ class DrivenSystem:
 
     def tangent_band(self, ev: SimpleNamespace) -> np.ndarray:
         """Tangent without the driver row and column in ``dgbtrf`` band storage (Fortran)."""
+        return self._without_driver(self.full.tangent_band(ev.ev))
+
+    def _without_driver(self, ab: np.ndarray) -> np.ndarray:
+        """Band storage of the full tangent ``ab`` without the driver row and column."""
         idx, ok = self._gather
-        ab = self.full.tangent_band(ev.ev).ravel(order="F")[idx]
+        ab = ab.ravel(order="F")[idx]
         ab[~ok] = 0.0
         return np.asfortranarray(ab)
 
@@ -135,14 +141,27 @@ class DrivenSystem:
         d = self._d(u, lam)
         ev = self.full.evaluate(d, 0.0)
         r, e = np.asarray(ev.r), np.asarray(self.full.external(d))
-        K = self.full.tangent_csr(ev)
+        k, i = self.keep, self.i
         try:
-            solve = factor(K[self.keep][:, self.keep], self.bandwidth)
+            solve, Ki = self._condensation(ev)
         except RuntimeError:
-            return float(r[self.i] / e[self.i])
-        Kik = K[self.i].toarray().ravel()[self.keep]
-        x = solve(np.column_stack([r[self.keep], e[self.keep]]))
-        return float((r[self.i] - Kik @ x[:, 0]) / (e[self.i] - Kik @ x[:, 1]))
+            return float(r[i] / e[i])
+        x = solve(np.column_stack([r[k], e[k]]))
+        return float((r[i] - Ki[k] @ x[:, 0]) / (e[i] - Ki[k] @ x[:, 1]))
+
+    def _condensation(self, ev: object) -> tuple:
+        """(solve with K_kk, row i of K (ndof + 1,)) of the full tangent at evaluation ``ev``:
+        LAPACK band storage where the system has it (the cost of a residual evaluation
+        again, not of a sparse assembly), else csr and sparse LU.  Raises RuntimeError
+        when K_kk is singular."""
+        if self._gather is None:
+            K = self.full.tangent_csr(ev)
+            return factor(K[self.keep][:, self.keep]), K[self.i].toarray().ravel()
+        ab, bw, i = self.full.tangent_band(ev), self._bw, self.i
+        j = np.arange(max(i - bw, 0), min(i + bw + 1, self.ndof + 1))
+        Ki = np.zeros(self.ndof + 1)
+        Ki[j] = ab[2 * bw + i - j, j]  # A[i, j] sits at ab[2 bw + i - j, j]
+        return BandedLU(self._without_driver(ab), bw).solve, Ki
 
     def step(self, u: np.ndarray, lam: float, iterations: int, stable: bool | None) -> Step:
         st = self.full.step(self._d(u, lam), 0.0, iterations, stable)
