@@ -6,8 +6,10 @@ DOF and prescribes it from the replay's "load factor", which here *is* the drive
 (driver units: length, or degrees for a rotation).  ``replay_system`` then ramps it smoothly
 between report points and holds until settled, exactly as it ramps loads; at each settled
 state the driving force/torque is the reaction in the driver DOF (the static FE's unknown
-``lam``), reported as ``driver.force`` / ``driver.torque``.  Probes kick the system with the
-driver held, the same condition as the FE tangent test of the energy analysis.
+``lam``), condensed onto it so that the rigid links' stiff-element round-off cancels
+(``DrivenSystem.reaction``), reported as ``driver.force`` / ``driver.torque``.  Probes kick
+the system with the driver held, the same condition as the FE tangent test of the energy
+analysis.
 
 Deleting one row and column of a banded matrix keeps it within the band, so ``DrivenSystem``
 offers the fast path of ``FEMSystem`` (``evaluate`` / ``tangent_band``): the replay's
