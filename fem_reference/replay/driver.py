@@ -6,8 +6,10 @@ DOF and prescribes it from the replay's "load factor", which here *is* the drive
 (driver units: length, or degrees for a rotation).  ``replay_system`` then ramps it smoothly
 between report points and holds until settled, exactly as it ramps loads; at each settled
 state the driving force/torque is the reaction in the driver DOF (the static FE's unknown
-``lam``), reported as ``driver.force`` / ``driver.torque``.  Probes kick the system with the
-driver held, the same condition as the FE tangent test of the energy analysis.
+``lam``), condensed onto it so that the rigid links' stiff-element round-off cancels
+(``DrivenSystem.reaction``), reported as ``driver.force`` / ``driver.torque``.  Probes kick
+the system with the driver held, the same condition as the FE tangent test of the energy
+analysis.
 
 Deleting one row and column of a banded matrix keeps it within the band, so ``DrivenSystem``
 offers the fast path of ``FEMSystem`` (``evaluate`` / ``tangent_band``): the replay's
@@ -30,7 +32,9 @@ import scipy.sparse as sp
 
 from cases.schema import Scene
 from fem_reference.assembly import build
+from fem_reference.banded import BandedLU
 from fem_reference.replay.finish import note as finish_note
+from fem_reference.replay.integrator import factor
 from fem_reference.statics.driver_post import post_process
 from reduced_models.base import Solution, Step
 
@@ -54,6 +58,7 @@ class DrivenSystem:
         self._lam = 0.0
         bw = full.fast.scatter.bw
         self.bandwidth = full.bandwidth  # the deletion keeps the band (GenAlpha reads it)
+        self._bw = bw
         self._gather = None if bw is None else _band_gather(n, bw, self.i)
 
     def evaluate(self, u: np.ndarray, lam: float) -> SimpleNamespace:
@@ -64,8 +69,12 @@ class DrivenSystem:
 
     def tangent_band(self, ev: SimpleNamespace) -> np.ndarray:
         """Tangent without the driver row and column in ``dgbtrf`` band storage (Fortran)."""
+        return self._without_driver(self.full.tangent_band(ev.ev))
+
+    def _without_driver(self, ab: np.ndarray) -> np.ndarray:
+        """Band storage of the full tangent ``ab`` without the driver row and column."""
         idx, ok = self._gather
-        ab = self.full.tangent_band(ev.ev).ravel(order="F")[idx]
+        ab = ab.ravel(order="F")[idx]
         ab[~ok] = 0.0
         return np.asfortranarray(ab)
 
@@ -111,11 +120,50 @@ class DrivenSystem:
         return float(self.full.length_scale())
 
     def reaction(self, u: np.ndarray, lam: float) -> float:
-        """Driving force/torque holding the state: the static energy analysis' ``lam``."""
+        """Driving force/torque holding the equilibrium next to the state ``u`` (driver at
+        ``lam``): the static energy analysis' ``lam``, condensed onto the driver DOF i.
+
+        The driver-DOF residual r_i alone is the sum of element forces that include the rigid
+        links' (stiff elements, ``EA_r`` ~ 1e6 x the scene's stiffness): a position error of
+        one ulp in the free DOFs k -- a round-off any encoding of the scene makes
+        differently -- stretches them by eps L and moves r_i by eps EA_r (1e-8 N, 2e-8 of
+        the excursion, on DAS-2D Ex. 5), and the settled free residual r_k is that round-off
+        too.  Condensed, the reaction is that of the state one Newton correction
+        dq_k = K_kk^-1 (f e_k - r_k) away, which balances the free DOFs::
+
+            f = (r_i - K_ik K_kk^-1 r_k) / (e_i - K_ik K_kk^-1 e_k)
+
+        To first order it does not depend on an error dq_k in the state (K_ik dq_k cancels
+        between the two terms), and the stiff elements' forces enter only through the
+        virtual motion (1, -K_kk^-1 K_ki), which does not stretch them: the round-off is then
+        that of the force itself.  A singular K_kk (the state is critical with the driver
+        held) has no such correction: the residual r_i / e_i is returned.  Driver replays
+        lock no booms, so the free DOFs carry no constraint forces.
+        """
         d = self._d(u, lam)
-        r = np.asarray(self.full.residual(d, 0.0))[self.i]
-        e = np.asarray(self.full.external(d))[self.i]
-        return float(r / e)
+        ev = self.full.evaluate(d, 0.0)
+        r, e = np.asarray(ev.r), np.asarray(self.full.external(d))
+        k, i = self.keep, self.i
+        try:
+            solve, Ki = self._condensation(ev)
+        except RuntimeError:
+            return float(r[i] / e[i])
+        x = solve(np.column_stack([r[k], e[k]]))
+        return float((r[i] - Ki[k] @ x[:, 0]) / (e[i] - Ki[k] @ x[:, 1]))
+
+    def _condensation(self, ev: object) -> tuple:
+        """(solve with K_kk, row i of K (ndof + 1,)) of the full tangent at evaluation ``ev``:
+        LAPACK band storage where the system has it (the cost of a residual evaluation
+        again, not of a sparse assembly), else csr and sparse LU.  Raises RuntimeError
+        when K_kk is singular."""
+        if self._gather is None:
+            K = self.full.tangent_csr(ev)
+            return factor(K[self.keep][:, self.keep]), K[self.i].toarray().ravel()
+        ab, bw, i = self.full.tangent_band(ev), self._bw, self.i
+        j = np.arange(max(i - bw, 0), min(i + bw + 1, self.ndof + 1))
+        Ki = np.zeros(self.ndof + 1)
+        Ki[j] = ab[2 * bw + i - j, j]  # A[i, j] sits at ab[2 bw + i - j, j]
+        return BandedLU(self._without_driver(ab), bw).solve, Ki
 
     def step(self, u: np.ndarray, lam: float, iterations: int, stable: bool | None) -> Step:
         st = self.full.step(self._d(u, lam), 0.0, iterations, stable)
