@@ -79,7 +79,7 @@ def end_keys(scene: Scene, m: Member) -> tuple[tuple, tuple]:
         node = scene.node(nid)
         r = math.hypot(node.x - cx, node.y - cy) / size
         grounded = scene.support_at(nid) is not None
-        return (fixity(scene, m, end), grounded, -hops_to_ground(scene, nid, m.id), r)
+        return (grounded, fixity(scene, m, end), -hops_to_ground(scene, nid, m.id), r)
 
     return key(m.a, "a"), key(m.b, "b")
 
