@@ -8,20 +8,26 @@ another answer.  ``root_at_b`` picks the root from the scene alone, by a key tha
 encoding of the scene agrees on (rotation, mirror, translation, units, node names and order,
 member direction, a pin written as clamp + pinned end), compared end a against end b:
 
-1. how firmly the end is held (``fixity``: welded to a clamp, a guided support or another
-   welded member > pinned > free);
-2. held by ground: a support at the end's node;
+1. held by ground: a support at the end's node;
+2. how firmly the end is held (``fixity``: welded to a clamp, a guided support or another
+   welded member > pinned > free; a pin support holding a welded end and a clamp holding a
+   pinned end both count as pinned);
 3. nearer the ground: fewer members from the end's node to a supported node, not counting
    this member;
 4. farther from the centroid of the scene's nodes (an outer end; compared to 1e-9 of the
    scene's size, so round-off of a rotated drawing cannot decide it).
 
-The chain is rooted at the end with the larger key, a cantilever from its base.  When every
-key ties, the two ends are alike in support, connection, distance to ground and distance to
-the centre: in practice a symmetry of the scene maps one end onto the other (a beam clamped
-at both ends, a coupler between two mirror-image links).  Then the drawn direction is kept:
+The chain is rooted at the end with the larger key, a cantilever from its base: a leg pinned
+to ground and welded to a knee is laid out from the ground pin (rooted at the knee, keys 1
+and 2 swapped, linear-8's driven path on DAS-2D Ex. 3 failed or converged by the drawing's
+round-off).  A mirror-symmetric scene gets a mirror-symmetric layout, so a symmetric path
+stays symmetric (a symmetric bistable switch: no shuttle rotation before the snap).
+
+When every key ties, the two ends are alike in support, connection, distance to ground and
+distance to the centre: in practice a symmetry of the scene maps one end onto the other (a
+beam clamped at both ends, a coupler between two mirror-image links).  Then the drawn direction is kept:
 the two layouts give mirror-image approximations of a symmetric member, and no rule that
-depends only on the scene can prefer one.  Such a member is reported by ``tied_members``.
+depends only on the scene can prefer one.
 """
 
 from __future__ import annotations
@@ -68,7 +74,7 @@ def hops_to_ground(scene: Scene, node: str, skip: str) -> float:
 
 
 def end_keys(scene: Scene, m: Member) -> tuple[tuple, tuple]:
-    """The comparison keys (module doc) of end a and end b: (fixity, grounded, -hops,
+    """The comparison keys (module doc) of end a and end b: (grounded, fixity, -hops,
     distance to the node centroid / scene size)."""
     xs = [n.x for n in scene.nodes]
     ys = [n.y for n in scene.nodes]
@@ -97,10 +103,3 @@ def _compare(ka: tuple, kb: tuple) -> int:
 def root_at_b(scene: Scene, m: Member) -> bool:
     """Lay the member's chain out from end b (its key is larger; module doc)."""
     return _compare(*end_keys(scene, m)) > 0
-
-
-def tied_members(scene: Scene) -> list[str]:
-    """Flexible members whose two ends tie on every key (drawn direction kept)."""
-    return [
-        m.id for m in scene.members if m.kind == "flexible" and not _compare(*end_keys(scene, m))
-    ]
