@@ -25,9 +25,10 @@ stays symmetric (a symmetric bistable switch: no shuttle rotation before the sna
 
 When every key ties, the two ends are alike in support, connection, distance to ground and
 distance to the centre: in practice a symmetry of the scene maps one end onto the other (a
-beam clamped at both ends, a coupler between two mirror-image links).  Then the drawn direction is kept:
-the two layouts give mirror-image approximations of a symmetric member, and no rule that
-depends only on the scene can prefer one.
+beam clamped at both ends, a coupler between two mirror-image links).  Then the drawn
+direction is kept: the two layouts give mirror-image approximations of a symmetric member,
+and no rule that depends only on the scene can prefer one (reversing such a member still
+changes the answer; none in the catalog).
 """
 
 from __future__ import annotations
