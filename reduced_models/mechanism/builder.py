@@ -3,7 +3,9 @@
 ``build(scene, spec_of)``: ``spec_of(member)`` gives the member law of a flexible member,
 ``("chain", SegmentLaw, N, extensible)`` or ``("prb", matrix)`` (``model.py`` maps model names
 to these).  Rigid links are closure constraints (never stiff beams); supports fix unknowns;
-sliders are linear constraints.
+sliders are linear constraints.  A chain is laid out from the end ``orient.root_at_b`` picks
+(the answer does not depend on the member's drawn direction); a PRB chain with a rigid first
+link from its firmer end (``_root_at_b``).
 """
 
 from __future__ import annotations
