@@ -3,7 +3,9 @@
 ``build(scene, spec_of)``: ``spec_of(member)`` gives the member law of a flexible member,
 ``("chain", SegmentLaw, N, extensible)`` or ``("prb", matrix)`` (``model.py`` maps model names
 to these).  Rigid links are closure constraints (never stiff beams); supports fix unknowns;
-sliders are linear constraints.
+sliders are linear constraints.  A chain is laid out from the end ``orient.root_at_b`` picks
+(the answer does not depend on the member's drawn direction); a PRB chain with a rigid first
+link from its firmer end (``_root_at_b``).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from reduced_models.mechanism.members import (
     SpringTerm,
     TorsionTerm,
 )
+from reduced_models.mechanism.orient import fixity, root_at_b
 from reduced_models.mechanism.system import MechanismSystem, SceneError
 from reduced_models.mechanism.topology import (
     Layout,
@@ -61,8 +64,10 @@ def build(scene: Scene, spec_of: Callable[[Member], tuple]) -> MechanismSystem:
             sysm.shape_of[m.id] = _line(xa, xb)
             continue
         spec = spec_of(m)
-        if spec[0] == "chain":
-            _add_chain(sysm, m, spec, L, alpha, xa, xb, ra, rb, chain_rows)
+        if spec[0] == "chain" and root_at_b(scene, m):  # laid out from its firmer end
+            _add_chain(sysm, m, spec, L, alpha + math.pi, (m.b, xb, rb), (xa, ra), chain_rows)
+        elif spec[0] == "chain":
+            _add_chain(sysm, m, spec, L, alpha, (m.a, xa, ra), (xb, rb), chain_rows)
         elif spec[0] == "elastica":  # exact member law (mechanism/elastica_member.py)
             elastica_member.add(sysm, m, L, alpha, xa, xb, ra, rb)
         elif _root_at_b(scene, m, spec[1]):  # the PRB root (rigid first link) at end b
@@ -87,20 +92,6 @@ def build(scene: Scene, spec_of: Callable[[Member], tuple]) -> MechanismSystem:
     return sysm
 
 
-def _fixity(scene: Scene, m: Member, end: str) -> int:
-    """How firmly a member end is held: 0 free node, 1 pinned, 2 welded to a clamp, a
-    guided support or another member."""
-    nid, kind = (m.a, m.end_a) if end == "a" else (m.b, m.end_b)
-    sup = scene.support_at(nid)
-    others = [o for o in scene.members if o.id != m.id and nid in (o.a, o.b)]
-    if kind == "weld" and (
-        (sup is not None and sup.type in ("clamp", "guided"))
-        or any((o.end_a if o.a == nid else o.end_b) == "weld" for o in others)
-    ):
-        return 2
-    return 1 if sup is not None or others else 0
-
-
 def _root_at_b(scene: Scene, m: Member, matrix: np.ndarray) -> bool:
     """PRB matrices are cantilever models: rigid root link at the held end, pivots placed
     from there (prb-1r: pivot at (1 - gamma) L from the root).  A member drawn from its free
@@ -108,7 +99,7 @@ def _root_at_b(scene: Scene, m: Member, matrix: np.ndarray) -> bool:
     depend on the drawing direction.  Only a matrix with a rigid first link can be turned."""
     if math.isfinite(matrix[0, 0]):
         return False
-    return _fixity(scene, m, "b") > _fixity(scene, m, "a")
+    return fixity(scene, m, "b") > fixity(scene, m, "a")
 
 
 def _centred(scene: Scene) -> tuple[Scene, tuple[float, float]]:
@@ -141,27 +132,28 @@ def _add_chain(
     spec: tuple,
     L: float,
     alpha: float,
-    xa: int,
-    xb: int,
-    ra: int,
-    rb: int,
+    root: tuple[str, int, int],
+    tip: tuple[int, int],
     chain_rows: dict,
 ) -> None:
-    """N chained segments: internal nodes (X, Y, phi) and one axial force per segment."""
+    """N chained segments from the root end (node id, position and rotation unknowns) to the
+    tip end (position and rotation unknowns) along the direction ``alpha``: internal nodes
+    (X, Y, phi) and one axial force per segment.  ``root`` is end a or b (``orient``); the
+    member's shape is listed from end a."""
     _, law, N, extensible = spec
     lay = sysm.lay
     h = L / N
     c, s = math.cos(alpha), math.sin(alpha)
-    a = lay.scene.node(m.a)
-    nodes_x = [xa]
-    nodes_r = [ra]
+    a = lay.scene.node(root[0])
+    nodes_x = [root[1]]
+    nodes_r = [root[2]]
     for i in range(1, N):
         idx = lay.add([a.x + c * h * i, a.y + s * h * i, 0.0], "t")
         lay.kind[idx[2]] = "r"
         nodes_x.append(int(idx[0]))
         nodes_r.append(int(idx[2]))
-    nodes_x.append(xb)
-    nodes_r.append(rb)
+    nodes_x.append(tip[0])
+    nodes_r.append(tip[1])
     p = lay.add([0.0] * N, "p")
     dofs = np.array(
         [
@@ -186,7 +178,7 @@ def _add_chain(
             np.full(N, sfac),
         )
     )
-    xs = np.array(nodes_x)
+    xs = np.array(nodes_x if root[0] == m.a else nodes_x[::-1])
     sysm.shape_of[m.id] = lambda q: np.column_stack([q[xs], q[xs + 1]])
 
 

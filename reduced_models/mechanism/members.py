@@ -41,7 +41,7 @@ class ChainTerm:
     law : SegmentLaw (linear or BCM).
     dofs : (S, 7) global indices [X0, Y0, phi0, X1, Y1, phi1, p] per segment.
     h, EI, k, alpha : (S,) segment length, flexural rigidity, axial compliance EI/(EA h^2)
-        (0: inextensible), drawn direction of the member (rad).
+        (0: inextensible), direction of the member from its root end (rad, ``orient``).
     sfac : (S,) E t / 2 of the segment's member (bending stress per curvature; NaN when the
         thickness is unknown).
     """
