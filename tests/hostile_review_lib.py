@@ -112,20 +112,26 @@ def rigid_motion(scene: dict, th_deg: float, mirror: bool, shift=(0.0, 0.0)) -> 
             if mirror:
                 dr["start"], dr["stop"] = -dr["start"], -dr["stop"]
         else:
-            d = (1.0, 0.0) if dr["direction"] == "x" else (0.0, 1.0)
-            e = vec(*d)
-            if abs(abs(e[0]) - 1) < 1e-12:
-                dr["direction"] = "x"
-            elif abs(abs(e[1]) - 1) < 1e-12:
-                dr["direction"] = "y"
-            else:
-                raise ValueError("displacement driver off the axes after the rotation")
-            sgn = e[0] + e[1]
+            dr["direction"], sgn = _axis(vec(*_AXES[dr["direction"]]))
             dr["start"], dr["stop"] = sgn * dr["start"], sgn * dr["stop"]
     an = sc.get("analysis", {})
     if "stop_output" in an and an["stop_output"].split(".")[-1] in LENGTH_KEYS:
         raise ValueError("stop_output in a direction: no rigid-motion rule")
+    if an.get("ma", {}).get("direction") in ("x", "y"):
+        an["ma"]["direction"] = _axis(vec(*_AXES[an["ma"]["direction"]]))[0]
     return sc
+
+
+_AXES = {"x": (1.0, 0.0), "y": (0.0, 1.0)}
+
+
+def _axis(e) -> tuple[str, float]:
+    """(axis name, sign) of a unit vector on a coordinate axis."""
+    if abs(abs(e[0]) - 1) < 1e-12:
+        return "x", math.copysign(1.0, e[0])
+    if abs(abs(e[1]) - 1) < 1e-12:
+        return "y", math.copysign(1.0, e[1])
+    raise ValueError("a driver or ma direction off the axes after the rotation")
 
 
 def back_rigid(out: dict, factor: float, scene: dict, th_deg, mirror, shift):
@@ -161,9 +167,23 @@ def back_rigid(out: dict, factor: float, scene: dict, th_deg, mirror, shift):
             res[k] = sg * v
         elif k.endswith(".angle"):
             res[k] = sg * v
+        elif k == "ma":
+            res[k] = _ma_sign(scene, th, sg, dsg) * v
         else:
             res[k] = v
     return res, dsg * factor if dr else factor
+
+
+def _ma_sign(scene: dict, th: float, sg: float, dsg: float) -> float:
+    """Sign of the drawn ``ma`` over the encoded one: ma = d(input)/d(output coordinate)
+    (times an energy ratio that no rigid motion changes), so it flips with the output axis and,
+    for a driver input, with the driver's coordinate."""
+    ma = scene["analysis"]["ma"]
+    so = sg
+    if ma["direction"] in _AXES:
+        d = _AXES[ma["direction"]]
+        so = _axis(_rot2((sg * d[0], d[1]), th))[1]
+    return so * (dsg if ma.get("input", "driver") == "driver" else 1.0)
 
 
 def scale_units(scene: dict, sl: float, sf: float, units: str) -> dict:
@@ -219,12 +239,24 @@ def back_units(out: dict, factor: float, scene: dict, sl: float, sf: float):
             res[k] = v / sf
         elif k == "driver.torque":
             res[k] = v / (sf * sl)
+        elif k == "ma":
+            res[k] = v / sl ** _ma_length_power(scene)
         else:
             res[k] = v
     dr = scene.get("analysis", {}).get("driver")
     if dr and dr["kind"] == "displacement":
         factor = factor / sl
     return res, factor
+
+
+def _ma_length_power(scene: dict) -> int:
+    """Power of length in ``ma`` = d(input)/d(output): +1 for a length input (a displacement
+    driver, a load's travel), -1 for a length output (direction x or y)."""
+    an = scene["analysis"]
+    ma = an["ma"]
+    dr = an.get("driver")
+    length_in = ma.get("input", "driver") != "driver" or dr["kind"] == "displacement"
+    return int(length_in) - int(ma["direction"] in _AXES)
 
 
 def rename_reverse(scene: dict) -> dict:
