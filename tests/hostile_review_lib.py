@@ -107,18 +107,30 @@ def rigid_motion(scene: dict, th_deg: float, mirror: bool, shift=(0.0, 0.0)) -> 
         if "rest_angle_deg" in t:
             raise ValueError("rest_angle_deg: no rigid-motion rule")
     dr = sc.get("analysis", {}).get("driver")
+    sgn = 1.0  # the driver coordinate's sign
     if dr:
         if dr["kind"] == "rotation":
-            if mirror:
-                dr["start"], dr["stop"] = -dr["start"], -dr["stop"]
+            sgn = sg
         else:
             dr["direction"], sgn = _axis(vec(*_AXES[dr["direction"]]))
-            dr["start"], dr["stop"] = sgn * dr["start"], sgn * dr["stop"]
+        dr["start"], dr["stop"] = sgn * dr["start"], sgn * dr["stop"]
     an = sc.get("analysis", {})
     if "stop_output" in an and an["stop_output"].split(".")[-1] in LENGTH_KEYS:
         raise ValueError("stop_output in a direction: no rigid-motion rule")
     if an.get("ma", {}).get("direction") in ("x", "y"):
         an["ma"]["direction"] = _axis(vec(*_AXES[an["ma"]["direction"]]))[0]
+    syn = an.get("synthesis", {})
+    if syn.get("goal") == "stiffness":  # the target is a value of the output
+        p, q = syn["output"].rsplit(".", 1)
+        if q == "rot":
+            syn["target"] *= sg
+        elif q in LENGTH_KEYS:
+            if q in ("x", "y"):
+                raise ValueError("synthesis target on a position: no rigid-motion rule")
+            ax, so = _axis(vec(*_AXES[q[1]]))
+            syn["output"], syn["target"] = f"{p}.u{ax}", so * syn["target"]
+    elif syn.get("goal") == "stable-position":  # the target is a driver coordinate
+        syn["target"] *= sgn
     return sc
 
 
@@ -171,7 +183,14 @@ def back_rigid(out: dict, factor: float, scene: dict, th_deg, mirror, shift):
             res[k] = _ma_sign(scene, th, sg, dsg) * v
         else:
             res[k] = v
-    return res, dsg * factor if dr else factor
+    return res, dsg * factor if _driver_factor(scene) else factor
+
+
+def _driver_factor(scene: dict) -> bool:
+    """Whether the step factor is the driver's coordinate (in a distance analysis the driver
+    coordinate is the target and the factor the load factor: invariant)."""
+    an = scene.get("analysis", {})
+    return "driver" in an and an.get("kind") != "distance"
 
 
 def _ma_sign(scene: dict, th: float, sg: float, dsg: float) -> float:
@@ -220,6 +239,13 @@ def scale_units(scene: dict, sl: float, sf: float, units: str) -> dict:
     if dr and dr["kind"] == "displacement":
         dr["start"] *= sl
         dr["stop"] *= sl
+    syn = an.get("synthesis", {})
+    if syn.get("goal") == "stiffness" and syn["output"].rsplit(".", 1)[-1] in LENGTH_KEYS:
+        syn["target"] *= sl
+    elif syn.get("goal") == "stable-position" and dr["kind"] == "displacement":
+        syn["target"] *= sl
+    elif syn.get("goal") == "critical-load":  # a driving force or torque
+        syn["target"] *= sf * (sl if dr["kind"] == "rotation" else 1.0)
     if "stop_output" in an:
         last = an["stop_output"].rsplit(".", 1)[-1]
         if last in LENGTH_KEYS:
@@ -244,7 +270,7 @@ def back_units(out: dict, factor: float, scene: dict, sl: float, sf: float):
         else:
             res[k] = v
     dr = scene.get("analysis", {}).get("driver")
-    if dr and dr["kind"] == "displacement":
+    if _driver_factor(scene) and dr["kind"] == "displacement":
         factor = factor / sl
     return res, factor
 
@@ -304,8 +330,11 @@ def encodings(scene: dict):
     """[(name, encoded scene, back(outputs, factor) -> (outputs, factor))] for every
     encoding that applies to the scene."""
     out = []
-    dr = scene.get("analysis", {}).get("driver")
-    th = 90.0 if dr and dr["kind"] == "displacement" else 37.0
+    try:  # 37 deg unless a driver, ma or synthesis target is bound to an axis: then 90 deg
+        th = 37.0
+        rigid_motion(scene, th, False)
+    except ValueError:
+        th = 90.0
     for name, ang, mir, sh in (
         (f"rot{th:g}", th, False, (0.0, 0.0)),
         ("mirror+shift", 0.0, True, (3.7, -1.9)),
