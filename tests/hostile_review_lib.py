@@ -164,7 +164,7 @@ def back_rigid(out: dict, factor: float, scene: dict, th_deg, mirror, shift):
             res[f"{p}.rot"] = sg * out[f"{p}.rot"]
     dr = scene.get("analysis", {}).get("driver")
     dsg = 1.0
-    if dr and dr["kind"] == "rotation":
+    if dr and dr["kind"] == "rotation" or _searched_crank(scene, out):
         dsg = sg
     elif dr:
         d = (1.0, 0.0) if dr["direction"] == "x" else (0.0, 1.0)
@@ -183,7 +183,14 @@ def back_rigid(out: dict, factor: float, scene: dict, th_deg, mirror, shift):
             res[k] = _ma_sign(scene, th, sg, dsg) * v
         else:
             res[k] = v
-    return res, dsg * factor if _driver_factor(scene) else factor
+    return res, dsg * factor if _driver_factor(scene) or _searched_crank(scene, out) else factor
+
+
+def _searched_crank(scene: dict, out: dict) -> bool:
+    """A bistable search that drives the path it reports by a crank of its choice (a driver
+    torque output): the factor is that crank's angle, turned by a mirror."""
+    syn = scene.get("analysis", {}).get("synthesis", {})
+    return syn.get("goal") == "bistable" and "driver.torque" in out
 
 
 def _driver_factor(scene: dict) -> bool:
