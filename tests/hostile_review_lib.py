@@ -302,6 +302,9 @@ def rename_reverse(scene: dict) -> dict:
     sc["nodes"] = sc["nodes"][::-1]
     held = {t.get("member_a") for t in sc.get("torsion_springs", []) if "rest_angle_deg" in t}
     held |= {t.get("member_b") for t in sc.get("torsion_springs", []) if "rest_angle_deg" in t}
+    syn = sc.get("analysis", {}).get("synthesis", {})
+    if syn.get("goal") == "stable-position":  # the sized link's end-b node moves: a direction
+        held |= set(syn["members"])
     reversed_ = set()
     for m in sc.get("members", []):
         m["from"], m["to"] = ren[m["from"]], ren[m["to"]]
