@@ -153,6 +153,10 @@ def catalog_scenes(everything: bool = False):
         for k in ("references", "tolerances"):
             d.pop(k, None)
         d["case"].pop("reference_model", None)
+        an = d.get("analysis", {})
+        if an.get("kind") == "sweep":  # no model solves a sweep: its base configuration
+            an["kind"] = an.pop("sweep_of")
+            an.pop("grid")
         yield d, None, models
 
 

@@ -241,6 +241,8 @@ def scale_units(scene: dict, sl: float, sf: float, units: str) -> dict:
     for b in sc.get("booms", []):
         b["force"] *= sf
         b["length"] *= sl
+        if "stop_stiffness" in b:
+            b["stop_stiffness"] *= sf / sl
     an = sc.get("analysis", {})
     dr = an.get("driver")
     if dr and dr["kind"] == "displacement":
