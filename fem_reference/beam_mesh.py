@@ -106,11 +106,15 @@ class BeamMeshing:
         self.mean_A = np.mean([m.A for m in self.flex if m.A is not None] or [1.0])
 
     def _reference_stiffness(self) -> float:
-        """K_ref: the largest rotational stiffness scale (flexible EI/L, springs)."""
+        """K_ref: the largest rotational stiffness scale (flexible EI/L, springs); in a scene
+        of rigid links alone, the loads' moment scale (force x longest member, moment), so that
+        the links' relative compliance does not depend on the units; 1 if there is neither."""
         scene = self.scene
         kref = [self.sec[m.id][0] / scene.member_length(m.id) for m in self.flex]
         kref += [abs(t.stiffness) for t in scene.torsion_springs]
         kref += [abs(m.k or 0.0) * scene.member_length(m.id) ** 2 for m in self.springs_m]
+        if not kref or max(kref) <= 0:
+            kref = [np.hypot(ld.fx, ld.fy) * self.Lref + abs(ld.moment) for ld in scene.loads]
         return max(kref) if kref and max(kref) > 0 else 1.0
 
     def _link_root(self, k: tuple) -> tuple:

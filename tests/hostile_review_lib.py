@@ -107,25 +107,43 @@ def rigid_motion(scene: dict, th_deg: float, mirror: bool, shift=(0.0, 0.0)) -> 
         if "rest_angle_deg" in t:
             raise ValueError("rest_angle_deg: no rigid-motion rule")
     dr = sc.get("analysis", {}).get("driver")
+    sgn = 1.0  # the driver coordinate's sign
     if dr:
         if dr["kind"] == "rotation":
-            if mirror:
-                dr["start"], dr["stop"] = -dr["start"], -dr["stop"]
+            sgn = sg
         else:
-            d = (1.0, 0.0) if dr["direction"] == "x" else (0.0, 1.0)
-            e = vec(*d)
-            if abs(abs(e[0]) - 1) < 1e-12:
-                dr["direction"] = "x"
-            elif abs(abs(e[1]) - 1) < 1e-12:
-                dr["direction"] = "y"
-            else:
-                raise ValueError("displacement driver off the axes after the rotation")
-            sgn = e[0] + e[1]
-            dr["start"], dr["stop"] = sgn * dr["start"], sgn * dr["stop"]
+            dr["direction"], sgn = _axis(vec(*_AXES[dr["direction"]]))
+        dr["start"], dr["stop"] = sgn * dr["start"], sgn * dr["stop"]
     an = sc.get("analysis", {})
     if "stop_output" in an and an["stop_output"].split(".")[-1] in LENGTH_KEYS:
         raise ValueError("stop_output in a direction: no rigid-motion rule")
+    if an.get("ma", {}).get("direction") in ("x", "y"):
+        an["ma"]["direction"] = _axis(vec(*_AXES[an["ma"]["direction"]]))[0]
+    syn = an.get("synthesis", {})
+    if syn.get("goal") == "stiffness":  # the target is a value of the output
+        p, q = syn["output"].rsplit(".", 1)
+        if q == "rot":
+            syn["target"] *= sg
+        elif q in LENGTH_KEYS:
+            if q in ("x", "y"):
+                raise ValueError("synthesis target on a position: no rigid-motion rule")
+            ax, so = _axis(vec(*_AXES[q[1]]))
+            syn["output"], syn["target"] = f"{p}.u{ax}", so * syn["target"]
+    elif syn.get("goal") == "stable-position":  # the target is a driver coordinate
+        syn["target"] *= sgn
     return sc
+
+
+_AXES = {"x": (1.0, 0.0), "y": (0.0, 1.0)}
+
+
+def _axis(e) -> tuple[str, float]:
+    """(axis name, sign) of a unit vector on a coordinate axis."""
+    if abs(abs(e[0]) - 1) < 1e-12:
+        return "x", math.copysign(1.0, e[0])
+    if abs(abs(e[1]) - 1) < 1e-12:
+        return "y", math.copysign(1.0, e[1])
+    raise ValueError("a driver or ma direction off the axes after the rotation")
 
 
 def back_rigid(out: dict, factor: float, scene: dict, th_deg, mirror, shift):
@@ -146,7 +164,7 @@ def back_rigid(out: dict, factor: float, scene: dict, th_deg, mirror, shift):
             res[f"{p}.rot"] = sg * out[f"{p}.rot"]
     dr = scene.get("analysis", {}).get("driver")
     dsg = 1.0
-    if dr and dr["kind"] == "rotation":
+    if dr and dr["kind"] == "rotation" or _searched_crank(scene, out):
         dsg = sg
     elif dr:
         d = (1.0, 0.0) if dr["direction"] == "x" else (0.0, 1.0)
@@ -161,9 +179,37 @@ def back_rigid(out: dict, factor: float, scene: dict, th_deg, mirror, shift):
             res[k] = sg * v
         elif k.endswith(".angle"):
             res[k] = sg * v
+        elif k == "ma":
+            res[k] = _ma_sign(scene, th, sg, dsg) * v
         else:
             res[k] = v
-    return res, dsg * factor if dr else factor
+    return res, dsg * factor if _driver_factor(scene) or _searched_crank(scene, out) else factor
+
+
+def _searched_crank(scene: dict, out: dict) -> bool:
+    """A bistable search that drives the path it reports by a crank of its choice (a driver
+    torque output): the factor is that crank's angle, turned by a mirror."""
+    syn = scene.get("analysis", {}).get("synthesis", {})
+    return syn.get("goal") == "bistable" and "driver.torque" in out
+
+
+def _driver_factor(scene: dict) -> bool:
+    """Whether the step factor is the driver's coordinate (in a distance analysis the driver
+    coordinate is the target and the factor the load factor: invariant)."""
+    an = scene.get("analysis", {})
+    return "driver" in an and an.get("kind") != "distance"
+
+
+def _ma_sign(scene: dict, th: float, sg: float, dsg: float) -> float:
+    """Sign of the drawn ``ma`` over the encoded one: ma = d(input)/d(output coordinate)
+    (times an energy ratio that no rigid motion changes), so it flips with the output axis and,
+    for a driver input, with the driver's coordinate."""
+    ma = scene["analysis"]["ma"]
+    so = sg
+    if ma["direction"] in _AXES:
+        d = _AXES[ma["direction"]]
+        so = _axis(_rot2((sg * d[0], d[1]), th))[1]
+    return so * (dsg if ma.get("input", "driver") == "driver" else 1.0)
 
 
 def scale_units(scene: dict, sl: float, sf: float, units: str) -> dict:
@@ -195,11 +241,20 @@ def scale_units(scene: dict, sl: float, sf: float, units: str) -> dict:
     for b in sc.get("booms", []):
         b["force"] *= sf
         b["length"] *= sl
+        if "stop_stiffness" in b:
+            b["stop_stiffness"] *= sf / sl
     an = sc.get("analysis", {})
     dr = an.get("driver")
     if dr and dr["kind"] == "displacement":
         dr["start"] *= sl
         dr["stop"] *= sl
+    syn = an.get("synthesis", {})
+    if syn.get("goal") == "stiffness" and syn["output"].rsplit(".", 1)[-1] in LENGTH_KEYS:
+        syn["target"] *= sl
+    elif syn.get("goal") == "stable-position" and dr["kind"] == "displacement":
+        syn["target"] *= sl
+    elif syn.get("goal") == "critical-load":  # a driving force or torque
+        syn["target"] *= sf * (sl if dr["kind"] == "rotation" else 1.0)
     if "stop_output" in an:
         last = an["stop_output"].rsplit(".", 1)[-1]
         if last in LENGTH_KEYS:
@@ -219,12 +274,24 @@ def back_units(out: dict, factor: float, scene: dict, sl: float, sf: float):
             res[k] = v / sf
         elif k == "driver.torque":
             res[k] = v / (sf * sl)
+        elif k == "ma":
+            res[k] = v / sl ** _ma_length_power(scene)
         else:
             res[k] = v
     dr = scene.get("analysis", {}).get("driver")
-    if dr and dr["kind"] == "displacement":
+    if _driver_factor(scene) and dr["kind"] == "displacement":
         factor = factor / sl
     return res, factor
+
+
+def _ma_length_power(scene: dict) -> int:
+    """Power of length in ``ma`` = d(input)/d(output): +1 for a length input (a displacement
+    driver, a load's travel), -1 for a length output (direction x or y)."""
+    an = scene["analysis"]
+    ma = an["ma"]
+    dr = an.get("driver")
+    length_in = ma.get("input", "driver") != "driver" or dr["kind"] == "displacement"
+    return int(length_in) - int(ma["direction"] in _AXES)
 
 
 def rename_reverse(scene: dict) -> dict:
@@ -237,6 +304,9 @@ def rename_reverse(scene: dict) -> dict:
     sc["nodes"] = sc["nodes"][::-1]
     held = {t.get("member_a") for t in sc.get("torsion_springs", []) if "rest_angle_deg" in t}
     held |= {t.get("member_b") for t in sc.get("torsion_springs", []) if "rest_angle_deg" in t}
+    syn = sc.get("analysis", {}).get("synthesis", {})
+    if syn.get("goal") == "stable-position":  # the sized link's end-b node moves: a direction
+        held |= set(syn["members"])
     reversed_ = set()
     for m in sc.get("members", []):
         m["from"], m["to"] = ren[m["from"]], ren[m["to"]]
@@ -272,8 +342,11 @@ def encodings(scene: dict):
     """[(name, encoded scene, back(outputs, factor) -> (outputs, factor))] for every
     encoding that applies to the scene."""
     out = []
-    dr = scene.get("analysis", {}).get("driver")
-    th = 90.0 if dr and dr["kind"] == "displacement" else 37.0
+    try:  # 37 deg unless a driver, ma or synthesis target is bound to an axis: then 90 deg
+        th = 37.0
+        rigid_motion(scene, th, False)
+    except ValueError:
+        th = 90.0
     for name, ang, mir, sh in (
         (f"rot{th:g}", th, False, (0.0, 0.0)),
         ("mirror+shift", 0.0, True, (3.7, -1.9)),

@@ -110,3 +110,25 @@ def test_kinetostatic_lock_order_config6(scene):
     assert [s.outputs["boom2.length"] <= 0.28 + 1e-12 for s in sol.steps] == [True] * len(
         sol.steps
     )  # never pushed past its length (the thesis pushes it to 0.2825)
+
+
+@pytest.mark.parametrize(
+    "units", [("mm-N-MPa", 1e3, 1.0), ("in-lbf-psi", 1 / 0.0254, 1 / 4.4482216152605)]
+)
+def test_kinetostatic_staging_does_not_depend_on_units(kinetostatic, units):
+    """At the start every boom has its whole stroke left (a tie): which one is driven first
+    changes the staged path, so the tie goes to the boom listed first, not to round-off
+    (main: the scene in mm, written as the outside review writes it, drove boom2 first by
+    round-off; boom1 locked first, on another path)."""
+    import tomllib
+    from pathlib import Path
+
+    from tests.hostile_review_lib import scale_units, to_toml
+
+    drawn = tomllib.loads(Path("cases/catalog/thesis-sixbar-config6.toml").read_text())
+    name, sl, sf = units
+    sol = api.solve(cases.loads(to_toml(scale_units(drawn, sl, sf, name))), "kinetostatic")
+    assert sol.extras["boom_lock_order"] == kinetostatic.extras["boom_lock_order"]
+    assert len(sol.steps) == len(kinetostatic.steps)
+    for a, b in zip(kinetostatic.steps, sol.steps):
+        assert b.outputs["boom2.length"] / sl == pytest.approx(a.outputs["boom2.length"], rel=1e-9)

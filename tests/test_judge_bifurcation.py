@@ -147,3 +147,31 @@ def test_path_analysis_of_a_perfect_column_switches_and_traces_the_buckled_branc
     k = math.sin(0.75)
     exact = (2.0 * ellipk(k * k) / math.pi) ** 2
     assert sol.steps[-1].factor == pytest.approx(exact, rel=1e-3)  # 16 elements: 5e-4
+
+
+def test_critical_factor_located_when_newton_fails_next_to_it(monkeypatch):
+    """Next to a perfect column's bifurcation the tangent is singular to round-off, and the
+    re-solve of the fundamental path inside Brent's bracket can fail there (the replay's
+    bistable-toggle, by round-off, 7e-9 from the critical factor).  Planted here: Newton
+    fails wherever the lowest eigenvalue is below 1e-9 of its value at the first solve.
+    The critical factor still solves P (1 - P/EA) = Pe to 1e-6 (main fell back to the
+    eigenvalue's interpolation across the whole load step: 1.6e-3 off)."""
+    from fem_reference.statics import bifurcation as B
+    from fem_reference.statics.descent import lowest_mode
+
+    newton, first = B.S.newton, {}
+
+    def failing_newton(system, u, lam, opts, *args, **kw):
+        st = newton(system, u, lam, opts, *args, **kw)
+        e = abs(lowest_mode(system, st.u, st.lam)[0])
+        first.setdefault(id(system), e)
+        if e < 1e-9 * first[id(system)]:
+            raise B.S.SolveError("planted: singular tangent next to the critical point")
+        return st
+
+    monkeypatch.setattr(B.S, "newton", failing_newton)
+    area, ratio = 1e4, 1.5
+    sol = reports.solve(beam_scene(-ratio * PE, 0.0, A=area, steps=8), "fem-auto")
+    (cp,) = sol.extras["critical_points"]
+    p_ext = area * (1.0 - math.sqrt(1.0 - 4.0 * PE / area)) / 2.0  # P (1 - P/EA) = Pe
+    assert cp["factor_extrapolated"] * ratio * PE == pytest.approx(p_ext, rel=1e-6)

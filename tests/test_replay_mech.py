@@ -18,6 +18,7 @@ from fem_reference.models import FEM
 from fem_reference.replay import servo as replay_servo
 from fem_reference.replay.model import Replay
 from fem_reference.statics import static as S
+from tests.scene_transforms import Encoding
 
 
 def _scene(name: str, **analysis: object) -> cases.Scene:
@@ -132,6 +133,25 @@ def test_toggle_clamp_driver_force_and_ma_against_closed_form():
         assert at[x]["driver.force"] == pytest.approx(force, rel=1e-6)
         if ma is not None:
             assert at[x]["ma"] == pytest.approx(ma, rel=3e-4)
+
+
+@pytest.mark.parametrize(
+    "units", [("m-N-Pa", 1.0, 1.0), ("mm-N-MPa", 1e3, 1.0), ("in-lbf-psi", 1 / 0.0254, 0.2248)]
+)
+def test_toggle_clamp_rigid_links_as_stiff_in_any_units(units):
+    """Toggle clamp (rigid links only, no elastic part) in other units: the stiff elements
+    that stand for the rigid links keep the slider at the closed form x_C = 2 sqrt(L^2 - y_B^2)
+    to 1e-6 L in every unit system (their stiffness scale came from "1" in the scene's units:
+    in mm the links stretched 1.3e-4 L under the 10 N workpiece force)."""
+    scene = cases.load("toggle-clamp-ma")
+    enc = Encoding("units", units={"m-N-Pa": units}).for_scene(scene)
+    sol = Replay(probe="none").solve(enc.scene(scene))
+    assert sol.status == "converged", sol.message
+    L = 0.1
+    for s in sol.steps:
+        x = enc.outputs_back(scene, dict(s.outputs))["slider.x"]
+        y_b = 0.05 + enc.factor_back(scene, s.factor)
+        assert abs(x - 2 * math.sqrt(L**2 - y_b**2)) < 1e-6 * L
 
 
 def test_spring_truss_gets_point_masses_and_matches_closed_form():

@@ -65,6 +65,11 @@ NATURAL_STEPS = 32  # arc-length steps (to start with) retracing a load step tha
 TRACE_STEPS = 8 * NATURAL_STEPS  # the most arc-length steps spent retracing one load step
 JUMP_RATIO = 4.0  # a load step moving this much more than the previous one (per unit factor)
 NATURAL_SAME = 1e-6  # a retraced state this close (x the step's move) is load control's own
+# Newton failing inside Brent's bracket (next to a perfect structure's bifurcation the
+# tangent is singular to round-off; bistable-toggle's replay: 7e-9 from it) still locates the
+# critical factor when the eigenvalue's secant across the bracket lands this close (x the
+# factor) to one of its ends
+LOCATE_TIGHT = 1e-6
 
 
 def is_conservative(system: object) -> bool:
@@ -293,28 +298,49 @@ class Watch:
             w = (lam - prev.lam) / (cur.lam - prev.lam)
             return S.newton(sysm, prev.u + w * (cur.u - prev.u), lam, opts)
 
+        seen: list[tuple[float, float, S.State]] = []  # Brent's evaluations (lam, eig, state)
+
+        def eig(lam: float) -> float:
+            st = fundamental(lam)
+            seen.append((lam, self._eig(st, scale), st))
+            return seen[-1][1]
+
         scale = lowest_mode(sysm, prev.u, prev.lam)[2]  # one Jacobi scaling for the bracket
         try:
-            lam_c = brentq(
-                lambda lam: self._eig(fundamental(lam), scale),
-                prev.lam,
-                cur.lam,
-                xtol=1e-12 * max(abs(cur.lam), 1.0),
-                rtol=1e-13,
-            )
+            lam_c = brentq(eig, prev.lam, cur.lam, xtol=1e-12 * max(abs(cur.lam), 1.0), rtol=1e-13)
             crit = fundamental(lam_c)
-            _, phi, _ = lowest_mode(sysm, crit.u, lam_c, scale)
-            located = True
-        except (S.SolveError, ValueError):
-            # an imperfect near-bifurcation: the fundamental path cannot be re-solved inside
-            # the bracket (load control jumped onto the complementary branch).  Critical
-            # factor by linear interpolation of the eigenvalue; the switch starts from the
-            # last stable state with the mode of the unstable one.
-            ep, ec = self._eig(prev, scale), self._eig(cur, scale)
-            lam_c = prev.lam + (cur.lam - prev.lam) * ep / (ep - ec)
-            crit, located = prev, False
-            _, phi, _ = lowest_mode(sysm, cur.u, cur.lam, scale)
-        return float(lam_c), crit, phi, located
+        except S.SolveError:
+            # Newton failed next to the critical point (its tangent singular there to
+            # round-off) after Brent came close: the eigenvalue's secant across Brent's
+            # bracket (the evaluations of least |eigenvalue| either side), if it lands that
+            # close to one of its ends
+            stable = [t for t in seen if t[1] > 0.0]
+            unstable = [t for t in seen if t[1] <= 0.0]
+            if not (stable and unstable):
+                return self._interpolated(prev, cur, scale)
+            (ls, es, ss), (lu, eu, su) = (
+                min(stable, key=lambda t: t[1]),
+                max(unstable, key=lambda t: t[1]),
+            )
+            lam_c = ls + (lu - ls) * es / (es - eu)
+            near = min(abs(lam_c - ls), abs(lam_c - lu))
+            if not near <= LOCATE_TIGHT * max(abs(cur.lam), 1.0):
+                return self._interpolated(prev, cur, scale)
+            crit = ss if abs(lam_c - ls) <= abs(lam_c - lu) else su
+        except ValueError:
+            return self._interpolated(prev, cur, scale)
+        _, phi, _ = lowest_mode(sysm, crit.u, lam_c, scale)
+        return float(lam_c), crit, phi, True
+
+    def _interpolated(self, prev: S.State, cur: S.State, scale: np.ndarray) -> tuple:
+        """``locate``'s answer where the fundamental path cannot be re-solved inside the
+        bracket: an imperfect near-bifurcation (load control jumped onto the complementary
+        branch).  Critical factor by linear interpolation of the eigenvalue; the switch starts
+        from the last stable state with the mode of the unstable one."""
+        ep, ec = self._eig(prev, scale), self._eig(cur, scale)
+        lam_c = prev.lam + (cur.lam - prev.lam) * ep / (ep - ec)
+        _, phi, _ = lowest_mode(self.sys, cur.u, cur.lam, scale)
+        return float(lam_c), prev, phi, False
 
     def _act(
         self,

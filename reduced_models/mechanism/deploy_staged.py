@@ -43,7 +43,9 @@ class Staged:
         """Drive the unlocked boom with the least stroke left and free the others; where
         Newton cannot follow that release (the free booms jump far), drive the next one."""
         tried = []
-        for d in np.argsort(left)[: int(np.sum(~self.locked))]:
+        # a tie (at the start every boom has its whole stroke left) goes to the boom listed
+        # first, not to the round-off of the units, frame or node numbering
+        for d in np.argsort(np.round(left, 12), kind="stable")[: int(np.sum(~self.locked))]:
             idx = [int(d), *np.nonzero(self.locked)[0]]
             try:
                 return int(d), self.held(idx, np.r_[ell[d], self.target[self.locked]], st)

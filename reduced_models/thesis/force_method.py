@@ -54,7 +54,7 @@ from reduced_models.thesis.structure import counts, flexibilities, joint_stiffne
 
 PART1_DELTA = 0.005  # Table 4-2: force fraction gamma for Part 1
 PART2_DELTA = 0.5  # ... and for Part 2
-PART2_TOL = 1e-6  # listing: while norm(zero_load) >= 1e-6
+PART2_TOL = 1e-6  # N (the listing's SI): while norm(zero_load) >= 1e-6
 
 
 class ForceMethodState:
@@ -206,9 +206,11 @@ def run_part(
     delta: float,
     digits: int | None,
     max_increments: int,
+    part2_tol: float = PART2_TOL,
 ) -> PartResult:
     """Part 1 (``locked=False``: the boom pushes while not longer than its length) or Part 2
-    (boom locked; while ``|U_m' Load_0| >= PART2_TOL``).
+    (boom locked; while ``|U_m' Load_0| >= part2_tol``: ``PART2_TOL`` in the scene's force
+    unit, so that the answer does not depend on the unit system it is written in).
 
     As in the listing, the matrices of an increment use the bar angles of the positions the
     previous increment ended at; the increment is added to those positions re-placed along
@@ -220,7 +222,7 @@ def run_part(
     for _ in range(max_increments):
         st = ForceMethodState(chain, pos, lengths, locked)
         res.boom_lengths.append(st.boom_length)
-        if (not locked and st.boom_length > chain.length) or zero_load < PART2_TOL:
+        if (not locked and st.boom_length > chain.length) or zero_load < part2_tol:
             res.done = True
             break
         load0 = st.spring_load(res.rel, chain)
@@ -402,6 +404,7 @@ class ThesisForceMethod:
         chain = read_chain(scene)
         pos = np.array([[scene.node(j).x, scene.node(j).y] for j in chain.nodes])
         lengths = np.hypot(*np.diff(pos, axis=0).T)
+        newtons = SYSTEMS.get(scene.units, (1.0, 1.0))[1]  # per force unit of the scene
         opts = {"digits": self.digits, "max_increments": self.max_increments}
         p1 = run_part(
             chain, pos, lengths, np.zeros(len(chain.springs)), locked=False,
@@ -411,7 +414,10 @@ class ThesisForceMethod:
             return chain, p1, None
         end = p1.positions[-1]
         lengths2 = np.hypot(*np.diff(end, axis=0).T)  # L_f: Part 2 uses the reached lengths
-        p2 = run_part(chain, end, lengths2, p1.rel, locked=True, delta=self.delta2, **opts)
+        p2 = run_part(
+            chain, end, lengths2, p1.rel, locked=True, delta=self.delta2,
+            part2_tol=PART2_TOL / newtons, **opts,
+        )  # fmt: skip
         return chain, p1, p2
 
     def solve(self, scene: Scene) -> Solution:
