@@ -313,9 +313,12 @@ class Watch:
             # Newton failed next to the critical point (its tangent singular there to
             # round-off) after Brent came close: the eigenvalue's secant across Brent's
             # bracket (the evaluations of least |eigenvalue| either side), if it lands that
-            # close to one of its ends
-            stable = [t for t in seen if t[1] > 0.0]
-            unstable = [t for t in seen if t[1] <= 0.0]
+            # close to one of its ends -- ends that Brent solved inside the step: a bracket
+            # end that is the step's own start or end has not closed in on anything (a pinned
+            # root's bifurcation at factor ~0 would be "located" next to the start)
+            inner = [t for t in seen if t[0] not in (prev.lam, cur.lam)]
+            stable = [t for t in inner if t[1] > 0.0]
+            unstable = [t for t in inner if t[1] <= 0.0]
             if not (stable and unstable):
                 return self._interpolated(prev, cur, scale)
             (ls, es, ss), (lu, eu, su) = (
