@@ -5,7 +5,7 @@
 to these).  Rigid links are closure constraints (never stiff beams); supports fix unknowns;
 sliders are linear constraints.  A chain is laid out from the end ``orient.root_at_b`` picks
 (the answer does not depend on the member's drawn direction); a PRB chain with a rigid first
-link from its firmer end (``_root_at_b``).
+link from its firmer end, ends held alike by the same rule (``_root_at_b``).
 """
 
 from __future__ import annotations
@@ -95,11 +95,14 @@ def build(scene: Scene, spec_of: Callable[[Member], tuple]) -> MechanismSystem:
 def _root_at_b(scene: Scene, m: Member, matrix: np.ndarray) -> bool:
     """PRB matrices are cantilever models: rigid root link at the held end, pivots placed
     from there (prb-1r: pivot at (1 - gamma) L from the root).  A member drawn from its free
-    or pinned end towards its clamped end is laid out from end b, so the answer does not
-    depend on the drawing direction.  Only a matrix with a rigid first link can be turned."""
+    or pinned end towards its clamped end is laid out from end b; between ends held alike
+    (a parallel guide's leg, welded at both) the chains' rule decides (``orient.root_at_b``:
+    the grounded end, ...), so the answer does not depend on the drawing direction.  Only a
+    matrix with a rigid first link can be turned."""
     if math.isfinite(matrix[0, 0]):
         return False
-    return fixity(scene, m, "b") > fixity(scene, m, "a")
+    fa, fb = fixity(scene, m, "a"), fixity(scene, m, "b")
+    return fb > fa if fb != fa else root_at_b(scene, m)
 
 
 def _centred(scene: Scene) -> tuple[Scene, tuple[float, float]]:
