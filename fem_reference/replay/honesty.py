@@ -89,9 +89,8 @@ def static_limit(
     0.15737; the interpolation inside the step said 0.1554).
 
     The kind is "bifurcation" where the stability loss is a located bifurcation (the load
-    does no work on its mode, ``bifurcation.KIND_TOL``) whose branch through the settled
-    end ``landed`` returns to the critical state at its factor (supercritical: a buckled
-    column, which does not snap; as ``Watch._jump`` decides), else "snap"."""
+    does no work on its mode, ``bifurcation.KIND_TOL``) whose branch rises (supercritical,
+    ``_rises``: a buckled column, which does not snap), else "snap"."""
 
     from fem_reference.statics.bifurcation import KIND_TOL, Watch
 
@@ -136,21 +135,15 @@ def static_limit(
 
 def _rises(system: object, crit: S.State, phi: np.ndarray, lam_c: float) -> bool:
     """Whether the branch through the critical state ``crit`` (at or next to the critical
-    factor ``lam_c``) along its mode ``phi`` rises: the factor at a mode amplitude of
-    ``SWITCH_AMPLITUDE`` above ``lam_c`` (the FE's test, ``Watch._switch``); False where
-    that state cannot be solved."""
-    from fem_reference.statics.bifurcation import SWITCH_AMPLITUDE
+    factor ``lam_c``) along its mode ``phi`` rises: its factor at the switch amplitude above
+    ``lam_c`` (the FE's test, ``bifurcation.branch_offset``); False where that state cannot
+    be solved."""
+    from fem_reference.statics.bifurcation import branch_offset
 
-    i = int(np.argmax(np.abs(phi) * np.sqrt(S.Scaler.of(system).w)))
-    a = SWITCH_AMPLITUDE * (1.0 if system.is_rotation[i] else system.length_scale())
     try:
-        off = S.newton(
-            system, crit.u + a * phi / phi[i], crit.lam, S.Options(),
-            constraint=(i, 1.0, crit.u[i] + a),
-        )  # fmt: skip
+        return bool(branch_offset(system, crit, phi, S.Options()).lam > lam_c)
     except S.SolveError:
         return False
-    return bool(off.lam > lam_c)
 
 
 def same_branch(

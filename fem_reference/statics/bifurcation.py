@@ -78,6 +78,22 @@ def is_conservative(system: object) -> bool:
     return fol is None or fol.shape[0] == 0
 
 
+def branch_offset(
+    sysm: object, crit: S.State, phi: np.ndarray, opts: S.Options, sign: float = 1.0
+) -> S.State:
+    """The state on the branch through the critical state ``crit`` along its mode ``phi``
+    whose largest weighted mode component is moved by ``sign`` x ``SWITCH_AMPLITUDE`` (of
+    the length scale, or rad) and held there (displacement control: its factor tells
+    whether the branch rises or falls); ``info["predictor"]``: the displaced critical state
+    it was solved from.  Raises ``SolveError``."""
+    i = int(np.argmax(np.abs(phi) * np.sqrt(S.Scaler.of(sysm).w)))
+    a = sign * SWITCH_AMPLITUDE * (1.0 if sysm.is_rotation[i] else sysm.length_scale())
+    u0 = crit.u + a * phi / phi[i]
+    off = S.newton(sysm, u0, crit.lam, opts, constraint=(i, 1.0, crit.u[i] + a))
+    off.info = {**off.info, "predictor": u0}
+    return off
+
+
 class Watch:
     """Stability watch of one load-controlled FE run (see module docstring)."""
 
@@ -411,23 +427,12 @@ class Watch:
         structure snaps, and where it settles is found by energy descent."""
         sysm, opts = self.sys, self.opts
         sc = S.Scaler.of(sysm)
-        i = int(np.argmax(np.abs(phi) * np.sqrt(sc.w)))
-        a = SWITCH_AMPLITUDE * sysm.length_scale()
-        if sysm.is_rotation[i]:
-            a = SWITCH_AMPLITUDE
         found = []
         for sign in (1.0, -1.0):
-            step = sign * a / phi[i]
             try:
-                off = S.newton(
-                    sysm,
-                    crit.u + step * phi,
-                    crit.lam,
-                    opts,
-                    constraint=(i, 1.0, crit.u[i] + step * phi[i]),
-                )
+                off = branch_offset(sysm, crit, phi, opts, sign)
                 if off.lam < lam_c:  # the branch falls: no stable state next to the critical one
-                    land = self._descend(crit.u + step * phi, target)
+                    land = self._descend(off.info["predictor"], target)
                 else:
                     land = self._follow(S.State(off.u, off.lam), target, sc.unorm(off.u - crit.u))
             except S.SolveError:
@@ -455,13 +460,8 @@ class Watch:
         it); a falling branch (subcritical) is not switched to -- the traced path stays on the
         fundamental branch and the note says so."""
         sysm = self.sys
-        i = int(np.argmax(np.abs(phi) * np.sqrt(S.Scaler.of(sysm).w)))
-        a = SWITCH_AMPLITUDE * (1.0 if sysm.is_rotation[i] else sysm.length_scale())
         try:
-            off = S.newton(
-                sysm, crit.u + a * phi / phi[i], crit.lam, self.opts,
-                constraint=(i, 1.0, crit.u[i] + a),
-            )  # fmt: skip
+            off = branch_offset(sysm, crit, phi, self.opts)
         except S.SolveError:
             off = None
         if off is None or off.lam <= crit.lam:
