@@ -47,7 +47,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.linalg.blas import dgbmv as _dgbmv
 
-from fem_reference.banded import BAND_MAX, BandedLU, csr_to_band
+from fem_reference.banded import BAND_MAX, BandedLU, arpack_start, csr_to_band
 from fem_reference.replay.band import band_mass, lowest_mode, step_band
 
 if TYPE_CHECKING:
@@ -442,7 +442,9 @@ def lowest_modes(K: sp.spmatrix, M: sp.spmatrix, k: int = 2) -> tuple[np.ndarray
     scale = abs(Ks.diagonal()).mean() / max(abs(M.diagonal()).mean(), 1e-300)
     for sigma in (0.0, -1e-6 * scale, -1e-3 * scale):
         try:
-            vals, vecs = spla.eigsh(Ks.tocsc(), k=k + 2, M=M.tocsc(), sigma=sigma, which="LM")
+            vals, vecs = spla.eigsh(
+                Ks.tocsc(), k=k + 2, M=M.tocsc(), sigma=sigma, which="LM", v0=arpack_start(n)
+            )
             order = np.argsort(vals)[:k]
             return vals[order], vecs[:, order]
         except (RuntimeError, spla.ArpackError):

@@ -35,7 +35,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from fem_reference.banded import BAND_MAX, csr_to_band, symmetric_upper_band
+from fem_reference.banded import BAND_MAX, arpack_start, csr_to_band, symmetric_upper_band
 from fem_reference.rigid import stability_view
 from fem_reference.statics import static as S
 from fem_reference.statics.inertia import jacobi_inertia
@@ -78,7 +78,7 @@ def lowest_mode(
         if Ks.shape[0] <= DENSE_MAX:
             w, v = sla.eigh(Ks.toarray(), subset_by_index=[0, 0])
         else:
-            w, v = spla.eigsh(Ks, k=1, sigma=-1e-3, which="LM")
+            w, v = spla.eigsh(Ks, k=1, sigma=-1e-3, which="LM", v0=arpack_start(Ks.shape[0]))
     phi = scale * v[:, 0]
     phi /= phi[np.argmax(np.abs(phi))]
     return float(w[0]), phi, scale

@@ -27,6 +27,7 @@ from scipy.optimize import minimize_scalar
 from fem_reference.banded import (
     BAND_MAX,
     _dpbtrf,
+    arpack_start,
     band_stability,
     csr_to_band,
     hold_dof,
@@ -378,6 +379,7 @@ def _stability(
             k=min(n_neg + 1, n - 1),
             sigma=-1e-9 * abs(dg).max(),
             which="LM",
+            v0=arpack_start(n),
             return_eigenvectors=False,
         )
         mn = float(np.min(w))
