@@ -135,10 +135,11 @@ def compare(base, enc, back) -> str:
     if len(cb) != len(ce):
         return f"{len(cb)} snaps reported vs {len(ce)}"
     for a, b in zip(cb, ce):
-        if (
-            abs(a["factor"] - b["factor"]) > REL * max(1.0, abs(a["factor"]))
-            and base.steps[0].factor == 0
-        ):
+        # a located factor is reproducible only to its own round-off bound (stated with it:
+        # fem_reference/statics/conditioning.py), which on a fine stiff mesh exceeds REL
+        tol = max(REL * max(1.0, abs(a["factor"])), a.get("factor_roundoff", 0.0) or 0.0)
+        tol += b.get("factor_roundoff", 0.0) or 0.0
+        if abs(a["factor"] - b["factor"]) > tol and base.steps[0].factor == 0:
             return f"snap factor {a['factor']:.10g} vs {b['factor']:.10g}"
     return f"worst {worst:.3g} of the excursion ({what})" if worst > REL else ""
 

@@ -75,9 +75,10 @@ def static_limit(
     target: float,
     substeps: int = 8,
     depth: int = 0,
-) -> tuple[float, str] | None:
+) -> tuple[float, str, float | None] | None:
     """Factor at which the static path from the stable equilibrium ``(q, lam)`` towards
-    ``target`` loses stability, and its kind: marched by load control in ``substeps`` equal
+    ``target`` loses stability, its kind and its round-off bound (located bifurcations,
+    ``conditioning.factor_roundoff``; else None): marched by load control in ``substeps`` equal
     steps (short enough to stay on the branch next to a bifurcation, where one long step may
     land on the other branch and leave the bracket without a path through it), located in
     the first step that ends unstable (``bifurcation.Watch.locate``: Brent's method on the
@@ -109,24 +110,24 @@ def static_limit(
                     return None
                 cur, stalled = err.state, 1
             if not watch.stable(cur):
-                lam_c, crit, phi, located = watch.locate(prev, cur)
+                lam_c, crit, phi, located, roundoff = watch.locate(prev, cur)
                 if not located:  # load control jumped onto the unstable side of a fold
                     lim = watch.limit(prev, S.State(cur.u, target))  # ahead, not inside
                     if lim is not None:
-                        return float(lim.lam), "snap"
+                        return float(lim.lam), "snap", None
                     # or Brent's Newton diverged right at a bifurcation (singular there to
                     # round-off): the eigenvalue's interpolation is refined in a shorter step
                     inner = None
                     if depth < REFINE_DEPTH:
                         inner = static_limit(system, prev.u, prev.lam, cur.lam, substeps, depth + 1)
-                    return inner or (lam_c, "snap")
+                    return inner or (lam_c, "snap", None)
                 f = np.asarray(system.external(crit.u), dtype=float)
                 work = abs(float(phi @ f)) / max(np.linalg.norm(phi) * np.linalg.norm(f), 1e-300)
                 rises = work < KIND_TOL and _rises(system, crit, phi, lam_c)
-                return lam_c, "bifurcation" if rises else "snap"
+                return lam_c, "bifurcation" if rises else "snap", roundoff
             if stalled:  # the limit point, traced over by arc-length and refined
                 lim = watch.limit(prev, S.State(cur.u, lam_k))
-                return float(cur.lam if lim is None else lim.lam), "snap"
+                return float(cur.lam if lim is None else lim.lam), "snap", None
             prev = cur
         return None
     except (AttributeError, TypeError, ValueError, np.linalg.LinAlgError, S.SolveError):

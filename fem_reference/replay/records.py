@@ -104,10 +104,12 @@ def jump(
     lam_eq = float(r0 @ f / (f @ f)) if f @ f > 0 else math.nan
     # reported at the static path's stability loss; the dynamic onset alongside
     q_s, lam_0 = (q_prev, float(prev.factor)) if stable_from is None else stable_from
-    lam_s, kind = honest.static_limit(run.sys, q_s, lam_0, after.factor) or (None, "snap")
+    static = honest.static_limit(run.sys, q_s, lam_0, after.factor) or (None, "snap", None)
+    lam_s, kind, roundoff = static
     lam_d = float(h.factor[lo])
     out = dict(factor=lam_d if lam_s is None else lam_s, factor_dynamic=lam_d, kind=kind)
     out.update(factor_static=lam_s, factor_equilibrium=lam_eq, t=float(h.t[lo]))
+    out["factor_roundoff"] = roundoff
     out.update(from_factor=float(prev.factor), to_factor=after.factor)
     out.update(dissipated=float(dD), dissipated_ratio=float(dD / scale))
     out.update(peak_kinetic=float(kin.max()), jump_distance=float(dist))
@@ -130,6 +132,8 @@ def critical_point(jp: dict) -> dict:
     point = {"kind": jp["kind"], "factor": lam, "switched": True}
     point.update({"from": dict(jp["before"]), "to": dict(jp["after"])})
     point.update(factor_static=jp["factor_static"], factor_dynamic=jp["factor_dynamic"])
+    if jp["factor_roundoff"] is not None:
+        point["factor_roundoff"] = jp["factor_roundoff"]
     point["to_factor"] = jp["to_factor"]
     return point
 

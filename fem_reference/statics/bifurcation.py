@@ -56,6 +56,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from fem_reference.statics import static as S
+from fem_reference.statics.conditioning import factor_roundoff
 from fem_reference.statics.descent import lowest_mode, settle
 from fem_reference.statics.inertia import jacobi_verdict, state_stability
 
@@ -150,7 +151,8 @@ class Watch:
             return cur  # a limit point crossed by arc-length: the snapped-to state is judged
         if path and self._fold_passed(prev, cur) and self.stability(cur).get("n_neg", 1) <= 1:
             return cur  # arc-length went over a limit point (alone) within the step: traced
-        lam_c, crit, phi, located = self.locate(prev, cur)
+        found = self.locate(prev, cur)
+        located = found[3]
         # not re-solvable inside the bracket: load control may have jumped the knee of an
         # imperfect structure's smooth path onto the complementary branch
         smooth = None if located or path else self.natural(prev, cur, target)
@@ -159,7 +161,7 @@ class Watch:
         snapped = None if located or path else self._snap_limit(prev, cur, target)
         if snapped is not None:
             return snapped
-        return self._act(lam_c, crit, phi, located, cur, target, path)
+        return self._act(found, cur, target, path)
 
     def _fold_passed(self, prev: S.State, cur: S.State) -> bool:
         """Did the traced step ``prev -> cur`` (factor higher at ``cur``) pass over a limit
@@ -306,8 +308,10 @@ class Watch:
         return land
 
     def locate(self, prev: S.State, cur: S.State) -> tuple:
-        """``(lam_c, critical state, mode, located)`` of the stability loss between a stable
-        ``prev`` and an unstable ``cur`` on one branch (see the module docstring)."""
+        """``(lam_c, critical state, mode, located, roundoff)`` of the stability loss between
+        a stable ``prev`` and an unstable ``cur`` on one branch (see the module docstring);
+        ``roundoff``: how far round-off alone moves a located ``lam_c``
+        (``conditioning.factor_roundoff``; None when not located)."""
         sysm, opts = self.sys, self.opts
 
         def fundamental(lam: float) -> S.State:
@@ -349,7 +353,7 @@ class Watch:
         except ValueError:
             return self._interpolated(prev, cur, scale)
         _, phi, _ = lowest_mode(sysm, crit.u, lam_c, scale)
-        return float(lam_c), crit, phi, True
+        return float(lam_c), crit, phi, True, factor_roundoff(sysm, prev, crit, lam_c, phi)
 
     def _interpolated(self, prev: S.State, cur: S.State, scale: np.ndarray) -> tuple:
         """``locate``'s answer where the fundamental path cannot be re-solved inside the
@@ -359,25 +363,19 @@ class Watch:
         ep, ec = self._eig(prev, scale), self._eig(cur, scale)
         lam_c = prev.lam + (cur.lam - prev.lam) * ep / (ep - ec)
         _, phi, _ = lowest_mode(self.sys, cur.u, cur.lam, scale)
-        return float(lam_c), prev, phi, False
+        return float(lam_c), prev, phi, False, None
 
-    def _act(
-        self,
-        lam_c: float,
-        crit: S.State,
-        phi: np.ndarray,
-        located: bool,
-        cur: S.State,
-        target: float,
-        path: bool,
-    ) -> S.State:
-        """Classify the critical point and switch (``check``)."""
+    def _act(self, found: tuple, cur: S.State, target: float, path: bool) -> S.State:
+        """Classify the critical point ``found`` by ``locate`` and switch (``check``)."""
+        lam_c, crit, phi, located, roundoff = found
         sysm = self.sys
         f = np.asarray(sysm.external(crit.u), dtype=float)
         work = abs(float(phi @ f)) / max(np.linalg.norm(phi) * np.linalg.norm(f), 1e-300)
         kind = "bifurcation" if work < KIND_TOL else "limit"
         point = {"factor": float(lam_c), "kind": kind, "load_work": work, "switched": False}
         point["located"] = located
+        if roundoff is not None:
+            point["factor_roundoff"] = roundoff
         if kind != "bifurcation":
             if not path:  # (a path analysis refines its limit points itself)
                 self.points.append(point)
@@ -396,16 +394,17 @@ class Watch:
         point["switched"] = True
         if self.tied:
             point["tied"], self.tied = True, False
-        self._jump(crit, new, lam_c)
+        self._jump(crit, new, point)
         return new
 
-    def _jump(self, crit: S.State, new: S.State, lam_c: float) -> None:
-        """A switch that lands on a stable state far from the critical one at ``lam_c`` (a
-        subcritical bifurcation: the structure leaves it dynamically, DAS-2D Ex. 3's
-        unguided shuttle) is also a snap, reported with the states before and after at
-        ``lam_c`` as the elastica reports it.  A supercritical branch (a buckled column)
-        returns to the critical state at ``lam_c``: no snap."""
-        sysm = self.sys
+    def _jump(self, crit: S.State, new: S.State, bif: dict) -> None:
+        """A switch that lands on a stable state far from the critical one at the factor
+        ``lam_c`` of the bifurcation point ``bif`` (a subcritical bifurcation: the structure
+        leaves it dynamically, DAS-2D Ex. 3's unguided shuttle) is also a snap, reported with
+        the states before and after at ``lam_c`` as the elastica reports it.  A
+        supercritical branch (a buckled column) returns to the critical state at ``lam_c``:
+        no snap."""
+        sysm, lam_c = self.sys, bif["factor"]
         try:
             to = S.newton(sysm, new.u, lam_c, self.opts)
         except S.SolveError:
@@ -416,8 +415,9 @@ class Watch:
         if not self.stable(to):
             return
         out = sysm.outputs
-        point = {"factor": float(lam_c), "kind": "snap", "switched": True}
-        self.points.append({**point, "from": out(crit.u), "to": out(to.u)})
+        point = {k: bif[k] for k in ("factor", "factor_roundoff") if k in bif}
+        point.update(kind="snap", switched=True, **{"from": out(crit.u), "to": out(to.u)})
+        self.points.append(point)
 
     def _switch(
         self, crit: S.State, phi: np.ndarray, lam_c: float, target: float
