@@ -126,8 +126,9 @@ def critical_point(jp: dict) -> dict:
     last stable settled state loses stability (``factor_static``: the scene's critical
     factor on the replay's mesh, as the FE locates it), else where the dynamic jump started
     (``factor_dynamic``, alongside: the ramp's state left the stable region, lagging the
-    static factor by the ramp rate, at a time step of the adaptive grid), ``from`` the
-    outputs at the dynamic onset, ``to`` the settled outputs after the jump."""
+    static factor by the ramp rate, at a time step of the adaptive grid; ``factor_roundoff``
+    where the static factor is a located bifurcation), ``from`` the outputs at the dynamic
+    onset, ``to`` the settled outputs after the jump."""
     lam = jp["factor_dynamic"] if jp["factor_static"] is None else jp["factor_static"]
     point = {"kind": jp["kind"], "factor": lam, "switched": True}
     point.update({"from": dict(jp["before"]), "to": dict(jp["after"])})
