@@ -10,7 +10,8 @@ import numpy as np
 import cases
 from fem_reference.assembly import build
 from fem_reference.replay.model import Replay
-from fem_reference.replay.run import ReplayOptions, _stability, replay_system
+from fem_reference.replay.probe import stability
+from fem_reference.replay.run import ReplayOptions, replay_system
 
 
 def test_held_states_are_static_equilibria_to_round_off():
@@ -23,7 +24,7 @@ def test_held_states_are_static_equilibria_to_round_off():
 
     def record(run, s, chk, want, scene):  # the state each step is reported at
         seen.append((s.q.copy(), s.v.copy(), s.lam, s.t))
-        return _stability(run, s, chk, want, scene)
+        return stability(run, s, chk, want, scene)
 
     opts = ReplayOptions(probe="none", ramp_periods=0.05)
     factors = np.linspace(0.0, 1.0, 5)

@@ -12,10 +12,10 @@ import scipy.sparse.linalg as spla
 
 from cases.schema import Scene
 from fem_reference.assembly import build
-from fem_reference.replay import events
-from fem_reference.replay import integrator as ev
+from fem_reference.replay import events, modes
 from fem_reference.replay.deploy_history import time_history
-from fem_reference.replay.run import replay_system, unprobed
+from fem_reference.replay.probe import kick, unprobed
+from fem_reference.replay.run import replay_system
 from fem_reference.statics.deploy import booms_as_locks
 from reduced_models.base import Solution, Step
 
@@ -108,12 +108,12 @@ class _ProbeBoth:
         self.perturbed: dict | None = None  # the recorded response to the impulse
 
     def __call__(self, run: object, s: object, chk: dict, want: str, scene: Scene) -> tuple:
-        eig, mode = ev.tangent_test(chk["K"], chk["G"], run.M)
+        eig, mode = modes.tangent_test(chk["K"], chk["G"], run.M)
         pr = unprobed(run, eig, want)
         if pr is not None:
             return eig, pr
         t0 = time.process_time()
-        pr = run.probe(s, eig, mode, scene)
+        pr = kick(run, s, eig, mode, scene)
         if run.o.probe_node is not None:  # the case's own impulse was the probe
             imp = dict(pr)
         elif self.node is None:
@@ -122,7 +122,7 @@ class _ProbeBoth:
             saved, t0 = run.o, time.process_time()
             run.o = replace(saved, probe_node=self.node, probe_impulse=self.vec)
             try:
-                imp = run.probe(s, eig, mode, scene)
+                imp = kick(run, s, eig, mode, scene)
             finally:
                 run.o = saved
         imp.update(node=self.node, impulse=list(self.vec), cpu_s=time.process_time() - t0)

@@ -13,7 +13,7 @@ and stays within ``FINISH_BALL`` settle_tol L of the settled state (the equilibr
 motion came to rest at, not another one Newton reaches from it); otherwise the settled state
 is kept and the reason returned, which the replay states.
 
-w: 1 for translations, L for rotations (``integrator.dof_weights``).
+w: 1 for translations, L for rotations (``modes.dof_weights``).
 """
 
 from __future__ import annotations

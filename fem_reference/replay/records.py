@@ -10,7 +10,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from fem_reference.replay import honesty as honest
-from fem_reference.replay import integrator as ev
+from fem_reference.replay import modes
 from reduced_models.base import Step
 
 BRANCH_RATIO = 3.0  # a settled end this many times further than the tangent predicts
@@ -82,7 +82,7 @@ def jump(
 
     def eig(i: int) -> float:
         r, K, *_ = run.integ.forces(h.q[i], h.factor[i], h.t[i])
-        return float(ev.lowest_modes(K, run.M, k=1)[0][0])
+        return float(modes.lowest_modes(K, run.M, k=1)[0][0])
 
     # the first of ~12 samples up to the peak that is unstable, then bisection
     grid = np.unique(np.linspace(max(i0 - 1, 0), ipk, 12).round().astype(int))

@@ -30,10 +30,9 @@ from types import SimpleNamespace
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from cases.schema import Scene
-from fem_reference.replay import events, records
+from fem_reference.replay import events, modes, probe, records
 from fem_reference.replay import honesty as honest
 from fem_reference.replay import integrator as ev
 from fem_reference.replay.finish import finished, note
@@ -89,14 +88,6 @@ class ReplayOptions:
 
 
 SOFT_AFTER = 20.0  # T1 of holding after which a soft mode gets its own critical damping
-PROBE_NEWTON = 0.1  # Newton tolerance of a probe / settle_tol
-PROBE_LTE = 0.1  # local error per step of a probe / the kick's excursion (lte_tol: ~0.3 of 1e-3 L)
-# probe="auto": a settled state is kicked when its lowest eigenvalue of (K, M) is within this
-# fraction of omega_1^2 of zero (its lowest frequency below ~22 % of the unloaded one): near
-# a limit point or bifurcation, where a kick of the probe's size can leave a shallow well
-# (or the equilibrium found under load control lies elsewhere, test_replay_probe) and the
-# sign of an eigenvalue near zero is the least certain
-PROBE_MARGIN = 0.05
 
 
 class _Run:
@@ -105,17 +96,17 @@ class _Run:
     def __init__(self, system: object, scene: Scene | None, o: ReplayOptions) -> None:
         self.sys, self.o = system, o
         self.L = float(system.length_scale())
-        self.w = ev.dof_weights(system, self.L)
+        self.w = modes.dof_weights(system, self.L)
         n = system.ndof
         alg = getattr(system, "algebraic", None)
-        Mfull, self.point_masses = ev.point_masses(system.mass(), self.w, alg)
+        Mfull, self.point_masses = modes.point_masses(system.mass(), self.w, alg)
         modal = getattr(system, "modal_pair", None)  # (K0, M) of the free vibration, if not
         if modal is not None:  # the system's own (a servo's bordered, singular-mass one)
             K0, M = modal()
-            M = ev.point_masses(M, self.w if alg is None else np.delete(self.w, alg))[0]
+            M = modes.point_masses(M, self.w if alg is None else np.delete(self.w, alg))[0]
         else:
             M, (_, K0) = Mfull, system.residual_and_tangent(np.zeros(n), 0.0)
-        a0, a1, self.w1, self.damping_note = ev.rayleigh(sp.csr_matrix(K0), M, o.zeta)
+        a0, a1, self.w1, self.damping_note = modes.rayleigh(sp.csr_matrix(K0), M, o.zeta)
         if o.damping == "mass":
             a0, a1, self.damping_note = 2 * o.zeta * self.w1, 0.0, "mass-proportional"
         self.T1 = 2 * math.pi / self.w1
@@ -146,7 +137,7 @@ class _Run:
 
     def tangent_test(self, chk: dict) -> tuple[float, np.ndarray]:
         """Lowest eigenpair of the settled state's tangent (``static_check``'s K, G)."""
-        return ev.tangent_test(chk["K"], chk["G"], self.M, self.integ.bw, self.warm)
+        return modes.tangent_test(chk["K"], chk["G"], self.M, self.integ.bw, self.warm)
 
     def _record(self, s: ev.State) -> None:
         h = self.hist
@@ -276,7 +267,7 @@ class _Run:
         s, chk = self.advance(t_soft, lambda t: lam, until=self.static_check)
         a0 = self.integ.a0
         if chk is None and self.integ.a1 == 0.0:  # a soft mode creeps, overdamped at a0:
-            w = ev.soft_frequency(self.sys, self.integ, s)  # damp it critically instead
+            w = modes.soft_frequency(self.sys, self.integ, s)  # damp it critically instead
             if w is not None and 2.0 * self.o.zeta * w < a0:
                 self.integ.a0, self.integ._C0 = 2.0 * self.o.zeta * w, None
         if chk is None:
@@ -285,77 +276,6 @@ class _Run:
         if chk is None:
             raise ev.ReplayError(f"did not settle at factor {lam:.6g} within {self.o.max_hold} T1")
         return finished(self, s, chk)
-
-    # -- stability -----------------------------------------------------------------------------
-    def probe(self, s: ev.State, eig: float, mode: np.ndarray, scene: Scene | None) -> dict:
-        """Kick the settled state ``s`` and watch: returns (stable), departs (unstable).
-
-        Steps are sized by the probed mode (up to tau / 10, local error ``PROBE_LTE`` of the
-        kick's excursion) and one factorisation serves steps of one size; a probe that comes
-        to rest at an equilibrium stops there (returned if within 2 % of the kick of ``s``).
-        """
-        o, M = self.o, self.M
-        om = max(math.sqrt(abs(eig)), 1e-3 * self.w1)
-        if o.probe_node is not None:
-            f = np.zeros(self.sys.ndof)  # the thesis's nodal impulse (1 N s in ADAMS)
-            for k, i, c in events.node_map(self.sys, o.probe_node)[1]:
-                f[i] += c * o.probe_impulse[k]
-            v0 = spla.spsolve(M.tocsc(), f)
-        else:
-            v0 = mode / np.max(np.abs(self.w * mode)) * o.probe_amplitude * self.L * om
-        d_ref = float(np.max(np.abs(self.w * v0))) / om
-        # decay / growth time of the probed mode, damping included
-        c = float(mode @ (self.integ.damping(s) @ mode)) / float(mode @ (M @ mode))
-        tau = max(1.0 / om, c / om**2)
-        integ, q0 = self.integ, s.q
-        saved = [p.locked for p in integ.pairs], self.h, self.s  # s: not always the run's
-        start = integ.start(s.t, s.lam, s.q, s.v + v0)
-        peak, rest = [0.0], []
-
-        def watch(st: ev.State) -> str | None:
-            d = float(np.max(np.abs(self.w * (st.q - q0))))
-            peak[0] = max(peak[0], d)
-            if d > 20.0 * d_ref:
-                return "departed"
-            vnorm = float(np.max(np.abs(self.w * st.v)))
-            if st.t - s.t <= tau:
-                return None
-            if d < 0.02 * peak[0] and vnorm < 0.02 * om * peak[0]:
-                return "returned"
-            # at rest in an equilibrium (it stays there): within 2 % of the kick's excursion
-            # of q0 it returned (the offset is q0's own distance to the load-controlled
-            # equilibrium, amplified by a near-singular tangent), further away undecided
-            if self.static_check(st) is not None:
-                rest.append(d / self.L)
-                return "returned" if d < 0.02 * d_ref else "undecided"
-            return None
-
-        # steps up to tau / 10: a soft, overdamped probed mode (tau >> T1 near a limit point)
-        # needs no finer steps than its own time scale; the error test sizes them, to a
-        # fraction of the kick's excursion (the probe's motion, far below lte_tol L)
-        self.s, self.h = start, min(self.h, tau / 10)
-        hmax = max(o.dt_max * self.T1, tau / 10)
-        lte = min(o.lte_tol, PROBE_LTE * d_ref / self.L)
-        integ.keep_lu = {}  # modified Newton across steps: the tangent barely changes
-        tight = integ.newton_tol  # a probe's Newton: 1/10 of its at-rest test, not 1/100
-        integ.newton_tol = PROBE_NEWTON * o.settle_tol
-        try:
-            end, verdict = self.advance(
-                s.t + 60.0 * tau, lambda t: s.lam, watch, False, hmax, lte, steady=True
-            )
-        except ev.ReplayError:
-            end, verdict = start, None
-        finally:
-            integ.keep_lu, integ.newton_tol = None, tight
-            for p, lk in zip(integ.pairs, saved[0]):
-                p.locked = lk
-            self.h, self.s = saved[1:]
-        d_end = float(np.max(np.abs(self.w * (end.q - q0)))) / self.L
-        stable = {"returned": True, "departed": False}.get(verdict)
-        out = dict(stable=stable, peak=peak[0] / self.L, final=d_end, time=end.t - s.t)
-        if rest:
-            out["at_rest_distance"] = rest[0]  # / L, where it came to rest
-        return {**out, "verdict": verdict or "undecided"}
 
 
 NO_VERDICT = "stable = None: no static stability verdict under follower (non-conservative) loads"
@@ -367,36 +287,6 @@ def ramp_and_hold(run: _Run, lam: float) -> tuple[ev.State, dict]:
         la, t0, Tr = run.s.lam, run.s.t, run.o.ramp_periods * run.T1
         run.advance(t0 + Tr, ev.ramp_path(la, lam, t0, Tr))
     return run.hold(lam)
-
-
-def probe_plan(o: ReplayOptions, k: int, n: int, conservative: bool) -> str:
-    """What settled state ``k`` of ``n`` gets: "probe" (kicked), "tangent" (the tangent
-    test's verdict, kicked only when it is near its limit: ``unprobed``) or "none" (no
-    verdict: follower loads, or probes switched off)."""
-    last = k == n - 1
-    if not conservative or o.probe == "none" or o.probe == "last" and not last:
-        return "none"
-    return "probe" if o.probe == "all" or last else "tangent"
-
-
-def unprobed(run: _Run, eig: float, want: str) -> dict | None:
-    """The stability record of a settled state that is not kicked: skipped (``want`` "none")
-    or the tangent's verdict ("tangent": a conservative system at rest in an equilibrium
-    whose tangent is positive definite is stable -- its energy is a Lyapunov function, the
-    damping makes it asymptotic -- and one with a negative eigenvalue is not); None when it
-    must be kicked ("probe", or |eig| below ``PROBE_MARGIN`` omega_1^2)."""
-    if want == "none":
-        return {"stable": None, "verdict": "skipped"}
-    if want == "tangent" and abs(eig) >= PROBE_MARGIN * run.w1**2:
-        return {"stable": bool(eig > 0.0), "verdict": "tangent"}
-    return None
-
-
-def _stability(run: _Run, s: ev.State, chk: dict, want: str, scene: Scene | None) -> tuple:
-    """Tangent test and (``probe_plan``, ``unprobed``) impulse probe of the settled state
-    ``s``: (eig, probe record)."""
-    eig, mode = chk.get("tangent") or run.tangent_test(chk)
-    return eig, unprobed(run, eig, want) or run.probe(s, eig, mode, scene)
 
 
 def _integrity(system: object, s: ev.State) -> str | None:
@@ -415,7 +305,7 @@ def replay_system(
     scene: Scene | None = None,
     case: str = "",
     options: ReplayOptions | None = None,
-    stability: Callable = _stability,
+    stability: Callable = probe.stability,
     reach: Callable | None = None,
 ) -> Solution:
     """Replay ``system`` through the load ``factors`` (the heart of the ``replay`` model).
@@ -462,7 +352,7 @@ def replay_system(
         move = getattr(reach, "move", 0.0)  # the ramp's tangent prediction (0: unknown)
         try:
             s, chk = reach(run, float(lam))
-            want = probe_plan(o, k, len(factors), verdict)
+            want = probe.probe_plan(o, k, len(factors), verdict)
             eig, pr = stability(run, s, chk, want, scene)
         except (ev.ReplayError, RuntimeError, ValueError, np.linalg.LinAlgError) as exc:
             status, message = "failed", f"factor {lam:.6g}: {exc}"
@@ -495,7 +385,7 @@ def replay_system(
                 jumps.append(jp)
         steps.append(st)
         prev_q, prev_step = s.q, st
-        if verdict and (st.stable or eig >= PROBE_MARGIN * run.w1**2):  # clearly stable:
+        if verdict and (st.stable or eig >= probe.PROBE_MARGIN * run.w1**2):  # clearly stable:
             stable_from = (s.q, float(lam))  # the static path from it starts stable
         if getattr(reach, "ended", False):  # the reach ended the path (a servo at factor_end)
             break

@@ -46,6 +46,7 @@ from fem_reference.assembly import build
 from fem_reference.error.richardson import gci
 from fem_reference.replay import honesty as honest
 from fem_reference.replay import integrator as ev
+from fem_reference.replay import modes
 from fem_reference.replay.finish import note as finish_note
 from fem_reference.statics.driver_post import post_process
 from reduced_models.base import Solution, Step, not_applicable
@@ -178,7 +179,8 @@ class ServoSystem:
 def _probe_under_load(servo: ServoSystem, options: object, scene: Scene) -> object:
     """The ``stability`` hook of ``replay_system``: tangent test and impulse probe of the full
     system at the settled load factor (servo off), as the FE tests a distance step."""
-    from fem_reference.replay.run import _Run, unprobed
+    from fem_reference.replay.probe import kick, unprobed
+    from fem_reference.replay.run import _Run
 
     aux: list = []
 
@@ -189,11 +191,11 @@ def _probe_under_load(servo: ServoSystem, options: object, scene: Scene) -> obje
             aux[0].deadline = run.deadline  # one wall-clock budget for both
         a = aux[0]
         _, K = servo.full.residual_and_tangent(q, lam)
-        eig, mode = ev.tangent_test(sp.csr_matrix(K), np.zeros((0, servo.ndof)), a.M)
+        eig, mode = modes.tangent_test(sp.csr_matrix(K), np.zeros((0, servo.ndof)), a.M)
         pr = unprobed(a, eig, want)  # the full system's omega_1 sets the margin
         if pr is not None:
             return eig, pr
-        return eig, a.probe(a.integ.start(s.t, lam, q, np.zeros(servo.ndof)), eig, mode, sc)
+        return eig, kick(a, a.integ.start(s.t, lam, q, np.zeros(servo.ndof)), eig, mode, sc)
 
     return stab
 

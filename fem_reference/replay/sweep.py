@@ -37,6 +37,7 @@ import numpy as np
 
 from fem_reference.banded import BandedLU
 from fem_reference.replay import integrator as ev
+from fem_reference.replay import modes
 from fem_reference.replay.band import lowest_mode_band
 from fem_reference.statics.bifurcation import SWITCH_AMPLITUDE, is_conservative
 
@@ -218,7 +219,7 @@ def at_rest(run: object, t: float, lam: float, q: np.ndarray) -> tuple[ev.State,
         return rest, None
     if tangent is None:  # not positive definite: the dense test
         K = sys_.tangent_csr(e) if K is None else K
-        tangent = ev.tangent_test(K, np.zeros((0, q.size)), integ.M)
+        tangent = modes.tangent_test(K, np.zeros((0, q.size)), integ.M)
     chk = {"residual": float(np.max(np.abs(r))), "distance": dist, "tangent": tangent}
     chk["solve"] = solve  # K^-1 at the state (``ContinuousRamp._ahead``)
     return rest, chk
