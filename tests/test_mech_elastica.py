@@ -129,3 +129,18 @@ def test_shallow_arch_snap_through_is_followed_not_jumped():
     assert lp[0][1] == pytest.approx(0.381087190418, rel=1e-8)
     assert lp[1][1] == pytest.approx(-0.381087190418, rel=1e-8)
     assert el.steps[-1].factor == pytest.approx(1.8302512025075, rel=1e-9)
+
+
+def test_a_member_beyond_the_strain_bound_is_refused_not_walked():
+    """Ex. 2 with its links 1e4 times softer: 30 N would stretch them ~10x (the axially
+    extensible elastica followed it to a 300 mm rise of a coupler on 40 mm links, and with
+    them 1e6 times softer walked for minutes).  The member law refuses a chord beyond
+    (1 + STRAIN_MAX) L, and the analysis fails with that reason."""
+    text = cases.resolve("das2d-ex2-parallelogram").read_text()
+    assert text.count("E = 2300.0") == 2
+    scene = cases.loads(text.replace("E = 2300.0", "E = 0.23"), "soft")
+    sol = reports.make_model("elastica", scene).solve(scene)
+    assert sol.status == "failed"
+    assert "strain beyond the moderate-strain bound 0.2" in sol.message
+    rise = [st.outputs["coupler_low.uy"] for st in sol.steps]
+    assert max(rise) < 1.2 * 40.0  # every state it kept is one of the members

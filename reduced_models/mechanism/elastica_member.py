@@ -29,7 +29,9 @@ regular.  Each new pose is reached by continuation along the straight line from 
 the member's last ``HISTORY`` solved poses (the straight one always among them) in sub-steps of
 at most ``STEP`` with the tangent predictor, so the member stays on the branch it is on and a
 far-off Newton trial of the caller does not move it to another (eight times finer after a
-failure).
+failure).  A pose whose chord exceeds ``1 + STRAIN_MAX`` lengths is refused: no member of the
+moderate-strain models reaches it (``cases.limits``), and walking there (a synthesis trying
+EI x 1e-6) took minutes.
 """
 
 from __future__ import annotations
@@ -38,6 +40,7 @@ import math
 
 import numpy as np
 
+from cases.limits import STRAIN_MAX
 from reduced_models.mechanism.newton import SolveError
 
 N = 24  # Chebyshev-Lobatto intervals along the member (spectral: 1e-12 for |m| of order 1)
@@ -173,6 +176,12 @@ class ElasticaTerm:
         xi, eta, phi, c, s = self._local(q)
         pose = np.array([xi / self.L, eta / self.L, phi])
         geo = (xi, eta, c, s)
+        chord = math.hypot(pose[0], pose[1])
+        if not chord <= 1.0 + STRAIN_MAX:  # (also NaN)
+            raise SolveError(
+                f"elastica member: chord {chord:.3g} L, strain beyond the moderate-strain "
+                f"bound {STRAIN_MAX:g}"
+            )
         if self._last is not None and np.array_equal(pose, self._last[0]):  # same pose again
             return self._last[1], self._last[2], geo
         # continuation along the straight line from the nearest solved pose (a Newton trial of

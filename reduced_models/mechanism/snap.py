@@ -68,20 +68,21 @@ def snap_step(run: object, st: State, lam0: float, lam1: float) -> tuple[State, 
     phi = _mode(run, st_c)
     kind = "bifurcation" if _work(run, st_c, phi) < KIND_TOL else "limit"
     point = {"kind": kind, "factor": float(lam_c), "switched": False}
-    landed = []
+    landed, why = [], ""
     for sign in (1.0, -1.0):
         q = st_c.q.copy()
         q[run.s.free] += sign * phi
         try:
             new = _settle(run, State(q, st_c.mu.copy(), lam1))
-        except SolveError:
+        except SolveError as err:
+            why = f" ({err})"  # e.g. a member law refusing the states it would reach
             continue
         landed.append((run.s.potential(new.q, lam1), -sign, new))
     if not landed:
         run.extras.setdefault("critical_points", []).append(point)
         raise SolveError(
             f"{kind} point at load factor {lam_c:.6g}: no stable equilibrium reached at "
-            f"factor {lam1:.6g} by energy descent"
+            f"factor {lam1:.6g} by energy descent{why}"
         )
     new = min(landed, key=lambda x: (x[0], x[1]))[2]
     sv.memo = None  # the Hermite predictor must not bridge the jump

@@ -7,9 +7,13 @@ The EI of the chosen members is scaled by one factor s (E -> s E); s solves
   unstable equilibrium (the switching load of a bistable mechanism) = target;
 
 by secant iterations in log s started from the proportional guess (exact when every load
-path scales with EI, e.g. a member-only bistable mechanism).  ``stable-position`` scales a
-rigid link's length instead (its end-b node moves along it) until the second stable position
-of the energy sweep is at the target driver coordinate (DAS-2D "Stable Position Synthesis").
+path scales with EI, e.g. a member-only bistable mechanism), safeguarded (``_log_secant``):
+a step changes EI by at most ``MAX_LOG_STEP``, stays inside a sign change once one is
+seen, is halved back while the analysis fails, and s stays within 1/``SCALE_MAX`` ..
+``SCALE_MAX``; a target the response does not reach there fails with the range it spans.
+``stable-position`` scales a rigid link's length instead (its end-b node moves along it)
+until the second stable position of the energy sweep is at the target driver coordinate
+(DAS-2D "Stable Position Synthesis").
 The answer is the path of the synthesised scene (``synthesised_scene``), with
 ``extras["synthesis"]``.
 """
@@ -32,7 +36,9 @@ from reduced_models.mechanism.system import SceneError
 MAX_IT = 30
 RTOL = 1e-9
 S_STEP = 0.02  # second secant point of the stable-position synthesis (link length x 1.02)
-HALVINGS = 6  # a secant step of the stable-position synthesis halved at most this often
+HALVINGS = 6  # a secant step halved at most this often (the analysis fails past it)
+MAX_LOG_STEP = math.log(100.0)  # a secant step scales EI by at most 100x
+SCALE_MAX = 1e6  # EI scaled within 1e-6 .. 1e6 (a target beyond is out of reach)
 
 
 def synthesised_scene(scene: Scene, scale: float) -> Scene:
@@ -154,26 +160,7 @@ def synthesise(scene: Scene, name: str, spec_of: Callable[[Member], tuple]) -> S
         return _measure(r, syn.goal, syn.output), r
 
     try:
-        v0, run = evaluate(1.0)
-        # first guess: response proportional to 1/s (stiffness) or s (critical load)
-        target = syn.target
-        if syn.goal == "stiffness":
-            s1 = v0 / target if v0 * target > 0 else 1.0
-        else:
-            s1 = target / v0 if v0 > 0 else 1.0
-        x0, f0 = 0.0, math.log(abs(v0)) - math.log(abs(target))
-        x1, its = math.log(s1), 1
-        while True:
-            v1, run = evaluate(math.exp(x1))
-            its += 1
-            if abs(v1 - target) <= RTOL * abs(target):
-                break
-            f1 = math.log(abs(v1)) - math.log(abs(target)) if v1 * target > 0 else math.inf
-            if not math.isfinite(f1) or f1 == f0:
-                raise RuntimeError("response does not reach the target (sign or plateau)")
-            if its > MAX_IT:
-                raise RuntimeError(f"no convergence in {MAX_IT} secant steps")
-            x0, f0, x1 = x1, f1, x1 - f1 * (x1 - x0) / (f1 - f0)
+        x1, v1, run, its = _log_secant(evaluate, syn.target, syn.goal == "stiffness")
     except SceneError as err:
         return not_applicable(scene, name, str(err))
     except RuntimeError as err:
@@ -196,3 +183,63 @@ def synthesise(scene: Scene, name: str, spec_of: Callable[[Member], tuple]) -> S
             return Solution(scene.name, name, "failed", f"bistable summary: {err}", run.steps)
         msg += "; " + bistable.describe(extras["bistable"])
     return Solution(scene.name, name, "converged", msg, tuple(run.steps), extras)
+
+
+def _log_secant(evaluate: Callable, target: float, softens: bool) -> tuple:
+    """``(log s, value, run, analyses)`` with ``evaluate(s)`` = ``(value, run)`` at
+    ``target`` (relative ``RTOL``): secant iterations on ``g(x) = ln|value| - ln|target|``,
+    x = ln s, from 0 and the proportional guess (value ~ 1/s where the response
+    ``softens``, ~ s otherwise), safeguarded as the module docstring says.  Raises
+    RuntimeError with the reason (the range the response spans where the target is out of
+    reach)."""
+    lo, hi = -math.log(SCALE_MAX), math.log(SCALE_MAX)
+    seen: list[tuple[float, float]] = []  # (x, value) of every analysis that ran
+
+    def g(v: float) -> float:
+        if v * target <= 0.0:
+            raise RuntimeError(f"the response is {v:.6g}: not of the target's sign at scale 1")
+        return math.log(abs(v)) - math.log(abs(target))
+
+    def reach(why: str) -> RuntimeError:
+        xs, vs = zip(*seen)
+        return RuntimeError(
+            f"target {target:.6g} out of reach ({why}): the response spans {min(vs):.6g} to "
+            f"{max(vs):.6g} for EI scaled {math.exp(min(xs)):.3g} to {math.exp(max(xs)):.3g}"
+        )
+
+    v0, run = evaluate(1.0)
+    seen.append((0.0, v0))
+    x0, g0 = 0.0, g(v0)
+    x1 = float(np.clip(g0 if softens else -g0, -MAX_LOG_STEP, MAX_LOG_STEP))
+    its, sign_change = 1, None  # (x, g) of the last point on the other side of the target
+    while True:
+        for k in range(HALVINGS + 1):  # halved back towards x0 while the analysis fails
+            try:
+                v1, run = evaluate(math.exp(x1))
+                break
+            except RuntimeError as err:
+                its += 1
+                if k == HALVINGS:
+                    why = f"past scale {math.exp(x1):.3g} the analysis fails: {err}"
+                    raise reach(why) from None
+                x1 = 0.5 * (x0 + x1)
+        its += 1
+        seen.append((x1, v1))
+        if abs(v1 - target) <= RTOL * abs(target):
+            return x1, v1, run, its
+        if v1 * target <= 0.0:
+            raise reach(f"at scale {math.exp(x1):.3g} the response changes sign")
+        g1 = g(v1)
+        if g1 * g0 < 0.0:
+            sign_change = (x0, g0)
+        if g1 == g0 or its > MAX_IT:
+            raise reach("it stops moving" if g1 == g0 else f"{MAX_IT} analyses")
+        x2 = x1 - g1 * (x1 - x0) / (g1 - g0)
+        if sign_change is not None and not min(x1, sign_change[0]) < x2 < max(x1, sign_change[0]):
+            x2 = 0.5 * (x1 + sign_change[0])  # the secant left the bracket: bisect it
+        x2 = float(np.clip(x2, x1 - MAX_LOG_STEP, x1 + MAX_LOG_STEP))
+        if not lo <= x2 <= hi:
+            if x1 in (lo, hi):
+                raise reach("at the scale bound")
+            x2 = min(max(x2, lo), hi)
+        x0, g0, x1 = x1, g1, x2

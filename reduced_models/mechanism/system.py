@@ -15,6 +15,7 @@ from collections.abc import Callable
 import numpy as np
 
 from reduced_models.mechanism.constraints import Linear
+from reduced_models.mechanism.elastica_member import ElasticaTerm
 from reduced_models.mechanism.members import (
     ChainTerm,
     JointTerm,
@@ -71,6 +72,10 @@ class MechanismSystem:
         Lref = lay.Lref
         k = [abs(t.stiffness) for t in self.scene.torsion_springs]
         k += [ch.EI.max() / Lref for ch in self.chains]
+        # exact (elastica) members likewise: without them a driven elastica scene's force
+        # scale ignored its EI, and Newton's tolerance was in the scene's units (Ex. 6 with
+        # EI x 4.5 stalled at a residual of 3e-10 above it)
+        k += [t.EI / Lref for t in self.terms if isinstance(t, ElasticaTerm)]
         k += [abs(m.k or 0.0) * Lref**2 for m in self.scene.members if m.kind == "spring"]
         # joint springs: the torsion springs only.  A PRB axial spring (force / length, EA/L)
         # is a near-rigid link: counted in moment units (K Lref^2) it sets a force scale
