@@ -325,7 +325,13 @@ class Runner:
             ) > 0
             pos = k + 1 if after else k
             self.states.insert(pos, lp)
-            self.steps.insert(pos, _rec(self.system, lp, lp.lam, self.stab(lp)))
+            stab = self.stab(lp)
+            if stab is not None:  # the fold itself: a stable and an unstable branch meet
+                # there and the potential is cubic along its mode (Koiter), so the state is
+                # unstable, whichever sign round-off gives its zero eigenvalue (the same
+                # arch in other units said stable at 8.97684, the drawn one unstable)
+                stab = {**stab, "stable": False}
+            self.steps.insert(pos, _rec(self.system, lp, lp.lam, stab))
         for _, lp in found:
             self.extras["limit_points"].append(
                 {

@@ -22,7 +22,7 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from scipy.optimize import minimize_scalar
+from scipy.optimize import brentq, minimize_scalar
 
 from fem_reference.banded import (
     BAND_MAX,
@@ -391,8 +391,12 @@ def _stability(
 def refine_extremum(system: DiscreteSystem, a: State, b: State, c: State, opts: Options) -> State:
     """Locate a limit point (local extremum of lam) bracketed by path states a, b, c (b the
     extreme one).  The controlling DOF is the one moving most (metric W) across the bracket;
-    lam(v) along it is maximised/minimised with Brent's method, each evaluation a
-    displacement-control Newton solve from the nearest path state."""
+    along it the root of ``d lam / d v`` (the bordered tangent ``K du - f dlam = 0``,
+    ``du_v = 1``: regular at the fold, where ``K`` is not) is found by Brent's method, each
+    evaluation a displacement-control Newton solve from the path states.  A root, not a
+    maximum: a flat maximum of lam(v) locates v only to the square root of lam's round-off
+    (the limit state's outputs then differed by 1e-8 between encodings of one arch); where
+    the slope does not change sign across the bracket lam(v) is maximised instead."""
     sc = Scaler.of(system)
     span = np.abs(c.u - a.u) * np.sqrt(sc.w)
     i = int(np.argmax(span))
@@ -418,10 +422,19 @@ def refine_extremum(system: DiscreteSystem, a: State, b: State, c: State, opts: 
         cache[v] = st
         return -sgn * st.lam
 
-    res = minimize_scalar(
-        lam_of, bounds=(lo, hi), method="bounded", options={"xatol": 1e-10 * (hi - lo + 1e-300)}
-    )
-    v = float(res.x)
+    def slope(v: float) -> float:
+        if lam_of(v) == -sgn * 1e300:
+            raise SolveError("limit point refinement: displacement control failed")
+        st = cache[v]
+        return bordered_solve(system, st.ev, i, 1.0, np.zeros(st.u.size), 1.0)[1]
+
+    try:
+        v = float(brentq(slope, lo, hi, xtol=1e-14 * (hi - lo + 1e-300)))
+    except (ValueError, SolveError):  # no sign change of the slope: maximise lam itself
+        res = minimize_scalar(
+            lam_of, bounds=(lo, hi), method="bounded", options={"xatol": 1e-10 * (hi - lo + 1e-300)}
+        )
+        v = float(res.x)
     if v not in cache:
         lam_of(v)
     if v not in cache:

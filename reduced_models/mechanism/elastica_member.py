@@ -153,11 +153,13 @@ class ElasticaTerm:
     L, EI, EA : length, flexural and axial rigidity of the member.
     alpha : drawn direction of the member (rad).
     sfac : E t / 2 (bending stress per curvature; NaN when the thickness is unknown).
+    mid : the member's id (named when a pose is refused).
     """
 
     def __init__(
-        self, dofs: list[int], L: float, EI: float, EA: float, alpha: float, sfac: float
+        self, dofs: list[int], L: float, EI: float, EA: float, alpha: float, sfac: float, mid: str
     ) -> None:
+        self.mid = mid
         self.dofs = np.asarray(dofs, np.int64).reshape(1, 6)
         self.L, self.EI, self.alpha, self.sfac = float(L), float(EI), float(alpha), float(sfac)
         self.k = EI / (EA * L * L)
@@ -178,9 +180,9 @@ class ElasticaTerm:
         geo = (xi, eta, c, s)
         chord = math.hypot(pose[0], pose[1])
         if not chord <= 1.0 + STRAIN_MAX:  # (also NaN)
-            raise SolveError(
-                f"elastica member: chord {chord:.3g} L, strain beyond the moderate-strain "
-                f"bound {STRAIN_MAX:g}"
+            raise SolveError(  # the words of cases.limits.state_violation
+                f"member {self.mid!r} strained by at least {chord - 1.0:.2g} (bound "
+                f"{STRAIN_MAX:g}): beyond the moderate-strain elastic models"
             )
         if self._last is not None and np.array_equal(pose, self._last[0]):  # same pose again
             return self._last[1], self._last[2], geo
@@ -278,7 +280,8 @@ def add(sysm, m, L: float, alpha: float, xa: int, xb: int, ra: int, rb: int) -> 
             "compliance that makes the member law regular"
         )
     sfac = m.E * m.thickness / 2.0 if m.thickness is not None else np.nan
-    term = ElasticaTerm([xa, xa + 1, ra, xb, xb + 1, rb], L, m.E * m.I, m.E * m.A, alpha, sfac)
+    dofs = [xa, xa + 1, ra, xb, xb + 1, rb]
+    term = ElasticaTerm(dofs, L, m.E * m.I, m.E * m.A, alpha, sfac, m.id)
     sysm.terms.append(term)
     sysm.shape_of[m.id] = term.shape
 
