@@ -69,6 +69,11 @@ def build(scene: Scene, spec_of: Callable[[Member], tuple]) -> MechanismSystem:
         elif spec[0] == "chain":
             _add_chain(sysm, m, spec, L, alpha, (m.a, xa, ra), (xb, rb), chain_rows)
         elif spec[0] == "elastica":  # exact member law (mechanism/elastica_member.py)
+            if m.A is None:
+                raise SceneError(
+                    f"elastica member {m.id!r} needs its cross-section (width, thickness) for "
+                    "the axial compliance that makes the member law regular"
+                )
             elastica_member.add(sysm, m, L, alpha, xa, xb, ra, rb)
         elif _root_at_b(scene, m, spec[1]):  # the PRB root (rigid first link) at end b
             _add_prb(sysm, m, spec[1], L, alpha + math.pi, xb, xa, rb, ra, closure, joints)

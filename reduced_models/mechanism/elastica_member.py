@@ -271,14 +271,8 @@ class ElasticaTerm:
 
 
 def add(sysm, m, L: float, alpha: float, xa: int, xb: int, ra: int, rb: int) -> None:  # noqa: ANN001
-    """Put member ``m`` into ``sysm`` as an ``ElasticaTerm`` (builder hook)."""
-    from reduced_models.mechanism.system import SceneError
-
-    if m.A is None:
-        raise SceneError(
-            f"elastica member {m.id!r} needs its cross-section (width, thickness) for the axial "
-            "compliance that makes the member law regular"
-        )
+    """Put member ``m`` (with its cross-section: ``m.A`` set, which the builder checks) into
+    ``sysm`` as an ``ElasticaTerm`` (builder hook)."""
     sfac = m.E * m.thickness / 2.0 if m.thickness is not None else np.nan
     dofs = [xa, xa + 1, ra, xb, xb + 1, rb]
     term = ElasticaTerm(dofs, L, m.E * m.I, m.E * m.A, alpha, sfac, m.id)
