@@ -50,6 +50,7 @@ from cases.schema import Scene
 from fem_reference.beam_mesh import BeamMeshing
 from fem_reference.femsystem import Evaluation, FEMSystem, MemberMesh, ModelError
 from fem_reference.scatter import BandScatter, Scatter, family_key, kept
+from reduced_models.mechanism.orient import root_at_b
 
 __all__ = [
     "BandScatter",
@@ -265,11 +266,22 @@ class _Parts(BeamMeshing):
         elif drv.kind == "rotation":
             if drv.member is None or (drv.member, "a") not in self.end_rot:
                 raise ModelError("rotation driver needs a beam or rigid member")
-            self.driver_dof, self.driver_scale = self.end_rot[(drv.member, "a")], 180.0 / math.pi
+            self.driver_dof = self.end_rot[(drv.member, self._driven_end(drv.member))]
+            self.driver_scale = 180.0 / math.pi
         else:
             raise ModelError(f"unknown driver kind {drv.kind!r}")
         if driver_load:
             self.dead[self.driver_dof] += 1.0
+
+    def _driven_end(self, member_id: str) -> str:
+        """The end of a driven member whose rotation DOF the driver holds: end a, or for a
+        rigid link meshed as a stiff element the end the chains' rule roots it at
+        (``orient.root_at_b``: grounded, firmer, nearer the ground), so the link's ~1 /
+        rigid_factor bending does not depend on the direction it is drawn in.  Driven at its
+        drawn end a, DAS-2D Ex. 4's crank drawn from its pinned coupler end turned 1.6e-7 rad
+        away from the crank drawn from its ground pin (exactly 1 / rigid_factor scaled)."""
+        m = self.scene.member(member_id)
+        return "b" if m.kind == "rigid" and root_at_b(self.scene, m) else "a"
 
     # -- free DOFs, numbering, the system ---------------------------------------------------
     def _free_map(self) -> tuple[np.ndarray, np.ndarray, int]:
