@@ -46,11 +46,11 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import reverse_cuthill_mckee
 
+from cases.orient import root_at_b
 from cases.schema import Scene
 from fem_reference.beam_mesh import BeamMeshing
 from fem_reference.femsystem import Evaluation, FEMSystem, MemberMesh, ModelError
 from fem_reference.scatter import BandScatter, Scatter, family_key, kept
-from reduced_models.mechanism.orient import root_at_b
 
 __all__ = [
     "BandScatter",

@@ -1,5 +1,5 @@
 """Chained members (linear-N, bcm, cbcm-N) are laid out from the end the scene decides
-(``reduced_models.mechanism.orient``), not from the drawn ``from`` end (issue 23, item 5).
+(``cases.orient``), not from the drawn ``from`` end (issue 23, item 5).
 
 * A bistable switch mirror-symmetric about the x axis, pushed along that axis: before its
   snap the exact path is symmetric, so the shuttle neither turns nor moves off the axis
@@ -21,8 +21,8 @@ from dataclasses import replace
 import pytest
 
 import cases
+from cases.orient import root_at_b
 from cases.schema import Member
-from reduced_models.mechanism.orient import root_at_b
 from reports import api
 from tests.scene_transforms import ENCODINGS
 from tests.test_metamorphic import RTOL, mismatch

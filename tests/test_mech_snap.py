@@ -58,7 +58,7 @@ def test_snap_load_and_far_state_agree_with_fem_auto(fem, model: str) -> None:
     ]
     # the snap load within the chain's own error (the distance between the pair's snap
     # loads) plus 0.2 % (1 % for mixed's PRB-3R links): with its legs laid out as mirror
-    # images (reduced_models.mechanism.orient) the chain sees fem-auto's symmetric bifurcation,
+    # images (cases.orient) the chain sees fem-auto's symmetric bifurcation,
     # converging from above (cbcm-2/4/8: 0.4374, 0.4342, 0.4330; fem-auto 0.43207)
     est = abs(_snap(pair[0])["factor"] - _snap(pair[1])["factor"])
     allowed = 1.5 * est + (1e-2 if model == "mixed" else 2e-3) * lam_fe

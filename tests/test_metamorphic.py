@@ -20,7 +20,7 @@ the shared 2-core machine at load 2+: the whole file (both tiers, 686 tests) 11 
 wall; 2 min 51 s on a quiet one (622 tests).
 
 Reversal: a chained member (linear-N, bcm, cbcm-N and their auto families) is laid out from
-the end every encoding agrees on (``reduced_models.mechanism.orient``), a PRB member from
+the end every encoding agrees on (``cases.orient``), a PRB member from
 its firmer end and between ends held alike by the same rule (``builder._root_at_b``), so
 reversed members are compared; not for ``thesis-force-method`` (its bars follow the
 listing).  A single cantilever is always oriented from its clamp: reversal compared.

@@ -22,7 +22,7 @@ counts no longer differ at tol level; the path is sampled differently after its 
 output's rot at a node whose member ends are all pinned is their mean (cases.node_rotation),
 not the first listed member's: only those ``.rot`` values were rewritten (shallow-arch-snap's
 apex, 0 by symmetry; thesis-sixbar-config4(-stall)'s J2, J3, J5, J6 under fem-N).  Issue 23,
-item 5: chained members are laid out from their ground end (``reduced_models.mechanism.orient``),
+item 5: chained members are laid out from their ground end (``cases.orient``),
 not from the drawn ``from`` end: bistable-toggle|bcm, cbcm-2, cbcm-8 (its right leg) and
 lee-frame|linear-2, linear-8, bcm, cbcm-2, cbcm-8 (the beam from the load point to the far
 pin) rewritten.

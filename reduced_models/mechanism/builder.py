@@ -16,6 +16,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from cases.orient import fixity, root_at_b
 from cases.schema import Member, Scene
 from reduced_models.mechanism import elastica_member
 from reduced_models.mechanism.constraints import Closure
@@ -26,7 +27,6 @@ from reduced_models.mechanism.members import (
     SpringTerm,
     TorsionTerm,
 )
-from reduced_models.mechanism.orient import fixity, root_at_b
 from reduced_models.mechanism.system import MechanismSystem, SceneError
 from reduced_models.mechanism.topology import (
     Layout,

@@ -1,4 +1,5 @@
-"""Which end a chained member (linear-N, bcm, cbcm-N) is laid out from.
+"""Which end a chained member (linear-N, bcm, cbcm-N) is laid out from (and which end of a
+driven rigid link the replay's stiff element is held at: fem_reference.assembly).
 
 A chain's segments are each described in the frame of the previous segment's tip
 (``reduced_models.beam.chain``): the approximation is not symmetric under end reversal (the
