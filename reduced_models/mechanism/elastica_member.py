@@ -29,9 +29,11 @@ regular.  Each new pose is reached by continuation along the straight line from 
 the member's last ``HISTORY`` solved poses (the straight one always among them) in sub-steps of
 at most ``STEP`` with the tangent predictor, so the member stays on the branch it is on and a
 far-off Newton trial of the caller does not move it to another (eight times finer after a
-failure).  A pose whose chord exceeds ``1 + STRAIN_MAX`` lengths is refused: no member of the
-moderate-strain models reaches it (``cases.limits``), and walking there (a synthesis trying
-EI x 1e-6) took minutes.
+failure).  A pose whose chord exceeds ``REFUSE_CHORD`` lengths (100 % strain) is refused: no
+elastic member reaches it, and walking there (a synthesis trying EI x 1e-6) took minutes.
+Below it a far Newton trial is still walked (refusing trials past the models' 20 % bound
+made Lee's frame cut a step in one unit system and not in another); accepted states are held
+to that bound by ``cases.limits.state_violation``.
 """
 
 from __future__ import annotations
@@ -48,6 +50,7 @@ TOL = 1e-9  # last Newton step, relative (quadratic: the returned w is ~TOL^2 of
 MAX_IT = 40
 STEP = 0.1  # largest pose change (X / L, Y / L, Phi in rad) per continuation sub-step
 HISTORY = 32  # solved poses kept as warm starts
+REFUSE_CHORD = 2.0  # chord / length of a pose refused outright (100 % strain)
 MAX_WALK = 1000  # sub-steps beyond which a pose is refused (100 L or rad from any solved one)
 
 
@@ -179,7 +182,7 @@ class ElasticaTerm:
         pose = np.array([xi / self.L, eta / self.L, phi])
         geo = (xi, eta, c, s)
         chord = math.hypot(pose[0], pose[1])
-        if not chord <= 1.0 + STRAIN_MAX:  # (also NaN)
+        if not chord <= REFUSE_CHORD:  # (also NaN)
             raise SolveError(  # the words of cases.limits.state_violation
                 f"member {self.mid!r} strained by at least {chord - 1.0:.2g} (bound "
                 f"{STRAIN_MAX:g}): beyond the moderate-strain elastic models"

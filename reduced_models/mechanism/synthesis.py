@@ -26,6 +26,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from cases.limits import state_violation
 from cases.schema import Member, Scene
 from reduced_models.base import Solution, not_applicable
 from reduced_models.mechanism import analyses, bistable
@@ -155,8 +156,13 @@ def synthesise(scene: Scene, name: str, spec_of: Callable[[Member], tuple]) -> S
     def evaluate(s: float) -> tuple[float, analyses.Run]:
         sc = synthesised_scene(scene, s)
         r = analyses.run(build(sc, spec_of), kind)
-        if r.exc is not None:
-            raise RuntimeError(f"scale {s:.6g}: {r.exc}")
+        # a trial design whose states stretch a member beyond the elastic models (or place a
+        # tip beyond an approximate model's reach) is no design: the search halves back
+        why = r.exc or next(
+            (w for st in r.steps if (w := state_violation(sc, st.outputs, math.inf))), None
+        )
+        if why is not None:
+            raise RuntimeError(f"scale {s:.6g}: {why}")
         return _measure(r, syn.goal, syn.output), r
 
     try:
