@@ -42,3 +42,24 @@ def teaching_run(tmp_path_factory):
     scenes = [cases.load("cantilever-tip-load")]
     res = runner.run_matrix(scenes, ["prb-1r", "bcm", "linear-8"], out, fresh=True, **kw)
     return out, res, kw
+
+
+@pytest.fixture
+def pick_a_mirror_branch(monkeypatch):
+    """The FE's and the replay's branch switch at a perfect structure's bifurcation with
+    the tie policy off: the mode's + branch is taken (``bifurcation.Watch._switch``'s first
+    sign, the replay's kick) instead of staying on the fundamental branch between the two
+    mirror branches (``Watch._stay_tied``, ``sweep.mirror_sides``).  For tests that verify
+    the switch itself -- the branch it lands on, against a closed form -- on a perfect scene."""
+    from fem_reference.replay import sweep
+    from fem_reference.statics import bifurcation
+
+    switch = bifurcation.Watch._switch
+
+    def first_branch(self, *args):
+        new = switch(self, *args)
+        self.tied = False
+        return new
+
+    monkeypatch.setattr(bifurcation.Watch, "_switch", first_branch)
+    monkeypatch.setattr(sweep, "TIE_PARITY", -1.0)

@@ -90,13 +90,30 @@ def test_an_arch_in_other_units_is_traced_over_its_fold(model):
     )
 
 
-def test_a_perfect_column_says_its_two_buckled_branches_tie():
+@pytest.mark.parametrize("model", ["fem-8", "replay"])
+def test_a_perfect_column_past_euler_stays_straight_between_its_tied_branches(model):
     """A perfect column past Euler has two mirror-image buckled branches of equal energy;
-    the mirrored scene is the same scene, so no rule drawn from it can pick a side the same
-    way in both drawings: the critical point says the choice was a tie (``tied``).  An
-    imperfect column has its own branch (no tie)."""
-    perfect = _solve("col-6x-eps0-a10000", "fem-8")
+    the mirrored scene is the same scene (translated), so a branch picked by any rule drawn
+    from it would be the other branch once mirrored back.  The FE and the replay stay on the
+    straight fundamental branch, flagged unstable past the bifurcation (at the Euler load
+    pi^2 EI / (4 L^2): factor 1/6 of the 6x-Euler ramp, within the 8-element mesh's error),
+    say why, and keep the two branch states; mirrored, the answer is the same.  An imperfect
+    column has its own branch (no tie)."""
+    perfect = _solve("col-6x-eps0-a10000", model)
+    mirrored = _solve("col-6x-eps0-a10000--mirror+shift", model)
     (bif,) = perfect.extras["critical_points"]
-    assert bif["kind"] == "bifurcation" and bif["switched"] and bif.get("tied")
-    imperfect = _solve("col-6x-eps0-001-a10000", "fem-8")
+    assert bif["kind"] == "bifurcation" and bif["tied"] and not bif["switched"]
+    assert bif["factor"] == pytest.approx(1 / 6, rel=5e-3)  # fem-8: 0.35 % (h^2)
+    assert "mirror-image branches" in perfect.message
+    assert perfect.extras.get("reference_usable") is False
+    for st, sm in zip(perfect.steps, mirrored.steps, strict=True):
+        assert st.outputs["tip.x"] == pytest.approx(0.0, abs=1e-12)  # straight
+        assert sm.outputs["tip.x"] - 3.7 == pytest.approx(0.0, abs=1e-12)
+        assert st.outputs["tip.uy"] == pytest.approx(sm.outputs["tip.uy"], abs=1e-12)
+        assert st.stable is (st.factor < bif["factor"])
+    if model == "fem-8":  # the two branches it did not pick: mirror images, buckled
+        a, b = bif["branches"]
+        assert a["tip.ux"] == pytest.approx(-b["tip.ux"], rel=1e-9) and abs(a["tip.ux"]) > 0.3
+    imperfect = _solve("col-6x-eps0-001-a10000", model)
     assert not any(p.get("tied") for p in imperfect.extras.get("critical_points", []))
+    assert imperfect.steps[-1].outputs["tip.x"] > 0.3  # leans the way eps pushes it

@@ -39,7 +39,7 @@ COLUMNS = [(1e4, 1.5), (1e6, 3.0), (1e8, 8.0)]
 
 
 @pytest.mark.parametrize(("area", "ratio"), COLUMNS)
-def test_fem_auto_follows_the_buckled_branch(area, ratio):
+def test_fem_auto_follows_the_buckled_branch(area, ratio, pick_a_mirror_branch):
     sol = reports.solve(beam_scene(-ratio * PE, 0.0, A=area, steps=8), "fem-auto")
     assert sol.status == "converged" and sol.message == ""
     last = sol.steps[-1]
@@ -114,7 +114,7 @@ def test_tiny_imperfection_follows_its_own_buckled_branch():
     assert last.stable is True and last.outputs["tip.uy"] == pytest.approx(y, rel=2e-2)
 
 
-def test_spring_restrained_column_critical_factor_and_pinned_mechanism():
+def test_spring_restrained_column_critical_factor_and_pinned_mechanism(pick_a_mirror_branch):
     """Pin + ground torsion spring k at the root, axial tip load: buckles where
     beta L tan(beta L) = k L / EI, beta^2 = P / EI (Timoshenko & Gere 1961, Sec. 2.2).  The
     same beam pinned without the spring is a mechanism: the loader refuses it (exit 2), so

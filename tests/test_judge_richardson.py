@@ -63,7 +63,7 @@ def _rollup():
 
 
 @pytest.mark.parametrize("make", [_cantilever, _column, _rollup])
-def test_effectivity_of_fem_auto_between_1_and_10(make):
+def test_effectivity_of_fem_auto_between_1_and_10(make, pick_a_mirror_branch):
     scene, key, exact = make()
     sol = reports.solve(scene, "fem-auto")
     assert sol.status == "converged"

@@ -287,7 +287,7 @@ def test_fe_probe_agrees_with_fe_tangent_test():
     assert [s.stable for s in rn.steps] == [True, True, False]
 
 
-def test_ramp_leaves_a_saddle_onto_the_fe_switched_branch():
+def test_ramp_leaves_a_saddle_onto_the_fe_switched_branch(pick_a_mirror_branch):
     """The default ramp past the perfect column's Euler load: the straight state it is held
     at is a saddle, so it is displaced along the unstable mode (the FE's switch rule) and
     settles on the buckled branch -- the FE's, switched by its bifurcation watch, on the same
@@ -307,7 +307,7 @@ def test_ramp_leaves_a_saddle_onto_the_fe_switched_branch():
     assert cp["factor"] == pytest.approx(fe_cp["factor"], rel=1e-8)
 
 
-def test_ramp_leaves_the_two_link_saddle_for_its_exact_buckled_state():
+def test_ramp_leaves_the_two_link_saddle_for_its_exact_buckled_state(pick_a_mirror_branch):
     """Two-link column at lam = 0.6 (straight state unstable past 0.382): the default ramp
     settles on the exact buckled equilibrium Ks th = lam P l sin(th), which is stable."""
     col = TwoLinkColumn()

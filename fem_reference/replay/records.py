@@ -139,6 +139,26 @@ def critical_point(jp: dict) -> dict:
     return point
 
 
+def tied_point(run: object, stable_from: tuple[np.ndarray, float] | None, lam: float) -> dict:
+    """The bifurcation at which the replay was held at a saddle between two mirror-image
+    branches (``sweep.off_saddle``, ``run.tied``), as the FE's ``bifurcation.Watch`` reports
+    it (kind "bifurcation", not switched, ``tied``): located on the static path from the last
+    stable settled state (``honesty.static_limit``), else at the first factor held there."""
+    found = None if stable_from is None else honest.static_limit(run.sys, *stable_from, lam)
+    factor, _, roundoff = found or (run.tied[0], None, None)
+    point = {"kind": "bifurcation", "factor": float(factor), "switched": False, "tied": True}
+    if roundoff is not None:
+        point["factor_roundoff"] = roundoff
+    return point
+
+
+TIED_NOTE = (
+    "; bifurcation at factor {:.6g} into two mirror-image branches of equal energy (a perfect "
+    "structure: no rule drawn from the scene picks one): held on the fundamental branch, "
+    "unstable beyond it; an imperfection picks a branch"
+)
+
+
 def extras(run: object, system: object, jumps: list[dict], probes: list[dict]) -> dict:
     """The Solution extras of replay ``run`` of ``system``: ``history`` (time series, lists,
     at most ``history_samples``), ``jumps``, ``critical_points`` (the jumps as snaps),

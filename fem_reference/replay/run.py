@@ -134,6 +134,7 @@ class _Run:
         self._record(self.s)
         self.deadline = honest.Deadline(o.time_limit_s)
         self.warm: dict = {}  # the last tangent test's mode (band.lowest_mode's start)
+        self.tied: list[float] = []  # factors held at a saddle between mirror branches
 
     def tangent_test(self, chk: dict) -> tuple[float, np.ndarray]:
         """Lowest eigenpair of the settled state's tangent (``static_check``'s K, G)."""
@@ -343,6 +344,7 @@ def replay_system(
     status, message = "converged", ""
     prev_q, prev_step = run.s.q, None
     stable_from = None  # (q, factor) of the last settled state found stable
+    tied = None  # the bifurcation between mirror branches the replay was held at
     # follower loads: no potential energy, so neither the tangent test nor a settled probe
     # decides static stability (flutter needs a dynamic analysis): no verdict, as fem-auto
     verdict = is_conservative(system)
@@ -383,6 +385,8 @@ def replay_system(
             jp = records.jump(run, mark, prev_step, st, stable_from, move or None)
             if jp is not None:
                 jumps.append(jp)
+        if run.tied and tied is None:  # held at a saddle between mirror branches
+            tied = records.tied_point(run, stable_from, float(lam))
         steps.append(st)
         prev_q, prev_step = s.q, st
         if verdict and (st.stable or eig >= probe.PROBE_MARGIN * run.w1**2):  # clearly stable:
@@ -391,6 +395,8 @@ def replay_system(
             break
     extras = records.extras(run, system, jumps, probes)
     extras["settle"]["unfinished"] = unfinished
+    if tied is not None:
+        extras["critical_points"].append(tied)
     if status == "converged":
         res = max(s.info["residual"] for s in steps)
         message = f"settled {len(steps)} states; max residual {res:.2e}; {len(jumps)} jump(s)"
@@ -398,7 +404,9 @@ def replay_system(
         message += "".join(  # where, as the FE says it
             f"; {p['kind']} at factor {p['factor']:.6g} (critical_points: from, to)"
             for p in extras["critical_points"]
+            if p is not tied
         )
+        message += "" if tied is None else records.TIED_NOTE.format(tied["factor"])
         if not verdict:
             extras["stability"] = NO_VERDICT
             message += f"; {NO_VERDICT}"

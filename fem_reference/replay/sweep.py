@@ -49,6 +49,7 @@ RAMP_NEWTON = 1e-3  # Newton tolerance on a ramp / lte_tol
 RAMP_DT = 2.0  # largest ramp step / T1 (two per increment at ramp_periods = 4)
 RAMP_RTOL = 0.03  # local error per ramp step / the motion the tangent predicts for it
 SADDLE_KICKS = 3  # displacements off a held saddle (``off_saddle``) at most
+TIE_PARITY = 1e-6  # odd / even part of the potential along a kick: the saddle's sides mirror
 
 
 def _ease(x: float) -> float:
@@ -167,7 +168,14 @@ def off_saddle(run: object, held: tuple[ev.State, dict]) -> tuple[ev.State, dict
     an undetermined time and onto an undetermined side).  It is displaced as the FE's branch
     switch does (``bifurcation.SWITCH_AMPLITUDE`` of the length scale, or rad, along the
     mode's largest weighted component, positive) and held again, at most ``SADDLE_KICKS``
-    times.  The tangent test is kept in ``chk["tangent"]`` (the stability verdict uses it)."""
+    times.  The tangent test is kept in ``chk["tangent"]`` (the stability verdict uses it).
+
+    Where the two sides of the saddle are mirror images (``mirror_sides``) and the kick
+    landed off the symmetric path, the other kick would land on the mirror-image state: a
+    perfect structure's two buckled branches, which no rule drawn from the scene can tell
+    apart (the mirrored scene is the same scene).  The saddle is kept, unstable (as the
+    FE's ``bifurcation.Watch`` stays on the fundamental branch), the factor is recorded in
+    ``run.tied`` and the ramp goes on from the saddle."""
     s, chk = held
     if not is_conservative(run.sys):
         return held
@@ -177,11 +185,60 @@ def off_saddle(run: object, held: tuple[ev.State, dict]) -> tuple[ev.State, dict
         if not eig < 0.0 or s.mu.size:  # locked booms: held where the lock holds them
             break
         wm = run.w * mode
-        i = int(np.argmax(np.abs(wm)))
-        q = s.q + SWITCH_AMPLITUDE * run.L * mode / wm[i]
+        kick = SWITCH_AMPLITUDE * run.L * mode / wm[int(np.argmax(np.abs(wm)))]
+        mirrored = mirror_sides(run.sys, s.q, s.lam, kick)
+        saddle, books = (s, chk), _books(run)
+        q = s.q + kick
         run.s = run.integ.start(s.t, s.lam, q, np.zeros_like(q))
         s, chk = run.hold(s.lam)
+        if mirrored and _off_symmetric(run, saddle[0].q, s.q, mode):
+            _rewind(run, books, saddle[0])  # the kick was a question, not the motion
+            run.tied.append(float(s.lam))
+            return saddle
     return s, chk
+
+
+def _books(run: object) -> tuple:
+    """What ``_rewind`` restores: history length, energy books, events, state, step."""
+    return len(run.hist.t), run.W, run.D, run.D_impact, len(run.events), run.s, run.h
+
+
+def _rewind(run: object, books: tuple, s: ev.State) -> None:
+    """Undo the motion since ``_books``: the history, energy books and events as they were,
+    the run at rest at ``s``."""
+    n, run.W, run.D, run.D_impact, n_events, _, run.h = books
+    for seq in vars(run.hist).values():
+        del seq[n:]
+    del run.events[n_events:]
+    run.s = s
+
+
+def mirror_sides(system: object, q: np.ndarray, lam: float, kick: np.ndarray) -> bool:
+    """Whether the total potential U(q) - lam f . q (dead loads) is even along ``kick`` from
+    the equilibrium ``q``: its odd part (P+ - P-) / 2 below ``TIE_PARITY`` of its even part
+    (P+ + P- - 2 P0) / 2 plus the round-off of the sums.  A mirror symmetry that fixes
+    ``q`` and reverses the mode makes it exactly even; an asymmetric bifurcation's odd
+    part is of the kick's relative size (the cubic term)."""
+    f = np.asarray(system.external(q), dtype=float)
+
+    def potential(x: np.ndarray) -> float:
+        return float(system.strain_energy(x)) - lam * float(f @ x)
+
+    p0, pp, pm = potential(q), potential(q + kick), potential(q - kick)
+    even, odd = 0.5 * (pp + pm - 2.0 * p0), 0.5 * (pp - pm)
+    noise = 8.0 * np.finfo(float).eps * (abs(float(system.strain_energy(q))) + abs(lam * (f @ q)))
+    return abs(odd) <= TIE_PARITY * abs(even) + noise
+
+
+def _off_symmetric(run: object, q_saddle: np.ndarray, q_land: np.ndarray, mode: np.ndarray) -> bool:
+    """Whether the landing ``q_land`` moved off the saddle along the (antisymmetric)
+    ``mode``: a landing on the symmetric path (DAS-2D Ex. 3's shuttle, kicked to tilt,
+    settles untilted at the far state) has no component along it, M-orthogonal to every
+    symmetric motion; a buckled branch has one of the motion's own size."""
+    M, d = run.M, q_land - q_saddle
+    Md, Mm = M @ d, M @ mode
+    along = abs(float(mode @ Md)) / math.sqrt(max(float(mode @ Mm), 1e-300))
+    return along > 1e-3 * math.sqrt(max(float(d @ Md), 0.0))
 
 
 def banded(run: object) -> bool:

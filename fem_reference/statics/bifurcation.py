@@ -16,10 +16,12 @@ reported state of ``Runner.run_load`` (``models.py``):
 4. *Switch* (bifurcations only): the mode is imposed with amplitude ``SWITCH_AMPLITUDE * L``
    on the DOF where it is largest (Newton bordered by that displacement constraint, the load
    factor free), for both signs of the mode; of the stable results the one with the lower
-   total potential is kept (an imperfect structure's own branch; a tie keeps the + sign).  When the
-   fundamental path cannot be re-solved inside the bracket (an imperfect near-bifurcation that
-   load control crossed onto the complementary branch) the critical factor is interpolated
-   from the eigenvalues and the switch starts from the last stable state.  That is a
+   total potential is kept (an imperfect structure's own branch).  Two distinct states of
+   equal energy are a perfect structure's mirror branches: none is picked, the path stays
+   on the fundamental branch (``_stay_tied``).  When the fundamental path cannot be
+   re-solved inside the bracket (an imperfect near-bifurcation that load control crossed
+   onto the complementary branch) the critical factor is interpolated from the eigenvalues
+   and the switch starts from the last stable state.  That is a
    displacement-controlled imperfection of 1e-2 L, independent of the mesh and removed as
    soon as the state is reached (the path is then followed by plain load control, which
    carries no imperfection).  A rising branch (supercritical) is followed by arc-length to
@@ -107,7 +109,8 @@ class Watch:
         self.dense_max = 60
         self._fast: tuple = (None, None)  # (state, jacobi_verdict) of the last fast check
         self._step: tuple | None = None  # (|du|_W, |dlam|) of the last load step
-        self.tied = False  # the last switch chose between two mirror branches of equal energy
+        # the last switch found two mirror branches of equal energy: their outputs, or False
+        self.tied: list | bool = False
 
     def _eig(self, st: S.State, scale: np.ndarray | None = None) -> float:
         return lowest_mode(self.sys, st.u, st.lam, scale)[0]
@@ -385,6 +388,8 @@ class Watch:
         if path:
             return self._branch_off(crit, phi, point, cur)
         new = self._switch(crit, phi, lam_c, target)
+        if self.tied:
+            return self._stay_tied(point, cur)
         if new is None:
             self.note = (
                 f"bifurcation at factor {lam_c:.8g}: no stable branch next to it "
@@ -392,10 +397,27 @@ class Watch:
             )
             return cur
         point["switched"] = True
-        if self.tied:
-            point["tied"], self.tied = True, False
         self._jump(crit, new, point)
         return new
+
+    def _stay_tied(self, point: dict, cur: S.State) -> S.State:
+        """A bifurcation whose two branches land on distinct states of equal energy (``tied``
+        by ``_switch``): a perfect structure's mirror branches.  The mirrored scene is the
+        same scene, so a branch picked by any rule drawn from it (the mode's sign) would be
+        the other branch once the mirrored answer is mirrored back: the answer would depend
+        on how the scene is drawn.  The path stays on the fundamental branch (the one
+        equilibrium the scene's symmetry allows, unstable beyond the point) and the note says
+        so; the two branch states at the step's factor are kept in the point (``branches``):
+        an imperfection picks one."""
+        point["tied"], point["branches"] = True, self.tied
+        self.tied = False
+        self.note = (
+            f"bifurcation at factor {point['factor']:.8g} into two mirror-image branches of "
+            "equal energy (a perfect structure: no rule drawn from the scene picks one); the "
+            "path stays on the fundamental branch, unstable beyond it; an imperfection picks "
+            "a branch"
+        )
+        return cur
 
     def _jump(self, crit: S.State, new: S.State, bif: dict) -> None:
         """A switch that lands on a stable state far from the critical one at the factor
@@ -442,15 +464,17 @@ class Watch:
                 found.append((self._potential(land), land))
         if not found:
             return None
-        # the lower total potential: an imperfect structure's own branch (ties -> first sign;
-        # two distinct landings of equal energy are a perfect structure's mirror branches,
-        # which no rule drawn from the scene can tell apart: ``tied`` says so)
+        # the lower total potential: an imperfect structure's own branch (a tie on one
+        # landing -> the first sign; two distinct landings of equal energy are a perfect
+        # structure's mirror branches, which no rule drawn from the scene can tell apart:
+        # ``tied`` keeps their outputs for ``_stay_tied``)
         best = min(found, key=lambda e: e[0])
         tol = 1e-12 * max(abs(found[0][0]), 1e-300)
         if abs(found[0][0] - best[0]) <= tol:
             if len(found) == 2 and abs(found[1][0] - found[0][0]) <= tol:
                 apart = sc.unorm(found[1][1].u - found[0][1].u)
-                self.tied = apart > 1e-6 * sc.unorm(found[0][1].u)
+                if apart > 1e-6 * sc.unorm(found[0][1].u):
+                    self.tied = [sysm.outputs(land.u) for _, land in found]
             return found[0][1]
         return best[1]
 
