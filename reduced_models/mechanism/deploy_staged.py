@@ -107,7 +107,9 @@ class Staged:
             if np.any(self.over(st, free) >= 0.0):  # released, a free boom ran to its stop
                 self.lock(int(np.argmax(self.over(st, free))))
                 continue
-            a0, k_steps = ell[d], max(1, int(np.ceil(n * max(left[d], 0.0))))
+            # the stroke left is 1 at the start only to the round-off of the lengths: ceil
+            # must not make 20 + 4e-15 steps 21 (the path sampled by the encoding)
+            a0, k_steps = ell[d], max(1, int(np.ceil(n * max(left[d], 0.0) - 1e-9)))
             for k in range(1, k_steps + 1):
                 a, b = (
                     a0 + (k - 1) / k_steps * (self.target[d] - a0),
