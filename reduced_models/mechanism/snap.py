@@ -45,6 +45,8 @@ import scipy.sparse as sp
 from reduced_models.mechanism.newton import SolveError, State, _solve, follow
 
 LOCATE_RTOL = 1e-6  # bisection stops at this fraction of the load step
+REFINE_BACK = 1e-3  # ``_refine``'s states, this x the load step apart
+REFINE_LINEAR = 1e-2  # second difference / first of the eigenvalue: it lies on a line
 KIND_TOL = 1e-3  # |phi . f| / (|phi| |f|) below this: the load does no work on the mode
 PERTURB = 1e-2  # displacement along the mode, largest scaled component (Lref or rad)
 RELAX_ITER = 400  # pseudo-time steps of one relaxation
@@ -67,6 +69,8 @@ def snap_step(run: object, st: State, lam0: float, lam1: float) -> tuple[State, 
     lam_c, st_c = _locate(run, st, lam0, lam1)
     phi = _mode(run, st_c)
     kind = "bifurcation" if _work(run, st_c, phi) < KIND_TOL else "limit"
+    if kind == "bifurcation":
+        lam_c = _refine(run, st_c, lam_c, lam1 - lam0)
     point = {"kind": kind, "factor": float(lam_c), "switched": False}
     landed, why = [], ""
     for sign in (1.0, -1.0):
@@ -168,6 +172,43 @@ def _locate(run: object, st: State, lo: float, hi: float) -> tuple[float, State]
         else:
             lo, best = mid, new
     return lo, best
+
+
+def _refine(run: object, st: State, lam: float, step: float) -> float:
+    """A bifurcation's factor from the located state ``st`` (factor ``lam``, the
+    bisection's last stable one): where the KKT eigenvalue nearest zero (``_eigenvalue``)
+    vanishes on the fundamental path.  The bisection alone stops where Newton first fails,
+    which next to the singular point depends on round-off (a flexible-shuttle switch: 1e-7
+    of the factor apart in two encodings).  At a bifurcation the eigenvalue crosses zero
+    with a slope: from its values at ``lam``, ``lam - d`` and ``lam - 2 d`` (d =
+    ``REFINE_BACK`` x ``step``), when they lie on a line (second difference within
+    ``REFINE_LINEAR`` of the first), its zero, if within d ahead of ``lam``.  Otherwise
+    ``lam`` stands: a curved eigenvalue is a fold's square root (an imperfect bifurcation,
+    where load control stops at the limit point itself: the bisection is already there)."""
+    d = REFINE_BACK * abs(step)
+    e = [_eigenvalue(run, st)]
+    for k in (1, 2):
+        back = _reach(run, st, lam, lam - k * d)
+        if back is None:
+            return lam
+        e.append(_eigenvalue(run, back))
+    e1, e0, e2 = e
+    if not (e2 > e0 > e1 > 0.0) or abs(e2 - 2.0 * e0 + e1) > REFINE_LINEAR * (e0 - e1):
+        return lam
+    root = lam + d * e1 / (e0 - e1)
+    return float(root) if root <= lam + d else lam
+
+
+def _eigenvalue(run: object, st: State, iterations: int = 12) -> float:
+    """The KKT matrix's eigenvalue nearest zero at ``st`` (signed; inverse iteration from a
+    fixed start, then the Rayleigh quotient): zero exactly where the reduced Hessian is
+    singular, whatever the matrix's scaling."""
+    K = run.solver.kkt(st)[1]
+    x = np.random.default_rng(0).standard_normal(K.shape[0])
+    for _ in range(iterations):
+        x = _solve(K, x)
+        x /= np.linalg.norm(x)
+    return float(x @ (K @ x))
 
 
 def _weights(run: object) -> np.ndarray:
