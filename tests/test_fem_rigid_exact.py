@@ -155,7 +155,7 @@ def _pendulum(k: float, P: float, L: float = 2.0) -> Scene:
     )
 
 
-def test_rigid_pendulum_buckles_at_k_over_PL_and_follows_its_exact_branch():
+def test_rigid_pendulum_buckles_at_k_over_PL_and_follows_its_exact_branch(pick_a_mirror_branch):
     k, P, L = 3.0, 1.0, 2.0
     scene = _pendulum(k, P, L)
     sol = api.solve(scene, "fem-4")
