@@ -166,7 +166,9 @@ class Runner:
                 ti = abs(c * t[i])  # stop output per unit factor along the initial tangent
                 if ti > 0:
                     cand.append(dv / max(a.steps, 1) * sc.unorm(t) / ti)
-        return min(cand)
+        # two significant digits: K^-1 f carries the tangent's round-off (a stiff arch's:
+        # 3e-8), which moved every later sample of the path with the scene's encoding
+        return float(f"{min(cand):.2g}")
 
     # -- analyses --------------------------------------------------------------------------
     def run(self) -> tuple[str, str]:

@@ -29,7 +29,10 @@ pin) rewritten.  Issue 23, item 5: the arc-length step grows after a corrector t
 1e3 x its tolerance within 3 iterations (``pathfollow.EASY_RES``), counted above the
 residual's round-off floor, not after at most 4 iterations to the tolerance itself: lee-frame's
 mechanism paths (elastica, linear-2, linear-8, bcm, cbcm-2, cbcm-8) are sampled at other
-points of the same curves (88-202 steps, 0-5 more), their last states unchanged.
+points of the same curves (88-202 steps, 0-5 more), their last states unchanged.  The FE's
+first arc-length step is rounded to two significant digits (``FEM.ds0``: K^-1 f carried the
+tangent's round-off into every later sample): shallow-arch-snap|fem-8, fem-24 sampled at
+other points of the same curve, 8 steps as before, the last state unchanged.
 """
 
 from __future__ import annotations
