@@ -32,7 +32,9 @@ mechanism paths (elastica, linear-2, linear-8, bcm, cbcm-2, cbcm-8) are sampled 
 points of the same curves (88-202 steps, 0-5 more), their last states unchanged.  The FE's
 first arc-length step is rounded to two significant digits (``FEM.ds0``: K^-1 f carried the
 tangent's round-off into every later sample): shallow-arch-snap|fem-8, fem-24 sampled at
-other points of the same curve, 8 steps as before, the last state unchanged.
+other points of the same curve, 8 steps as before, the last state unchanged; so is the
+mechanism path's first step (``pathfollow.run_path``): shallow-arch-snap|elastica, bcm,
+cbcm-2, cbcm-8, prb-2rpr rewritten, their last states unchanged.
 """
 
 from __future__ import annotations

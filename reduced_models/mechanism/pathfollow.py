@@ -181,6 +181,9 @@ def run_path(run: object) -> None:
         rate = abs(t[k])  # output change per unit arc length
         if rate > 0:
             ds = min(ds, abs(a.stop_value - (st.q[func[0]] - func[1])) / max(a.steps, 1) / rate)
+    # two significant digits: the tangent carries its solve's round-off, which would move
+    # every later sample of the path with the scene's encoding (as ``FEM.ds0``)
+    ds = float(f"{ds:.2g}")
     ds_max, cuts = 2.0 * ds, 0
     found: list[dict] = []
     for _ in range(a.max_steps):
