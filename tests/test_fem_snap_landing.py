@@ -117,3 +117,15 @@ def test_a_perfect_column_past_euler_stays_straight_between_its_tied_branches(mo
     imperfect = _solve("col-6x-eps0-001-a10000", model)
     assert not any(p.get("tied") for p in imperfect.extras.get("critical_points", []))
     assert imperfect.steps[-1].outputs["tip.x"] > 0.3  # leans the way eps pushes it
+
+
+@pytest.mark.parametrize("model", ["linear-auto", "bcm"])
+def test_a_perfect_column_drawn_along_an_axis_has_no_transverse_load(model):
+    """A vertical column's beam frame is the drawn direction dx / L, dy / L (exactly 0 and 1),
+    not cos / sin of atan2 (cos(pi/2) = 6e-17 put that much of the axial load across the
+    column: past Euler, linear-auto's tip moved 1.3e-14 sideways, and the mirrored drawing
+    moved it the other way -- the outside review's flag).  Straight, as drawn and mirrored."""
+    for name, x0 in (("col-6x-eps0-a10000", 0.0), ("col-6x-eps0-a10000--mirror+shift", 3.7)):
+        sol = _solve(name, model)
+        assert sol.status == "converged", sol.message
+        assert all(st.outputs["tip.x"] == x0 and st.outputs["tip.rot"] == 0.0 for st in sol.steps)

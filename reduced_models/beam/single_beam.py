@@ -29,7 +29,9 @@ class Cantilever:
     fx, fy, m : tip loads at factor 1 in the beam frame (fx along the beam, tension +).
     follower : True if the tip force is a follower force (turns with the tip tangent).
     guided : True if the tip rotation is held at zero (fixed-guided beam, translations free).
-    root, tip : node ids; angle : direction of the undeformed beam (rad, global).
+    root, tip : node ids; c, s : direction cosines of the undeformed beam, root to tip
+    (global; the drawn dx / L, dy / L: exactly 0 and 1 along an axis, where cos(atan2) left
+    6e-17 of the tip load across a vertical column).
     origin : root coordinates (global).
     member : member id.
     """
@@ -45,13 +47,14 @@ class Cantilever:
     guided: bool
     root: str
     tip: str
-    angle: float
+    c: float
+    s: float
     origin: tuple[float, float]
     member: str
 
     def rotate_to_global(self, xy: np.ndarray) -> np.ndarray:
         """Beam-frame points (..., 2) -> global points (..., 2)."""
-        c, s = math.cos(self.angle), math.sin(self.angle)
+        c, s = self.c, self.s
         R = np.array([[c, -s], [s, c]])
         xy = np.asarray(xy)
         # one (n, 2) x (2, 2) product: a stack of steps (m, n, 2) would loop over m
@@ -108,13 +111,13 @@ def _cantilever_of(scene: Scene) -> Cantilever | str:
     if mem.sweep_deg:
         return "the member is a circular arc (sweep_deg): single-beam models are straight"
     r, t = scene.node(root), scene.node(tip)
-    angle = math.atan2(t.y - r.y, t.x - r.x)
-    c, s = math.cos(angle), math.sin(angle)
+    L = math.hypot(t.x - r.x, t.y - r.y)
+    c, s = (t.x - r.x) / L, (t.y - r.y) / L
     fxg = sum(ld.fx for ld in scene.loads)
     fyg = sum(ld.fy for ld in scene.loads)
     fx, fy = c * fxg + s * fyg, -s * fxg + c * fyg
     return Cantilever(
-        L=math.hypot(t.x - r.x, t.y - r.y),
+        L=L,
         EI=mem.EI,
         EA=mem.EA if math.isfinite(mem.EA) else math.inf,
         thickness=mem.thickness,
@@ -125,7 +128,8 @@ def _cantilever_of(scene: Scene) -> Cantilever | str:
         guided=guided,
         root=root,
         tip=tip,
-        angle=angle,
+        c=c,
+        s=s,
         origin=(r.x, r.y),
         member=mem.id,
     )
@@ -139,7 +143,7 @@ def tip_outputs(scene: Scene, beam: Cantilever, x: float, y: float, rot: float) 
 def output_map(scene: Scene, beam: Cantilever) -> Callable[[float, float, float], dict]:
     """``tip_outputs`` for one scene as a function of (x, y, rot): the output keys, node
     positions and the rotation are looked up once per solve, not once per step."""
-    c, s = math.cos(beam.angle), math.sin(beam.angle)
+    c, s = beam.c, beam.s
     ox, oy = beam.origin
     rows = []
     for o in scene.outputs:

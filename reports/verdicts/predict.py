@@ -181,7 +181,7 @@ class States:
 def _tip_vectors(sol: Solution, beam: Cantilever) -> np.ndarray:
     """(k, 2) beam-frame root-to-tip vectors of each step (the model's own shape; the
     undeformed (L, 0) where a step has none)."""
-    c, s = math.cos(beam.angle), math.sin(beam.angle)
+    c, s = beam.c, beam.s
     ends = np.full((len(sol.steps), 2, 2), np.nan)
     for i, st in enumerate(sol.steps):
         pts = st.shapes.get(beam.member) if st.shapes else None
