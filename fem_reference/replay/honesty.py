@@ -137,9 +137,9 @@ def static_limit(
 def _rises(system: object, crit: S.State, phi: np.ndarray, lam_c: float) -> bool:
     """Whether the branch through the critical state ``crit`` (at or next to the critical
     factor ``lam_c``) along its mode ``phi`` rises: its factor at the switch amplitude above
-    ``lam_c`` (the FE's test, ``bifurcation.branch_offset``); False where that state cannot
+    ``lam_c`` (the FE's test, ``switch.branch_offset``); False where that state cannot
     be solved."""
-    from fem_reference.statics.bifurcation import branch_offset
+    from fem_reference.statics.switch import branch_offset
 
     try:
         return bool(branch_offset(system, crit, phi, S.Options()).lam > lam_c)

@@ -39,7 +39,8 @@ from fem_reference.banded import BandedLU
 from fem_reference.replay import integrator as ev
 from fem_reference.replay import modes
 from fem_reference.replay.band import lowest_mode_band
-from fem_reference.statics.bifurcation import SWITCH_AMPLITUDE, is_conservative
+from fem_reference.statics.bifurcation import is_conservative
+from fem_reference.statics.switch import SWITCH_AMPLITUDE
 
 CLOSE = 5e-2  # velocity / omega_1 and distance to equilibrium (/ L) that a sample may have
 QUASI_STATIC = 0.25  # and at most this fraction of the increment's own motion (a ramp's lag)
@@ -166,7 +167,7 @@ def off_saddle(run: object, held: tuple[ev.State, dict]) -> tuple[ev.State, dict
     its bifurcation, stays on the symmetric path while that path is unstable (a real one,
     or the same scene in another encoding, leaves it by its imperfections or round-off, at
     an undetermined time and onto an undetermined side).  It is displaced as the FE's branch
-    switch does (``bifurcation.SWITCH_AMPLITUDE`` of the length scale, or rad, along the
+    switch does (``switch.SWITCH_AMPLITUDE`` of the length scale, or rad, along the
     mode's largest weighted component, positive) and held again, at most ``SADDLE_KICKS``
     times.  The tangent test is kept in ``chk["tangent"]`` (the stability verdict uses it).
 
