@@ -54,6 +54,8 @@ branch switching by eigenvector perturbation); Riks (1979) for the kind test.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from scipy.optimize import brentq
 
@@ -79,6 +81,19 @@ def is_conservative(system: object) -> bool:
     """False when follower loads make the tangent unsymmetric (no static stability test)."""
     fol = getattr(system, "fol_dofs", None)
     return fol is None or fol.shape[0] == 0
+
+
+class Critical(NamedTuple):
+    """A stability loss found by ``Watch.locate``: its factor, the critical state (last
+    stable one where not located), the mode, whether the factor was located on the
+    re-solved fundamental path (else interpolated) and its round-off bound (located only,
+    ``conditioning.factor_roundoff``)."""
+
+    factor: float
+    state: S.State
+    mode: np.ndarray
+    located: bool
+    roundoff: float | None
 
 
 class Watch(BranchSwitch):
@@ -139,7 +154,7 @@ class Watch(BranchSwitch):
         if path and self._fold_passed(prev, cur) and self.stability(cur).get("n_neg", 1) <= 1:
             return cur  # arc-length went over a limit point (alone) within the step: traced
         found = self.locate(prev, cur)
-        located = found[3]
+        located = found.located
         # not re-solvable inside the bracket: load control may have jumped the knee of an
         # imperfect structure's smooth path onto the complementary branch
         smooth = None if located or path else self.natural(prev, cur, target)
@@ -294,9 +309,9 @@ class Watch(BranchSwitch):
             land.info = {**cur.info, **land.info, "snap": 1.0, "branch_switch": 1.0}
         return land
 
-    def locate(self, prev: S.State, cur: S.State) -> tuple:
-        """``(lam_c, critical state, mode, located, roundoff)`` of the stability loss between
-        a stable ``prev`` and an unstable ``cur`` on one branch (see the module docstring);
+    def locate(self, prev: S.State, cur: S.State) -> Critical:
+        """The ``Critical`` point (factor, state, mode, located, roundoff) of the stability
+        loss between a stable ``prev`` and an unstable ``cur`` on one branch (module doc);
         ``roundoff``: how far round-off alone moves a located ``lam_c``
         (``conditioning.factor_roundoff``; None when not located)."""
         sysm, opts = self.sys, self.opts
@@ -340,9 +355,11 @@ class Watch(BranchSwitch):
         except ValueError:
             return self._interpolated(prev, cur, scale)
         _, phi, _ = lowest_mode(sysm, crit.u, lam_c, scale)
-        return float(lam_c), crit, phi, True, factor_roundoff(sysm, prev, crit, lam_c, phi)
+        return Critical(
+            float(lam_c), crit, phi, True, factor_roundoff(sysm, prev, crit, lam_c, phi)
+        )
 
-    def _interpolated(self, prev: S.State, cur: S.State, scale: np.ndarray) -> tuple:
+    def _interpolated(self, prev: S.State, cur: S.State, scale: np.ndarray) -> Critical:
         """``locate``'s answer where the fundamental path cannot be re-solved inside the
         bracket: an imperfect near-bifurcation (load control jumped onto the complementary
         branch).  Critical factor by linear interpolation of the eigenvalue; the switch starts
@@ -350,9 +367,9 @@ class Watch(BranchSwitch):
         ep, ec = self._eig(prev, scale), self._eig(cur, scale)
         lam_c = prev.lam + (cur.lam - prev.lam) * ep / (ep - ec)
         _, phi, _ = lowest_mode(self.sys, cur.u, cur.lam, scale)
-        return float(lam_c), prev, phi, False, None
+        return Critical(float(lam_c), prev, phi, False, None)
 
-    def _act(self, found: tuple, cur: S.State, target: float, path: bool) -> S.State:
+    def _act(self, found: Critical, cur: S.State, target: float, path: bool) -> S.State:
         """Classify the critical point ``found`` by ``locate`` and switch (``check``)."""
         lam_c, crit, phi, located, roundoff = found
         sysm = self.sys
