@@ -34,7 +34,11 @@ first arc-length step is rounded to two significant digits (``FEM.ds0``: K^-1 f 
 tangent's round-off into every later sample): shallow-arch-snap|fem-8, fem-24 sampled at
 other points of the same curve, 8 steps as before, the last state unchanged; so is the
 mechanism path's first step (``pathfollow.run_path``): shallow-arch-snap|elastica, bcm,
-cbcm-2, cbcm-8, prb-2rpr rewritten, their last states unchanged.
+cbcm-2, cbcm-8, prb-2rpr rewritten, their last states unchanged.  The FE's arc-length step
+grows or shrinks by the iterations to 1e3 x its tolerance, plus one (``arclength.EASY_RES``),
+not by the iterations to its energy test at round-off: lee-frame|fem-8, fem-24 and
+shallow-arch-snap|fem-8, fem-24 sampled at other points of the same curves (the shallow
+arch's last state unchanged; Lee's frame, cut at 40 steps here, ends elsewhere on its curve).
 """
 
 from __future__ import annotations
