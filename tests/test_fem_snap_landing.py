@@ -111,6 +111,14 @@ def test_a_perfect_column_past_euler_stays_straight_between_its_tied_branches(mo
         assert sm.outputs["tip.x"] - 3.7 == pytest.approx(0.0, abs=1e-12)
         assert st.outputs["tip.uy"] == pytest.approx(sm.outputs["tip.uy"], abs=1e-12)
         assert st.stable is (st.factor < bif["factor"])
+    # rotated 37 deg (no exact symmetry left in the coordinates: a motion along the unstable
+    # branch would leave it by round-off): the tip still moves along the column's own axis
+    rotated = _solve("col-6x-eps0-a10000--rot37", model)
+    sc = cases.load(str(FIXTURES / "col-6x-eps0-a10000--rot37.toml"))
+    (a, b) = (sc.node(m) for m in ("A", "B"))
+    for st in rotated.steps:
+        ux, uy = st.outputs["tip.ux"], st.outputs["tip.uy"]
+        assert abs(ux * (b.y - a.y) - uy * (b.x - a.x)) <= 1e-9, st.factor  # buckled: 0.5
     if model == "fem-8":  # the two branches it did not pick: mirror images, buckled
         a, b = bif["branches"]
         assert a["tip.ux"] == pytest.approx(-b["tip.ux"], rel=1e-9) and abs(a["tip.ux"]) > 0.3

@@ -96,6 +96,8 @@ class ContinuousRamp:
         j, self.k = self.k, self.k + 1
         if self.sched[j] != lam:
             raise ev.ReplayError(f"continuous ramp: factor {lam:g} asked out of order")
+        if run.tied and banded(run):
+            return on_fundamental(run, lam)
         Tr = run.o.ramp_periods * run.T1
         t_j = self.t0 + Tr * (j - self.j0 + 0.5)  # _ease(x) = j - j0 (j > j0)
         # the local error per step: a fraction of the motion the tangent at the last settled
@@ -176,9 +178,8 @@ def off_saddle(run: object, held: tuple[ev.State, dict]) -> tuple[ev.State, dict
     perfect structure's two buckled branches, which no rule drawn from the scene can tell
     apart (the mirrored scene is the same scene).  The saddle is kept, unstable (as the
     FE's ``bifurcation.Watch`` stays on the fundamental branch), the factor is recorded in
-    ``run.tied`` and the ramp goes on from the saddle; later saddles whose sides mirror are
-    held without a kick (the branches it left stay mirror images: 3.1 s -> 1.2 s on a
-    perfect column at 6x Euler)."""
+    ``run.tied``; the later report factors are held on the fundamental branch statically
+    (``on_fundamental``)."""
     s, chk = held
     if not is_conservative(run.sys):
         return held
@@ -190,9 +191,6 @@ def off_saddle(run: object, held: tuple[ev.State, dict]) -> tuple[ev.State, dict
         wm = run.w * mode
         kick = SWITCH_AMPLITUDE * run.L * mode / wm[int(np.argmax(np.abs(wm)))]
         mirrored = mirror_sides(run.sys, s.q, s.lam, kick)
-        if mirrored and run.tied:  # held between mirror branches before: they still are
-            run.tied.append(float(s.lam))
-            return s, chk
         saddle, books = (s, chk), _books(run)
         q = s.q + kick
         run.s = run.integ.start(s.t, s.lam, q, np.zeros_like(q))
@@ -217,6 +215,30 @@ def _rewind(run: object, books: tuple, s: ev.State) -> None:
         del seq[n:]
     del run.events[n_events:]
     run.s = s
+
+
+def on_fundamental(run: object, lam: float) -> tuple[ev.State, dict]:
+    """The fundamental branch at ``lam`` after the replay was held between a perfect
+    structure's mirror branches (``off_saddle``, ``run.tied``): by Newton from the last
+    state, at rest, with its settling check and tangent test.  A motion along an unstable
+    branch leaves it by the round-off of the encoding (the unstable mode grows ~e^20 over
+    one ramp increment), onto a branch the scene cannot pick, so the replay holds it
+    statically there, as the FE follows it."""
+    s0 = run.s
+    found = _newton(run, s0.q, lam)
+    if found is None:
+        raise ev.ReplayError(f"the fundamental branch was lost at factor {lam:.6g}")
+    # in the history as a quasi-static increment of one ramp's duration (dead loads: the
+    # work of the mean load on the step)
+    t = s0.t + run.o.ramp_periods * run.T1
+    rest, chk = at_rest(run, t, lam, found[0])
+    if chk is None:
+        raise ev.ReplayError(f"the fundamental branch at factor {lam:.6g} does not settle")
+    run.W += 0.5 * float((s0.f_ext + rest.f_ext) @ (rest.q - s0.q))
+    run.s = rest
+    run._record(rest)
+    run.tied.append(float(lam))
+    return rest, chk
 
 
 def mirror_sides(system: object, q: np.ndarray, lam: float, kick: np.ndarray) -> bool:
