@@ -72,6 +72,15 @@ __all__ = [
 _STATE = ("u_start", "p_start", "lam", "phi")  # Equilibrium fields of a forward root state
 
 
+# a compression whose load lies within this angle (rad) of the beam's axis is perfect: the
+# round-off of a load drawn along a beam that is itself drawn rotated, not an imperfection
+PERFECT = 1e-12
+PERFECT_COLUMN = (
+    "perfect axial compression above the Euler load pi^2 EI/(4 L^2): bifurcation, "
+    "no preferred buckling direction (add a transverse imperfection)"
+)
+
+
 def follower_equilibrium(L: float, EI: float, P: float, gamma: float, M: float) -> Equilibrium:
     """Exact state under a follower tip force (magnitude P at angle gamma to the tip tangent)
     and a tip moment M: the pendulum integrated backwards from the known tip state."""
@@ -160,7 +169,7 @@ def closed_form_dead_path(
     zmax = np.abs(np.cos(0.5 * u0))
     lamL = lam * L
     # straight: no load, pure tension, or perfect compression (a bifurcation past Euler)
-    straight = (P == 0.0) | (c == 0.0) | (zmax == 0.0) | (c == 1.0)
+    straight = (P == 0.0) | (c <= PERFECT) | (zmax == 0.0) | (c == 1.0)
     bent = np.flatnonzero(~straight)
     z, e, its = np.zeros_like(t), np.full_like(t, np.nan), np.zeros(t.shape, dtype=int)
     if bent.size:
@@ -195,11 +204,8 @@ def closed_form_dead_path(
     for i in range(t.size):
         if P[i] == 0.0:
             eq = Equilibrium(L=L, lam=0.0, phi=math.pi, u_start=0.0, p_start=0.0)
-        elif c[i] == 0.0 and lamL[i] > 0.5 * math.pi * (1.0 + 1e-12):
-            eq = ElasticaError(
-                "perfect axial compression above the Euler load pi^2 EI/(4 L^2): bifurcation, "
-                "no preferred buckling direction (add a transverse imperfection)"
-            )
+        elif c[i] <= PERFECT and lamL[i] > 0.5 * math.pi * (1.0 + 1e-12):
+            eq = ElasticaError(PERFECT_COLUMN)
         elif straight[i]:
             eq = Equilibrium(L=L, lam=float(lam[i]), phi=float(phi[i]), u_start=float(u0[i]),
                              p_start=0.0)  # fmt: skip

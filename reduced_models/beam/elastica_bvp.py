@@ -21,6 +21,7 @@ from scipy.integrate import solve_bvp
 
 from cases.schema import Scene
 from reduced_models.base import ModelCard, Solution, Step, load_factors, not_applicable
+from reduced_models.beam.elastica import PERFECT, PERFECT_COLUMN
 from reduced_models.beam.single_beam import (
     Cantilever,
     cantilever_of,
@@ -32,6 +33,7 @@ from reduced_models.options import Option
 MAX_HALVINGS = 14
 TIME_LIMIT_S = 60.0  # default wall clock (s): the runner's DEFAULT_TIME_LIMIT
 N_SHAPE = 41
+EULER = 0.25 * math.pi**2  # a cantilever column's Euler load P L^2 / EI
 
 
 class _TimeUp(Exception):
@@ -168,7 +170,14 @@ class ElasticaBVP:
         p = np.array([math.atan2(beam.fy, beam.fx)]) if follower else None
         slope = np.zeros_like(Y)
         t_prev, dt = 0.0, float(np.max(factors))
+        # the closed form's rule (``elastica.PERFECT``): past Euler a perfect column has two
+        # mirror branches and the straight one; which one collocation converges to would be
+        # decided by the round-off of how the scene is drawn
+        perfect = not (follower or beam.guided or beam.m) and beam.fx < 0.0
+        perfect = perfect and abs(beam.fy) <= PERFECT * abs(beam.fx)
         for t in factors:
+            if perfect and t * abs(beam.fx) * beam.L**2 / beam.EI > EULER * (1.0 + 1e-12):
+                raise _Stalled(f"factor {t:.6g}: {PERFECT_COLUMN}")
             iters, sol = 0, None
             while sol is None or t_prev < t:
                 h = min(dt, t - t_prev)
