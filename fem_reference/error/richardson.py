@@ -276,13 +276,20 @@ def _branch_note(ns: np.ndarray, same: np.ndarray, factors: np.ndarray) -> tuple
 
 
 def _scale(key: str, L: float, steps: list) -> float:
+    """The magnitude of output ``key`` for ``extrapolate``'s round-off test: the length
+    scale for positions, 1 rad for rotations, else the largest |value| along the path in its
+    own units (energy, a driver's force or torque, a factor): a force judged against the load
+    factor's size was "at round-off" in N m and not in N mm (DAS-2D Ex. 4's crank torque)."""
     if key.endswith((".x", ".y", ".ux", ".uy")):
         return L
     if key.endswith(".rot"):
         return 1.0
     if key == "energy":
         return max([abs(s.energy) for s in steps] + [1e-300])
-    return max([abs(s.factor) for s in steps] + [1e-300])
+    if key == "factor":
+        return max([abs(s.factor) for s in steps] + [1e-300])
+    vals = [abs(s.outputs.get(key, 0.0)) for s in steps]
+    return max([v for v in vals if math.isfinite(v)] + [1e-300])
 
 
 def _retrace(runner: Runner, key: str, values: np.ndarray) -> bool:
