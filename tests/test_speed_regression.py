@@ -38,7 +38,8 @@ cbcm-2, cbcm-8, prb-2rpr rewritten, their last states unchanged.  The FE's arc-l
 grows or shrinks by the iterations to 1e3 x its tolerance, plus one (``arclength.EASY_RES``),
 not by the iterations to its energy test at round-off: lee-frame|fem-8, fem-24 and
 shallow-arch-snap|fem-8, fem-24 sampled at other points of the same curves (the shallow
-arch's last state unchanged; Lee's frame, cut at 40 steps here, ends elsewhere on its curve).
+arch's last state unchanged; Lee's frame, cut at 40 steps here, ends elsewhere on its curve;
+lee-frame|fem-24 again once a corrector of more than 12 iterations cuts the step).
 """
 
 from __future__ import annotations

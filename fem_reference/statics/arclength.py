@@ -16,6 +16,10 @@ from fem_reference.statics.newton import Options, Scaler, SolveError, State, fac
 from fem_reference.system import DiscreteSystem
 
 EASY_RES = 1e3  # ``step`` sizes the next step by the iterations to this x the tolerance
+# a corrector that needs more iterations to EASY_RES x tol has left the path's neighbourhood
+# (Lee's frame under a follower load: 11 and 15 iterations, each landing elsewhere on the path,
+# which it then traced backwards to factor -16000): the step is cut as on a failure
+JUMP_ITERATIONS = 8
 
 
 class ArcLength:
@@ -111,6 +115,8 @@ class ArcLength:
         while True:
             try:
                 st = self._try(self.ds)
+                if self.easy_at > JUMP_ITERATIONS and self.ds > 1e3 * self.ds_min:
+                    raise SolveError(f"corrector took {st.iterations} iterations: off the path")
                 break
             except SolveError as err:
                 cuts += 1
