@@ -203,14 +203,14 @@ def off_saddle(run: object, held: tuple[ev.State, dict]) -> tuple[ev.State, dict
 
 
 def _books(run: object) -> tuple:
-    """What ``_rewind`` restores: history length, energy books, events, state, step."""
-    return len(run.hist.t), run.W, run.D, run.D_impact, len(run.events), run.s, run.h
+    """What ``_rewind`` restores: history length, energy books, events, step size."""
+    return len(run.hist.t), run.W, run.D, run.D_impact, len(run.events), run.h
 
 
 def _rewind(run: object, books: tuple, s: ev.State) -> None:
     """Undo the motion since ``_books``: the history, energy books and events as they were,
     the run at rest at ``s``."""
-    n, run.W, run.D, run.D_impact, n_events, _, run.h = books
+    n, run.W, run.D, run.D_impact, n_events, run.h = books
     for seq in vars(run.hist).values():
         del seq[n:]
     del run.events[n_events:]
@@ -252,9 +252,10 @@ def mirror_sides(system: object, q: np.ndarray, lam: float, kick: np.ndarray) ->
     def potential(x: np.ndarray) -> float:
         return float(system.strain_energy(x)) - lam * float(f @ x)
 
-    p0, pp, pm = potential(q), potential(q + kick), potential(q - kick)
+    u0, w0 = float(system.strain_energy(q)), lam * float(f @ q)
+    p0, pp, pm = u0 - w0, potential(q + kick), potential(q - kick)
     even, odd = 0.5 * (pp + pm - 2.0 * p0), 0.5 * (pp - pm)
-    noise = 8.0 * np.finfo(float).eps * (abs(float(system.strain_energy(q))) + abs(lam * (f @ q)))
+    noise = 8.0 * np.finfo(float).eps * (abs(u0) + abs(w0))
     return abs(odd) <= TIE_PARITY * abs(even) + noise
 
 

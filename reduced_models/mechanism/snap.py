@@ -204,11 +204,18 @@ def _eigenvalue(run: object, st: State, iterations: int = 12) -> float:
     fixed start, then the Rayleigh quotient): zero exactly where the reduced Hessian is
     singular, whatever the matrix's scaling."""
     K = run.solver.kkt(st)[1]
+    x = _nearest_zero(K, iterations)
+    return float(x @ (K @ x))
+
+
+def _nearest_zero(K: object, iterations: int) -> np.ndarray:
+    """Unit eigenvector of ``K`` (the KKT matrix, dense or sparse) of smallest |eigenvalue|:
+    inverse iteration from a fixed start (the same answer on every call); (n,)."""
     x = np.random.default_rng(0).standard_normal(K.shape[0])
     for _ in range(iterations):
         x = _solve(K, x)
         x /= np.linalg.norm(x)
-    return float(x @ (K @ x))
+    return x
 
 
 def _weights(run: object) -> np.ndarray:
@@ -223,12 +230,8 @@ def _mode(run: object, st: State, iterations: int = 8) -> np.ndarray:
     """The KKT eigenvector of smallest |eigenvalue| (inverse iteration), position part,
     scaled to ``PERTURB`` in its largest scaled component; (nf,)."""
     sv = run.solver
-    K = sv.kkt(st)[1]
     w = _weights(run)
-    x = np.random.default_rng(0).standard_normal(K.shape[0])
-    for _ in range(iterations):
-        x = _solve(K, x)
-        x /= np.linalg.norm(x)
+    x = _nearest_zero(sv.kkt(st)[1], iterations)
     v = x[: sv.nf] * (w > 0)
     big = np.abs(v * w).max()
     if not np.isfinite(big) or big == 0.0:
