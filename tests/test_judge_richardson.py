@@ -99,3 +99,26 @@ def test_fem_auto_force_outputs_do_not_depend_on_the_units():
     assert max(abs(x - y) for x, y in zip(ta, tb)) <= 1e-9 * scale
     ea, eb = a.extras["error_estimate_steps"], b.extras["error_estimate_steps"]
     assert np.allclose(ea["driver.torque"], 1e3 * np.asarray(eb["driver.torque"]), rtol=1e-3)
+
+
+def test_a_critical_factor_interpolated_across_a_step_stays_out_of_the_extrapolation():
+    """A mesh that could not re-solve the path next to its critical point interpolates the
+    factor across the load step (``located`` false): on DAS-2D Ex. 3 that fell 3e-5 off the
+    16-element mesh's own critical factor and bent fem-auto's extrapolation 1e-5 away from
+    the elastica's.  Meshes converging as c + a / n^2 with the 16-element one interpolated:
+    the extrapolation over the others recovers c."""
+    from types import SimpleNamespace
+
+    from fem_reference.error.richardson import _critical
+
+    exact, a = 0.432030810, 0.17
+    points = []
+    for n in N:
+        located = n != 16
+        factor = exact + a / n**2 if located else exact + a / n**2 - 3.3e-5
+        points.append({"kind": "bifurcation", "factor": factor, "located": located})
+    runs = [(SimpleNamespace(extras={"critical_points": [p]}), "converged", "") for p in points]
+    extras: dict = {}
+    _critical(runs, tuple(int(n) for n in N), extras)
+    (cp,) = extras["critical_points"]
+    assert cp["factor_extrapolated"] == pytest.approx(exact, rel=1e-9)

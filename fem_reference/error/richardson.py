@@ -395,7 +395,8 @@ def combine(scene: Scene, name: str, sequence: tuple[int, ...], runs: list) -> S
 def _critical(runs: list, sequence: tuple[int, ...], extras: dict) -> None:
     """The finest run's critical points (``bifurcation.Watch``), each with its factor
     Richardson-extrapolated over the meshes that found a point of the same kind at the same
-    position in their list."""
+    position in their list and located it (a factor interpolated across a load step is no
+    member of a convergent sequence)."""
     fin = runs[-1][0]
     pts = fin.extras.get("critical_points")
     if pts is None:
@@ -407,9 +408,10 @@ def _critical(runs: list, sequence: tuple[int, ...], extras: dict) -> None:
             for n, (r, _, _) in zip(sequence, runs)
             if len(r.extras.get("critical_points", ())) > i
             and r.extras["critical_points"][i]["kind"] == cp["kind"]
+            and r.extras["critical_points"][i].get("located", True)
         ]
         item = dict(cp)
-        if len(same) >= 2:
+        if len(same) >= 2 and cp.get("located", True):
             e = extrapolate(
                 np.array([f for _, f in same]), np.array([n for n, _ in same]), abs(cp["factor"])
             )

@@ -333,25 +333,29 @@ class Watch(BranchSwitch):
             crit = fundamental(lam_c)
         except S.SolveError:
             # Newton failed next to the critical point (its tangent singular there to
-            # round-off) after Brent came close: the eigenvalue's secant across Brent's
-            # bracket (the evaluations of least |eigenvalue| either side), if it lands that
-            # close to one of its ends -- ends that Brent solved inside the step: a bracket
-            # end that is the step's own start or end has not closed in on anything (a pinned
+            # round-off) after Brent came close: the eigenvalue's secant through the two
+            # evaluations of least |eigenvalue| (across the root or, when Newton failed on
+            # one side, extrapolated from the other: fem-auto's 16-element Ex. 3 came within
+            # 3e-8 from the stable side only and was interpolated across the whole step, 3e-5
+            # off), if it lands that close to one of them -- evaluations Brent solved inside
+            # the step: the step's own start or end has not closed in on anything (a pinned
             # root's bifurcation at factor ~0 would be "located" next to the start)
             inner = [t for t in seen if t[0] not in (prev.lam, cur.lam)]
+            if len(inner) < 2:
+                return self._interpolated(prev, cur, scale)
             stable = [t for t in inner if t[1] > 0.0]
             unstable = [t for t in inner if t[1] <= 0.0]
-            if not (stable and unstable):
+            if stable and unstable:  # across the root: interpolated
+                pair = [min(stable, key=lambda t: t[1]), max(unstable, key=lambda t: t[1])]
+            else:
+                pair = sorted(inner, key=lambda t: abs(t[1]))[:2]
+            (la, ea, sa), (lb, eb, sb) = sorted(pair, key=lambda t: abs(t[1]))
+            if ea == eb:
                 return self._interpolated(prev, cur, scale)
-            (ls, es, ss), (lu, eu, su) = (
-                min(stable, key=lambda t: t[1]),
-                max(unstable, key=lambda t: t[1]),
-            )
-            lam_c = ls + (lu - ls) * es / (es - eu)
-            near = min(abs(lam_c - ls), abs(lam_c - lu))
-            if not near <= LOCATE_TIGHT * max(abs(cur.lam), 1.0):
+            lam_c = la + (lb - la) * ea / (ea - eb)
+            if not abs(lam_c - la) <= LOCATE_TIGHT * max(abs(cur.lam), 1.0):
                 return self._interpolated(prev, cur, scale)
-            crit = ss if abs(lam_c - ls) <= abs(lam_c - lu) else su
+            crit = sa
         except ValueError:
             return self._interpolated(prev, cur, scale)
         _, phi, _ = lowest_mode(sysm, crit.u, lam_c, scale)
