@@ -67,9 +67,12 @@ def _tip_judge(truths, model, p="tip", mirror_ok=False):
             scale = max(math.hypot(r[0] - x0, r[1] - y0) for r in ref) or 1.0
             tol = _tol(model, sol, scale)
             worst, at = 0.0, None
+            blind = set(sol.extras.get("unpredicted_factors") or ())
             for i, (s, r) in enumerate(zip(sol.steps, ref)):
                 if s.stable is False:
                     continue  # flagged unstable: an honest equilibrium off the natural path
+                if s.factor in blind and sol.extras.get("validity_warning"):
+                    continue  # a reduced model's state outside its range, without a prediction
                 x, y = s.outputs[f"{p}.x"], s.outputs[f"{p}.y"]
                 if mirror_ok:
                     x = x0 + math.copysign(abs(x - x0), r[0] - x0)

@@ -270,3 +270,30 @@ def test_units_do_not_change_the_state():
     bcm = reports.solve(scene, "bcm")
     assert bcm.ok and bcm.extras["predicted_error"] > 1.0  # more than the deflection itself
     assert bcm.extras["validity_warning"].startswith("predicted error")
+
+
+@pytest.mark.parametrize("model", ["prb-1r", "linear-8", "bcm"])
+def test_states_beyond_the_atlas_are_listed_as_unpredicted(model):
+    """A cantilever's tip force ramped to PL^2/EI = 20 (in mm, N, MPa): the states past the
+    atlas radius 10 -- factors above 1/2, from the scene's own loads -- have no prediction,
+    and ``unpredicted_factors`` lists exactly those (with any the model failed on in the
+    atlas, none below PL^2/EI = 2 under a transverse force)."""
+    base = cases.load("cantilever-tip-load")
+    a, b = base.nodes
+    EI, L = 200e3 * 10.0, 100.0
+    scene = dataclasses.replace(
+        base,
+        units="mm-N-MPa",
+        nodes=(a, dataclasses.replace(b, x=L)),
+        members=(dataclasses.replace(base.members[0], E=200e3, I=10.0, A=1e6),),
+        loads=(dataclasses.replace(base.loads[0], fx=0.0, fy=-20.0 * EI / L**2),),
+        analysis=dataclasses.replace(base.analysis, kind="load", steps=8),
+        references=(),
+    )
+    sol = reports.solve(scene, model)
+    assert sol.steps
+    beyond = {s.factor for s in sol.steps if 20.0 * s.factor > 10.0 * (1 + 1e-9)}
+    blind = set(sol.extras.get("unpredicted_factors") or ())
+    assert beyond and beyond <= blind
+    assert all(f * 20.0 > 2.0 for f in blind)
+    assert "outside the atlas" in sol.extras["validity_warning"]

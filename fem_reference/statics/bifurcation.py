@@ -122,14 +122,19 @@ class Watch(BranchSwitch):
         no band fast path.  The band and verdict are kept for ``stability`` of the same
         state (the runner's record)."""
         if self._cache[2] is st:
-            return bool(self._cache[1]["jacobi_pd"])
+            return bool(self._cache[1]["jacobi_pd"] or self._cache[1]["stable"])
         if self._fast[0] is st:  # the previous step's current state
-            return self._fast[1][1] is not None
-        pre = jacobi_verdict(self.sys, st)
-        if pre[0] is None:
-            return bool(self.stability(st)["stable"])
-        self._fast = (st, pre)
-        return pre[1] is not None
+            pre = self._fast[1]
+        else:
+            pre = jacobi_verdict(self.sys, st)
+            if pre[0] is None:
+                return bool(self.stability(st)["stable"])
+            self._fast = (st, pre)
+        # a failed Cholesky is no verdict on a neutral mode (a pinned root's rigid swing at
+        # zero load, eigenvalue -3e-11 of round-off): the eigen test's tolerance decides, as
+        # in the state's record -- else the watch skipped the step from it and the beam
+        # swung up onto its unstable branch or down by round-off
+        return pre[1] is not None or bool(self.stability(st)["stable"])
 
     def stability(self, st: S.State) -> dict:
         """``inertia.state_stability`` of ``st`` (cached for the last state asked: the runner
@@ -233,15 +238,22 @@ class Watch(BranchSwitch):
 
     def limit(self, prev: S.State, cur: S.State) -> S.State | None:
         """The first limit point on the path traced from ``prev`` towards ``cur.lam`` (None
-        if the factor reaches it monotonically or tracing fails)."""
+        if the factor reaches it monotonically, tracing fails, or the factor turns back
+        outside the step: load control crossed the point within it, and a trace started on a
+        singular tangent -- a pinned root at zero load -- ran off to factor -1e14)."""
         sgn = 1.0 if cur.lam >= prev.lam else -1.0
+        lo, hi = sorted((prev.lam, cur.lam))
+        slack = 1e-12 * max(abs(lo), abs(hi), 1.0)
         a, b = None, prev
         for c in self._trace(prev, cur):
             if sgn * (c.lam - b.lam) < 0.0 and a is not None:
+                if not lo - slack <= b.lam <= hi + slack:
+                    return None
                 try:
-                    return S.refine_extremum(self.sys, a, b, c, self.opts)
+                    lim = S.refine_extremum(self.sys, a, b, c, self.opts)
                 except S.SolveError:
                     return None
+                return lim if lo - slack <= lim.lam <= hi + slack else None
             if sgn * (c.lam - cur.lam) >= 0.0:
                 return None
             a, b = b, c

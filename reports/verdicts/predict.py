@@ -8,6 +8,9 @@ of reduced models"):
   could be looked up, ``predicted_error_note`` says why);
 * ``extras["predicted_error_at"]``: where that largest error is (member, load factor, the
   state PL^2/EI, alpha, ML/EI);
+* ``extras["unpredicted_factors"]``: the load factors of the states the table cannot speak
+  for (outside it, or where the model failed or declined next to them in the atlas; sorted,
+  only when there are any): ``predicted_error`` does not cover them;
 * ``extras["validity_warning"]`` (the message, a str) and ``extras["validity_message"]`` (the
   model's own warning and this one, joined) where the prediction exceeds ``THRESHOLD`` or a
   state lies outside the table ("outside the atlas: PL^2/EI = 14 > 10").
@@ -328,7 +331,7 @@ def predict(name: str, scene: Scene, sol: Solution) -> dict[str, object]:
     warnings (list of str) of one solution."""
     states, notes = member_states(name, scene, sol)
     warnings = [n for n in notes if n.startswith("outside")]
-    best, at = -1.0, None
+    best, at, blind = -1.0, None, set()
     for st in states:  # a path's 21 states: plain floats, one conversion per array
         factor, outside = st.factor.tolist(), st.outside.tolist()
         live = [i for i, f in enumerate(factor) if f != 0]
@@ -340,6 +343,7 @@ def predict(name: str, scene: Scene, sol: Solution) -> dict[str, object]:
             warnings.append(_outside_text(st, max(out, key=radius.__getitem__)))
         err = st.path_error().tolist()
         nan = [i for i in live if math.isnan(err[i])]
+        blind.update(factor[i] for i in out + nan)
         if nan:
             w = _where(st, nan[0])
             warnings.append(
@@ -354,6 +358,8 @@ def predict(name: str, scene: Scene, sol: Solution) -> dict[str, object]:
         if err[j] > best:
             best, at = err[j], _where(st, j)
     result: dict[str, object] = {"predicted_error": best if at else None, "warnings": warnings}
+    if blind:
+        result["unpredicted_factors"] = sorted(blind)
     if at is None:
         result["predicted_error_note"] = "; ".join(notes) or "no member state to look up"
         return result
