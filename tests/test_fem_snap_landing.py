@@ -127,6 +127,38 @@ def test_a_perfect_column_past_euler_stays_straight_between_its_tied_branches(mo
     assert imperfect.steps[-1].outputs["tip.x"] > 0.3  # leans the way eps pushes it
 
 
+def _as_path(name: str):
+    """The fixture as a path analysis (arc-length) to 6x Euler, stopped at tip.uy = -0.5."""
+    import dataclasses
+
+    sc = cases.load(str(FIXTURES / f"{name}.toml"))
+    a = dataclasses.replace(
+        sc.analysis, kind="path", stop_output="tip.uy", stop_value=-0.5, max_steps=400
+    )
+    return dataclasses.replace(sc, analysis=a)
+
+
+@pytest.mark.parametrize("model", ["fem-8", "fem-auto"])
+def test_a_perfect_column_traced_by_arc_length_ties_its_branches_too(model):
+    """A path analysis of the perfect column: before, the arc-length took the branch of the
+    mode's + sign (left drawn as is, right mirrored) and then failed, stuck next to the
+    bifurcation (400 steps).  Now it ties the mirror branches as a load analysis does: the
+    traced path stays straight, unstable past the Euler load, in both drawings."""
+    answers = []
+    for name, x0 in (("col-6x-eps0-a10000", 0.0), ("col-6x-eps0-a10000--mirror+shift", 3.7)):
+        sol = reports.solve(_as_path(name), model)
+        assert sol.status == "converged", sol.message
+        (bif,) = sol.extras["critical_points"]
+        assert bif["kind"] == "bifurcation" and bif["tied"] and not bif["switched"]
+        assert "mirror-image branches" in sol.message
+        assert sol.steps[-1].factor == pytest.approx(1.0)  # factor_end: straight to the end
+        for st in sol.steps:
+            assert st.outputs["tip.x"] - x0 == pytest.approx(0.0, abs=1e-12)
+            assert st.stable is (st.factor < bif["factor"])
+        answers.append([st.outputs["tip.uy"] for st in sol.steps])
+    assert answers[1] == pytest.approx(answers[0], abs=1e-12)
+
+
 @pytest.mark.parametrize("model", ["linear-auto", "bcm"])
 def test_a_perfect_column_drawn_along_an_axis_has_no_transverse_load(model):
     """A vertical column's beam frame is the drawn direction dx / L, dy / L (exactly 0 and 1),

@@ -211,3 +211,18 @@ def test_das2d_ex3_ramped_to_15_n_says_where_it_snaps(model):
     to = snap["to"]["shuttle_top.ux"]  # at the critical factor; the elastica's one step on
     assert to > 15.25 and to == pytest.approx(ux["to"], rel=0.01)
     assert "snap at factor" in sol.message and "subcritical bifurcation passed" in sol.message
+
+
+@pytest.mark.parametrize("model", ["linear-4", "linear-8"])
+def test_a_path_put_on_a_branch_by_round_off_at_a_singular_start_is_declined(model):
+    """DAS-2D Ex. 3 driven by its shuttle with every member a linear chain: straight
+    inextensible segments cannot shorten at first order, the drawn state's tangent is
+    singular (no stability verdict), and the first step landed on an unstable equilibrium
+    whose driving force (8.5, 2.1 or 1.6 N) depended on the CPU's BLAS and on how the scene
+    was drawn -- the elastica's path starts stable at 0.15 N.  Declined with the reason."""
+    scene = cases.load("das2d-ex3-bistable-switch")
+    exact = reports.solve(scene, "elastica")
+    assert exact.ok and exact.steps[1].stable and exact.steps[1].factor < 0.2
+    sol = reports.solve(scene, model)
+    assert sol.status == "failed"
+    assert "singular" in sol.message and "picked by round-off" in sol.message

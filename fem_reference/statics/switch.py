@@ -16,6 +16,10 @@ from fem_reference.statics import static as S
 from fem_reference.statics.descent import settle
 
 SWITCH_AMPLITUDE = 1e-2
+# two rising branches whose factors at the switch amplitude agree to this fraction of their
+# rise are mirror images (a perfect structure: equal to round-off, 1e-13 of the rise on a
+# column; an asymmetric bifurcation differs at first order in the amplitude)
+TIE_FACTOR = 1e-8
 
 
 def branch_offset(
@@ -118,15 +122,28 @@ class BranchSwitch:
 
     def _branch_off(self, crit: S.State, phi: np.ndarray, point: dict, cur: S.State) -> S.State:
         """Path analyses: the first state on the bifurcated branch (mode amplitude
-        ``SWITCH_AMPLITUDE``) if that branch rises (supercritical: arc-length traces on from
-        it); a falling branch (subcritical) is not switched to -- the traced path stays on the
-        fundamental branch and the note says so."""
-        sysm = self.sys
-        try:
-            off = branch_offset(sysm, crit, phi, self.opts)
-        except S.SolveError:
-            off = None
-        if off is None or off.lam <= crit.lam:
+        ``SWITCH_AMPLITUDE``, the sign whose branch rises) if a branch rises (supercritical:
+        arc-length traces on from it); a falling branch (subcritical) is not switched to --
+        the traced path stays on the fundamental branch and the note says so.  Two distinct
+        rising branches at the same factor are a perfect structure's mirror branches: tied
+        (``_stay_tied``), as a load analysis ties them (the sign of the mode is how the scene
+        is drawn: a perfect column's path took the + branch, its mirror image the other)."""
+        sysm, sc = self.sys, S.Scaler.of(self.sys)
+        offs = []
+        for sign in (1.0, -1.0):
+            try:
+                offs.append(branch_offset(sysm, crit, phi, self.opts, sign))
+            except S.SolveError:
+                continue
+        rising = [o for o in offs if o.lam > crit.lam]
+        if len(rising) == 2:
+            a, b = rising
+            same = abs(a.lam - b.lam) <= TIE_FACTOR * max(abs(a.lam - crit.lam), 1e-300)
+            if same and sc.unorm(a.u - b.u) > 1e-6 * sc.unorm(a.u):
+                self.tied = [sysm.outputs(o.u) for o in rising]
+                return self._stay_tied(point, cur)
+        off = min(rising, key=lambda o: o.lam) if rising else None
+        if off is None:
             self.note = (
                 f"bifurcation at factor {point['factor']:.8g} (subcritical or not followed): "
                 "the traced path stays on the fundamental branch, unstable beyond it"

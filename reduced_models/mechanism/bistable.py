@@ -114,7 +114,10 @@ def bistable(run: analyses.Run) -> dict:
     an equilibrium cannot be re-solved."""
     eq = run.extras.get("equilibria", [])
     drv = run.scene.analysis.driver
+    stop = run.extras.get("stopped_at")
     rng = f"[{drv.start:g}, {drv.stop:g}]"
+    if stop is not None:  # a sweep stopped short speaks for the part it swept only
+        rng = f"[{drv.start:g}, {stop:g}] (the sweep stopped there, short of {drv.stop:g})"
     kinds = [e["kind"] for e in eq]
     trip = next(
         (i for i in range(len(eq) - 2) if kinds[i : i + 3] == ["stable", "unstable", "stable"]),
