@@ -373,8 +373,10 @@ class FEMSystem:
         """Largest member length."""
         return self.Lref
 
-    def residual_floor(self) -> float:
-        """Round-off level of the scaled residual norm, ``10 eps |x| max(k_a sqrt(ndof), k_b)``.
+    def residual_floor(self, centred: bool = False) -> float:
+        """Round-off level of the scaled residual norm, ``10 eps |x| max(k_a sqrt(ndof), k_b)``
+        (``centred``: |x| from the centre of the drawing's bounding box, the same wherever the
+        scene is drawn -- for decisions that must not move with a translation).
 
         The axial part (stiffest EA / L0 or spring, summed over the DOFs in quadrature) is the
         floor the FE always had.  The backward error of the Newton solve adds eps times the
@@ -388,7 +390,10 @@ class FEMSystem:
         k *= math.sqrt(max(self.ndof, 1))
         if b.L0.size:
             k = max(k, float(np.max(12.0 * b.EI / b.L0**3)))
-        xmax = float(np.max(np.abs(self.points), initial=0.0)) + self.Lref
+        pts = np.asarray(self.points, dtype=float)
+        if centred and pts.size:
+            pts = pts - 0.5 * (pts.max(axis=0) + pts.min(axis=0))
+        xmax = float(np.max(np.abs(pts), initial=0.0)) + self.Lref
         return 10.0 * np.finfo(float).eps * k * xmax
 
     def force_scale(self) -> float:

@@ -270,6 +270,9 @@ class Runner:
         def val(s: S.State) -> float:
             return func[2] + func[1] * s.u[func[0]] if func[0] >= 0 else func[2]
 
+        if watch is not None and func is not None:
+            watch.stop = (val, a.stop_value)
+
         status, message = "failed", f"stop criterion not reached within {a.max_steps} steps"
         for _ in range(a.max_steps):
             prev = st
@@ -278,8 +281,12 @@ class Runner:
                 if watch is not None and sgn * (st.lam - prev.lam) > 0:  # not at a fold
                     new = watch.check(prev, st, st.lam, path=True)
                     if new is not st:  # switched at a bifurcation: trace the new branch on
+                        # with steps sized on it (the fundamental path's were sized on a
+                        # column's axial shortening: 1e-4 rad of tip rotation per step)
                         st = new
-                        arc = S.ArcLength(sysm, st, arc.ds, opts, direction=sgn, ds_max=ds_max)
+                        ds = max(arc.ds, self.ds0(st))
+                        ds_max = max(ds_max, 2.0 * ds)
+                        arc = S.ArcLength(sysm, st, ds, opts, direction=sgn, ds_max=ds_max)
             except S.SolveError as err:
                 status, message = "failed", str(err)
                 break

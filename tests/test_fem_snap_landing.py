@@ -127,15 +127,36 @@ def test_a_perfect_column_past_euler_stays_straight_between_its_tied_branches(mo
     assert imperfect.steps[-1].outputs["tip.x"] > 0.3  # leans the way eps pushes it
 
 
-def _as_path(name: str):
-    """The fixture as a path analysis (arc-length) to 6x Euler, stopped at tip.uy = -0.5."""
+def _as_path(name: str, stop: str = "tip.uy", value: float = -0.5):
+    """The fixture as a path analysis (arc-length) to 6x Euler, stopped at ``stop`` =
+    ``value`` (default: the tip's axial travel, which both mirror branches share)."""
     import dataclasses
 
     sc = cases.load(str(FIXTURES / f"{name}.toml"))
     a = dataclasses.replace(
-        sc.analysis, kind="path", stop_output="tip.uy", stop_value=-0.5, max_steps=400
+        sc.analysis, kind="path", stop_output=stop, stop_value=value, max_steps=400
     )
     return dataclasses.replace(sc, analysis=a)
+
+
+@pytest.mark.parametrize("model", ["fem-8", "fem-auto"])
+def test_a_stop_output_the_mirror_flips_picks_the_branch_in_every_drawing(model):
+    """Traced to a tip rotation of +1 rad (mirrored: -1 rad), the stop criterion itself picks
+    one of the mirror branches -- a rule drawn from the scene, so the mirrored scene picks
+    the mirrored branch and the answers agree once mirrored back."""
+    drawn = reports.solve(_as_path("col-6x-eps0-a10000", "tip.rot", 1.0), model)
+    mirrored = reports.solve(_as_path("col-6x-eps0-a10000--mirror+shift", "tip.rot", -1.0), model)
+    for sol in (drawn, mirrored):
+        assert sol.status == "converged", sol.message
+        (bif,) = sol.extras["critical_points"]
+        assert bif["kind"] == "bifurcation" and bif["switched"] and not bif.get("tied")
+    assert drawn.steps[-1].outputs["tip.rot"] == pytest.approx(1.0)
+    assert drawn.steps[-1].outputs["tip.x"] < -0.3  # a vertical column turned ccw leans to -x
+    assert len(drawn.steps) == len(mirrored.steps)
+    for a, b in zip(drawn.steps, mirrored.steps):
+        assert b.factor == pytest.approx(a.factor, rel=1e-9)
+        assert 3.7 - b.outputs["tip.x"] == pytest.approx(a.outputs["tip.x"], abs=1e-9)
+        assert -b.outputs["tip.rot"] == pytest.approx(a.outputs["tip.rot"], abs=1e-9)
 
 
 @pytest.mark.parametrize("model", ["fem-8", "fem-auto"])

@@ -48,6 +48,9 @@ class ArcLength:
         self.u, self.lam, self.ds = st.u.copy(), st.lam, ds
         self.ds_max = ds_max if ds_max is not None else 1e3 * ds
         self.ds_min = ds * 1e-7
+        self.fscale = float(system.force_scale())
+        rf = getattr(system, "residual_floor", None)
+        self.floor = float(rf(centred=True)) if callable(rf) else 0.0
         self.du_prev: np.ndarray | None = None
         self.direction = direction
 
@@ -68,17 +71,22 @@ class ArcLength:
         )
         dl = sgn * ds / tn
         Du, Dl = dl * t - lu.solve(r), dl
-        e0 = 1e-300
+        e0, rn = 1e-300, math.inf
         self.easy_at = opts.max_iter  # the first iteration at EASY_RES x tol (``step``)
+        self.easy = float(opts.max_iter)  # ... interpolated between iterations
         for it in range(1, opts.max_iter + 1):
             u, lam = self.u + Du, self.lam + Dl
             ev = o.evaluate(u, lam)
-            r = ev.r
+            r, last = ev.r, rn
             rn = self.sc.rnorm(r)
             if not np.isfinite(rn):
                 raise SolveError("non-finite residual")
-            if self.easy_at == opts.max_iter and rn <= EASY_RES * self.sc.ftol(lam, opts):
+            # the tolerance with the floor of the drawing centred (the floor itself grows with
+            # the coordinates' size: a column drawn 3.7 off the origin had twice the floor)
+            easy = EASY_RES * max(opts.rtol * self.fscale * max(abs(lam), 1.0), self.floor)
+            if self.easy_at == opts.max_iter and rn <= easy:
                 self.easy_at = it
+                self.easy = _crossing(it, last, rn, easy)
             lu = factor_at(o, ev)
             dr = -lu.solve(r)
             if (
@@ -131,7 +139,22 @@ class ArcLength:
         # round-off floor, where the count to convergence itself (its energy test at
         # round-off) moved with the encoding (DAD-eppo's arch renumbered: 4 iterations
         # instead of 5 at one step, every later sample elsewhere)
-        ratio = math.sqrt(self.opts.arc_iter_goal / (self.easy_at + 1))
-        self.ds = min(self.ds * min(max(ratio, 0.5), 2.0), self.ds_max)
+        # Interpolated between iterations and rounded to two significant digits: an integer
+        # count flips where a residual sits at the threshold, and a perfect column traced
+        # to a tip rotation, mirrored, was sampled elsewhere from its 10th step on
+        ratio = math.sqrt(self.opts.arc_iter_goal / (self.easy + 1))
+        self.ds = min(float(f"{self.ds * min(max(ratio, 0.5), 2.0):.2g}"), self.ds_max)
         st.cuts = cuts
         return st
+
+
+def _crossing(it: int, before: float, at: float, level: float) -> float:
+    """Where the residual crossed ``level``, in iterations: ``it`` where it got there at once,
+    else between ``it - 1`` (residual ``before``) and ``it`` (``at``), geometrically -- so the
+    count moves continuously with the residuals, and agrees with ``it`` at either end.  A
+    residual below ``level / EASY_RES`` counts as that: below it the residual is round-off,
+    which differs between drawings of one scene."""
+    at = max(at, level / EASY_RES)
+    if it == 1 or not before > level or before <= at:
+        return float(it)
+    return it - 1 + math.log(before / level) / math.log(before / at)

@@ -110,6 +110,9 @@ class Watch(BranchSwitch):
         self._step: tuple | None = None  # (|du|_W, |dlam|) of the last load step
         # the last switch found two mirror branches of equal energy: their outputs, or False
         self.tied: list | bool = False
+        # a path analysis's stop criterion (value of a state, stop value), which may tell two
+        # mirror branches apart (``BranchSwitch._toward_stop``)
+        self.stop: tuple | None = None
 
     def _eig(self, st: S.State, scale: np.ndarray | None = None) -> float:
         return lowest_mode(self.sys, st.u, st.lam, scale)[0]

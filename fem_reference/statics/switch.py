@@ -140,8 +140,11 @@ class BranchSwitch:
             a, b = rising
             same = abs(a.lam - b.lam) <= TIE_FACTOR * max(abs(a.lam - crit.lam), 1e-300)
             if same and sc.unorm(a.u - b.u) > 1e-6 * sc.unorm(a.u):
-                self.tied = [sysm.outputs(o.u) for o in rising]
-                return self._stay_tied(point, cur)
+                toward = self._toward_stop(crit, a, b)
+                if toward is None:
+                    self.tied = [sysm.outputs(o.u) for o in rising]
+                    return self._stay_tied(point, cur)
+                rising = [toward]
         off = min(rising, key=lambda o: o.lam) if rising else None
         if off is None:
             self.note = (
@@ -152,6 +155,20 @@ class BranchSwitch:
         point["switched"] = True
         off.info = {**off.info, "branch_switch": 1.0}
         return off
+
+    def _toward_stop(self, crit: S.State, a: S.State, b: S.State) -> S.State | None:
+        """Of two mirror branch states, the one on which the path's stop output moves towards
+        its stop value (``stop``: (value of a state, stop value), set by a path analysis), or
+        None when the stop output cannot tell them apart (it is symmetric: a column's axial
+        shortening).  A stop output the mirror flips (a tip rotation to +1.5 rad) picks the
+        branch by a rule drawn from the scene: mirrored, it picks the mirrored branch."""
+        if self.stop is None:
+            return None
+        val, goal = self.stop
+        va, vb, vc = val(a), val(b), val(crit)
+        if abs(va - vb) <= 1e-6 * (abs(va - vc) + abs(vb - vc)):
+            return None
+        return a if abs(va - goal) < abs(vb - goal) else b
 
     def _descend(self, u0: np.ndarray, target: float) -> S.State:
         """The stable state at ``target`` the structure settles at when it leaves ``u0`` (the
