@@ -175,3 +175,26 @@ def test_critical_factor_located_when_newton_fails_next_to_it(monkeypatch):
     (cp,) = sol.extras["critical_points"]
     p_ext = area * (1.0 - math.sqrt(1.0 - 4.0 * PE / area)) / 2.0  # P (1 - P/EA) = Pe
     assert cp["factor_extrapolated"] * ratio * PE == pytest.approx(p_ext, rel=1e-6)
+
+
+def test_an_unlocated_critical_factor_is_interpolated_across_the_narrowest_bracket(monkeypatch):
+    """Where Newton fails next to the critical factor, the eigenvalue is interpolated across
+    the narrowest bracket the re-solved states give, not across the whole load step (DAS-2D
+    Ex. 3's replay, drawn in m: 1e-6 off the same scene in mm).  A curved eigenvalue
+    e(lam) = d + 30 d^2 (d = lam* - lam) over a step of +-0.05 with re-solved states at
+    +-1e-4: the root to 1e-6 (across the step: 2e-3 off)."""
+    from types import SimpleNamespace
+
+    from fem_reference.statics import bifurcation as B
+
+    root = 0.4
+    eig = lambda lam: (root - lam) + 30.0 * (root - lam) ** 2  # noqa: E731
+    watch = B.Watch.__new__(B.Watch)
+    watch.sys = None
+    monkeypatch.setattr(watch, "_eig", lambda st, scale=None: eig(st.lam), raising=False)
+    monkeypatch.setattr(B, "lowest_mode", lambda *a, **k: (0.0, np.zeros(1), None))
+    prev, cur = (SimpleNamespace(lam=root + d, u=np.zeros(1)) for d in (-0.05, 0.05))
+    seen = [(root + d, eig(root + d), None) for d in (-0.05, -1e-4, 1e-4)]
+    found = watch._interpolated(prev, cur, np.ones(1), seen)
+    assert not found.located
+    assert found.factor == pytest.approx(root, abs=1e-6)

@@ -357,7 +357,7 @@ class Watch(BranchSwitch):
             # root's bifurcation at factor ~0 would be "located" next to the start)
             inner = [t for t in seen if t[0] not in (prev.lam, cur.lam)]
             if len(inner) < 2:
-                return self._interpolated(prev, cur, scale)
+                return self._interpolated(prev, cur, scale, seen)
             stable = [t for t in inner if t[1] > 0.0]
             unstable = [t for t in inner if t[1] <= 0.0]
             if stable and unstable:  # across the root: interpolated
@@ -366,25 +366,33 @@ class Watch(BranchSwitch):
                 pair = sorted(inner, key=lambda t: abs(t[1]))[:2]
             (la, ea, sa), (lb, eb, sb) = sorted(pair, key=lambda t: abs(t[1]))
             if ea == eb:
-                return self._interpolated(prev, cur, scale)
+                return self._interpolated(prev, cur, scale, seen)
             lam_c = la + (lb - la) * ea / (ea - eb)
             if not abs(lam_c - la) <= LOCATE_TIGHT * max(abs(cur.lam), 1.0):
-                return self._interpolated(prev, cur, scale)
+                return self._interpolated(prev, cur, scale, seen)
             crit = sa
         except ValueError:
-            return self._interpolated(prev, cur, scale)
+            return self._interpolated(prev, cur, scale, seen)
         _, phi, _ = lowest_mode(sysm, crit.u, lam_c, scale)
         return Critical(
             float(lam_c), crit, phi, True, factor_roundoff(sysm, prev, crit, lam_c, phi)
         )
 
-    def _interpolated(self, prev: S.State, cur: S.State, scale: np.ndarray) -> Critical:
+    def _interpolated(
+        self, prev: S.State, cur: S.State, scale: np.ndarray, seen: list | None = None
+    ) -> Critical:
         """``locate``'s answer where the fundamental path cannot be re-solved inside the
         bracket: an imperfect near-bifurcation (load control jumped onto the complementary
-        branch).  Critical factor by linear interpolation of the eigenvalue; the switch starts
-        from the last stable state with the mode of the unstable one."""
+        branch), or Newton failing next to the critical factor.  Critical factor by linear
+        interpolation of the eigenvalue across the narrowest bracket the re-solved states
+        ``seen`` (lam, eigenvalue, state) give (across the whole step, DAS-2D Ex. 3's replay
+        in m was 1e-6 off the same scene in mm); the switch starts from the last stable
+        state with the mode of the unstable one."""
         ep, ec = self._eig(prev, scale), self._eig(cur, scale)
-        lam_c = prev.lam + (cur.lam - prev.lam) * ep / (ep - ec)
+        pts = [(prev.lam, ep), (cur.lam, ec)] + [(t[0], t[1]) for t in seen or ()]
+        (la, ea) = min((t for t in pts if t[1] > 0.0), key=lambda t: t[1], default=pts[0])
+        (lb, eb) = max((t for t in pts if t[1] <= 0.0), key=lambda t: t[1], default=pts[1])
+        lam_c = la + (lb - la) * ea / (ea - eb) if ea != eb else 0.5 * (la + lb)
         _, phi, _ = lowest_mode(self.sys, cur.u, cur.lam, scale)
         return Critical(float(lam_c), prev, phi, False, None)
 
