@@ -122,7 +122,8 @@ class BranchSwitch:
 
     def _branch_off(self, crit: S.State, phi: np.ndarray, point: dict, cur: S.State) -> S.State:
         """Path analyses: the first state on the bifurcated branch (mode amplitude
-        ``SWITCH_AMPLITUDE``, the sign whose branch rises) if a branch rises (supercritical:
+        ``SWITCH_AMPLITUDE``, the sign whose branch rises; the lower of two that rise
+        unequally) if a branch rises (supercritical:
         arc-length traces on from it); a falling branch (subcritical) is not switched to --
         the traced path stays on the fundamental branch and the note says so.  Two distinct
         rising branches at the same factor are a perfect structure's mirror branches: tied
