@@ -375,8 +375,8 @@ class FEMSystem:
 
     def residual_floor(self, centred: bool = False) -> float:
         """Round-off level of the scaled residual norm, ``10 eps |x| max(k_a sqrt(ndof), k_b)``
-        (``centred``: |x| from the centre of the drawing's bounding box, the same wherever the
-        scene is drawn -- for decisions that must not move with a translation).
+        (``centred``: |x| the largest distance from the nodes' centroid, the same however the
+        scene is drawn -- moved or turned -- for decisions that must not move with the drawing).
 
         The axial part (stiffest EA / L0 or spring, summed over the DOFs in quadrature) is the
         floor the FE always had.  The backward error of the Newton solve adds eps times the
@@ -392,8 +392,10 @@ class FEMSystem:
             k = max(k, float(np.max(12.0 * b.EI / b.L0**3)))
         pts = np.asarray(self.points, dtype=float)
         if centred and pts.size:
-            pts = pts - 0.5 * (pts.max(axis=0) + pts.min(axis=0))
-        xmax = float(np.max(np.abs(pts), initial=0.0)) + self.Lref
+            radius = np.hypot(*(pts - pts.mean(axis=0)).T)
+            xmax = float(np.max(radius, initial=0.0)) + self.Lref
+        else:
+            xmax = float(np.max(np.abs(pts), initial=0.0)) + self.Lref
         return 10.0 * np.finfo(float).eps * k * xmax
 
     def force_scale(self) -> float:

@@ -205,3 +205,19 @@ def test_the_elastica_declines_a_perfect_column_past_euler_in_every_drawing(mode
         assert sol.status == "failed" and "perfect axial compression" in sol.message, sol.message
         if model == "elastica-bvp":  # the states below Euler are kept
             assert [st.factor for st in sol.steps] == pytest.approx([k / 24 for k in range(5)])
+
+
+@pytest.mark.parametrize("model", ["fem-8"])
+def test_a_path_is_sampled_the_same_when_the_drawing_is_turned(model):
+    """The arc-length step sizing measures the tolerance's round-off floor from the nodes'
+    centroid, as a distance: a floor taken from the bounding box (or from the origin) moved
+    with a 37-degree turn of the drawing, and a perfect column traced to a tip rotation of
+    1 rad (EA L^2/EI = 1e8: the floor sets the tolerance) was sampled elsewhere from its 17th
+    step (5e-4 of the factor apart).  Scenes from an outside review, kept as fixtures."""
+    drawn = _solve("col-path-rot1-a1e8", model)
+    turned = _solve("col-path-rot1-a1e8--rot37", model)
+    assert drawn.status == turned.status == "converged"
+    assert len(drawn.steps) == len(turned.steps) > 12
+    for a, b in zip(drawn.steps, turned.steps):
+        assert b.factor == pytest.approx(a.factor, rel=1e-10, abs=1e-12)
+        assert b.outputs["tip.rot"] == pytest.approx(a.outputs["tip.rot"], abs=1e-9)

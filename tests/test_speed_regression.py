@@ -41,10 +41,11 @@ shallow-arch-snap|fem-8, fem-24 sampled at other points of the same curves (the 
 arch's last state unchanged; Lee's frame, cut at 40 steps here, ends elsewhere on its curve;
 lee-frame|fem-24 again once a corrector of more than 12 iterations cuts the step).  The
 FE's arc-length step counts its iterations to 1e3 x the tolerance interpolated between
-iterations, against a tolerance floor of the drawing centred, and is rounded to two
-significant digits (``arclength._crossing``: a column drawn 3.7 off the origin, mirrored,
-was sampled elsewhere): lee-frame|fem-8, fem-24 (cut at 40 steps: they end elsewhere on
-their curves) and shallow-arch-snap|fem-8, fem-24 (last states unchanged) rewritten.
+iterations, against a tolerance floor measured from the nodes' centroid, and is rounded to
+two significant digits (``arclength._crossing``: a column drawn 3.7 off the origin,
+mirrored, or turned 37 deg was sampled elsewhere): lee-frame|fem-8, fem-24 (cut at 40
+steps: they end elsewhere on their curves) and shallow-arch-snap|fem-8, fem-24 (last
+states unchanged) rewritten.
 """
 
 from __future__ import annotations

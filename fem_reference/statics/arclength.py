@@ -81,8 +81,8 @@ class ArcLength:
             rn = self.sc.rnorm(r)
             if not np.isfinite(rn):
                 raise SolveError("non-finite residual")
-            # the tolerance with the floor of the drawing centred (the floor itself grows with
-            # the coordinates' size: a column drawn 3.7 off the origin had twice the floor)
+            # the tolerance with its floor measured from the nodes' centroid (the floor itself
+            # grows with the coordinates' size: a column drawn 3.7 off the origin had twice it)
             easy = EASY_RES * max(opts.rtol * self.fscale * max(abs(lam), 1.0), self.floor)
             if self.easy_at == opts.max_iter and rn <= easy:
                 self.easy_at = it
