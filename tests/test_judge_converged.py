@@ -226,3 +226,16 @@ def test_a_path_put_on_a_branch_by_round_off_at_a_singular_start_is_declined(mod
     sol = reports.solve(scene, model)
     assert sol.status == "failed"
     assert "singular" in sol.message and "picked by round-off" in sol.message
+
+
+def test_a_state_exactly_at_the_strain_bound_is_within_it_in_every_unit_system():
+    """A pinned-slider column whose mid node the replay's servo drives to exactly 20 %
+    shortening of its lower half (``cases.limits.STRAIN_MAX``): in one unit system round-off
+    put the strain at 0.2 + 1e-16 and the replay failed there, in mm it converged.  A bound
+    is passed only by more than round-off (``cases.limits.beyond``): both converge, and the
+    last state is the bound itself."""
+    for name in ("col-pinned-shortened-to-20pc", "col-pinned-shortened-to-20pc--mm"):
+        sol = reports.solve(cases.load(str(FIXTURES / f"{name}.toml")), "replay")
+        assert sol.status == "converged", (name, sol.message)
+        scale = 1000.0 if name.endswith("--mm") else 1.0
+        assert sol.steps[-1].outputs["m.uy"] / scale == pytest.approx(-0.1, rel=1e-9)

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cases.limits import RIGID_STRETCH_MAX, STRAIN_MAX  # the bounds every model is held to
+from cases.limits import RIGID_STRETCH_MAX, STRAIN_MAX, beyond  # the bounds every model is held to
 from fem_reference import corotational as cr
 
 LINK_ERROR_MAX = 1e-9  # exact links: far above round-off, far below any output tolerance
@@ -51,12 +51,12 @@ def violation(system: object, u: np.ndarray, local: cr.LocalState | None = None)
     if link > LINK_ERROR_MAX:
         return f"rigid links off by {link:.2g} L (bound {LINK_ERROR_MAX:g}): not an equilibrium"
     for mid, (kind, e) in strains(system, u, local).items():
-        if kind == "rigid" and e > RIGID_STRETCH_MAX:
+        if kind == "rigid" and beyond(e, RIGID_STRETCH_MAX):
             return (
                 f"rigid link {mid!r} stretched by {e:.2g} (bound {RIGID_STRETCH_MAX:g}): the "
                 "scene asks for more than its rigid links allow (a driver beyond reach?)"
             )
-        if kind == "flexible" and e > STRAIN_MAX:
+        if kind == "flexible" and beyond(e, STRAIN_MAX):
             return (
                 f"member {mid!r} strained by {e:.2g} (bound {STRAIN_MAX:g}): beyond the "
                 "moderate-strain elastic model"
