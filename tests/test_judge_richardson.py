@@ -10,6 +10,7 @@ cantilever under an end moment (a circular arc of curvature M/EI).
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -122,3 +123,21 @@ def test_a_critical_factor_interpolated_across_a_step_stays_out_of_the_extrapola
     _critical(runs, tuple(int(n) for n in N), extras)
     (cp,) = extras["critical_points"]
     assert cp["factor_extrapolated"] == pytest.approx(exact, rel=1e-9)
+
+
+def test_fem_auto_extrapolates_a_buckled_path_however_the_scene_is_turned():
+    """A perfect pinned-slider column traced past Euler to an end slope of 0.6 rad: fem-auto
+    re-solves its coarse meshes at the finest mesh's end slopes by displacement control.
+    Turned 37 deg, that failed from the straight state on two meshes (the step crosses the
+    bifurcation), and fem-auto reported the finest mesh's factor with a 1.5e-3 estimate where
+    drawn upright it extrapolated to 5e-7; retried from the coarse path's own nearest state,
+    both drawings extrapolate to the same factor."""
+    fixtures = Path(__file__).parent / "fixtures"
+    sols = [
+        reports.solve(cases.load(str(fixtures / f"col-pinned-path-rot{tag}.toml")), "fem-auto")
+        for tag in ("", "--rot37")
+    ]
+    for sol in sols:
+        assert sol.status == "converged", sol.message
+        assert sol.extras["error_estimate"]["factor"] < 1e-5
+    assert sols[1].steps[-1].factor == pytest.approx(sols[0].steps[-1].factor, rel=1e-10)

@@ -294,21 +294,31 @@ def _scale(key: str, L: float, steps: list) -> float:
 
 def _retrace(runner: Runner, key: str, values: np.ndarray) -> bool:
     """Re-solve a coarse mesh by displacement control through the finest path's values of the
-    (monotone) stop output; replaces ``runner.steps``.  False if a step fails."""
+    (monotone) stop output; replaces ``runner.steps``.  A step that fails from the previous
+    re-solved state is tried once more from the coarse path's own state nearest in the stop
+    output (a perfect column's first step crosses its bifurcation: drawn turned by 37 deg,
+    displacement control from the straight state failed on two meshes, and fem-auto fell
+    back to the finest mesh).  False if that fails too."""
     from fem_reference.models import _rec
     from fem_reference.statics import static as S
 
     sysm = runner.system
     func = sysm.output_functional(key)
+    own = [(func[2] + func[1] * s.u[func[0]], s) for s in runner.states] if func[0] >= 0 else []
     st = runner.states[0]
     steps = [runner.steps[0]]
     for k in range(1, len(values)):
+        v, dv = float(values[k]), float(abs(values[k] - values[k - 1]))
         try:
-            st = S.displacement_control(
-                sysm, st, func, float(values[k]), float(abs(values[k] - values[k - 1])), runner.opts
-            )
+            st = S.displacement_control(sysm, st, func, v, dv, runner.opts)
         except S.SolveError:
-            return False
+            if not own:
+                return False
+            near = min(own, key=lambda t: abs(t[0] - v))[1]
+            try:
+                st = S.displacement_control(sysm, near, func, v, dv, runner.opts)
+            except S.SolveError:
+                return False
         steps.append(_rec(sysm, st, st.lam, None))
     runner.steps = steps
     return True
