@@ -24,7 +24,13 @@ import numpy as np
 
 from cases.node_rotation import no_own_rotation
 from reduced_models.mechanism.kkt import bordered_solve
-from reduced_models.mechanism.newton import POLISH_BELOW, SolveError, State
+from reduced_models.mechanism.newton import (
+    FLOOR_ITERATIONS,
+    FLOOR_RES,
+    POLISH_BELOW,
+    SolveError,
+    State,
+)
 from reduced_models.mechanism.system import SceneError
 
 # a corrector whose secant leaves the tangent by more than acos(JUMP_COS), or that needs more
@@ -39,12 +45,6 @@ JUMP_ITERATIONS = 12
 # floor sits at 1e-10, and the shallow arch was sampled differently when rotated)
 EASY_RES = 1e3
 EASY_ITERATIONS = 3
-# a corrector whose residual has not halved in FLOOR_ITERATIONS iterations while below
-# FLOOR_RES x tol is at the residual's round-off floor (64-segment chains: ~1e-10, the
-# tolerance itself): converged there, the iterates only wander (it failed after 30 iterations
-# in one drawing of the shallow arch and converged in 4 in another)
-FLOOR_RES = 1e2
-FLOOR_ITERATIONS = 3
 
 
 class ArcLength:
