@@ -48,8 +48,9 @@ POLISH_STEP = 1e-6  # ... if it is that small (relative to the unknowns' scales)
 MAX_ITER = 30
 # a Newton whose residual has not halved in FLOOR_ITERATIONS iterations while below
 # FLOOR_RES x tol is at the residual's round-off floor (64-segment chains: ~1e-10, the
-# tolerance itself): converged there, the iterates only wander (the shallow arch's
-# unloaded drawn state, turned 37 deg, stalled at 4e-10 for 30 iterations as cbcm-64)
+# tolerance itself): where it never meets the tolerance it has converged there, the
+# iterates only wander (the shallow arch's unloaded drawn state, turned 37 deg, stalled at
+# 4e-10 for 30 iterations as cbcm-64).  The path corrector stops at the floor at once.
 FLOOR_RES = 1e2
 FLOOR_ITERATIONS = 3
 
@@ -156,16 +157,17 @@ class Solver:
                 kind == "r", 0.5, np.where(kind == "p", np.inf, 0.25 * s.lay.Lref)
             )
         icap = self._cap
-        prev, best, since = np.inf, np.inf, 0
+        prev, best, since, least = np.inf, np.inf, 0, None
         for it in range(self.max_iter + 1):
             cur = State(q, mu, lam)
             R, K, res = self.kkt(cur, lam_free)
             if not np.isfinite(R).all():
                 raise SolveError("non-finite residual")
-            best, since = (res, 0) if res < 0.5 * best else (best, since + 1)
-            floor = since >= FLOOR_ITERATIONS and res <= FLOOR_RES * self.tol
-            if res <= self.tol or floor:
+            if res <= self.tol:
                 return self.polish(State(q, mu, lam, it, res, K, lam_free), R, lam_free)
+            best, since = (res, 0) if res < 0.5 * best else (best, since + 1)
+            if least is None or res < least[0].residual:
+                least = (State(q, mu, lam, it, res, K, lam_free), R)
             if it == self.max_iter or (it > 8 and res > 1e3 * prev):
                 break
             prev = res
@@ -181,6 +183,10 @@ class Solver:
             if lam_free:
                 lam = lam + mu[d]
                 mu[d] = 0.0
+        if since >= FLOOR_ITERATIONS and least[0].residual <= FLOOR_RES * self.tol:
+            # stalled at the floor for good: its least residual iterate is the answer (only
+            # where the tolerance was never met, so every solve that met it is unchanged)
+            return self.polish(*least, lam_free)
         raise SolveError(
             f"Newton did not converge in {self.max_iter} iterations (residual {res:.2e})"
         )
