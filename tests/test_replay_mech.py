@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import cases
+import reports
 from fem_reference.assembly import build
 from fem_reference.models import FEM
 from fem_reference.replay import servo as replay_servo
@@ -193,3 +194,36 @@ def test_remaining_declines_name_their_reason(case, why):
     sol = Replay().solve(cases.load(case))
     assert sol.status == "not-applicable"
     assert sol.message.startswith(why)
+
+
+@pytest.mark.parametrize("kind", ["load", "distance"])
+def test_a_mechanism_without_flexible_members_is_declined_with_the_reason(kind):
+    """A rigid bar pinned at its root on a torsion spring, a tip load: only beam elements
+    carry mass in the replay, so there is nothing to integrate (ramped, it 'did not settle
+    within 400 T1'; driven, its time step underflowed).  Declined with the reason; the
+    kinetostatic model solves it (lam = theta / sin theta for the driven bar)."""
+    from cases.schema import Driver
+
+    text = "\n".join(
+        [
+            '[case]\nname = "bar-on-a-spring"\ntitle = "rigid bar on a spring"',
+            'units = "nondim"',
+            '[[nodes]]\nid = "A"\nx = 0.0\ny = 0.0',
+            '[[nodes]]\nid = "B"\nx = 0.0\ny = 1.0',
+            '[[members]]\nid = "bar"\nfrom = "A"\nto = "B"\nkind = "rigid"',
+            '[[supports]]\nnode = "A"\ntype = "pin"',
+            '[[loads]]\nnode = "B"\nfx = 0.3\nfy = -0.5',
+            '[[torsion_springs]]\nid = "ts"\nnode = "A"\nmember_a = "bar"\nstiffness = 1.0',
+            '[analysis]\nkind = "load"\nsteps = 4',
+            '[[outputs]]\nname = "tip"\nnode = "B"',
+        ]
+    )
+    scene = cases.loads(text)
+    if kind == "distance":
+        drive = Driver("rotation", 0.0, -60.0, member="bar")
+        scene = dataclasses.replace(
+            scene, analysis=dataclasses.replace(scene.analysis, kind="distance", driver=drive)
+        )
+    sol = reports.solve(scene, "replay")
+    assert sol.status == "not-applicable" and "no flexible member" in sol.message
+    assert reports.solve(scene, "kinetostatic").status == "converged"

@@ -123,6 +123,16 @@ class Replay:
 
     def applies_to(self, scene: Scene) -> str | None:
         """None, or why the replay cannot run ``scene``."""
+        if scene.analysis.kind in ("load", "distance", "path") and not any(
+            m.kind == "flexible" for m in scene.members
+        ):
+            # only beam elements carry mass: a rigid bar on a torsion spring, ramped or
+            # driven, "did not settle within 400 T1" or underflowed its time step
+            return (
+                "no flexible member: the replay's inertia is the flexible members' (rigid "
+                "links and springs have none to integrate; kinetostatic or fem-auto solve the "
+                "scene statically)"
+            )
         if scene.analysis.kind == "energy" and self.factors is None:
             from fem_reference.replay.driver import applies  # driver moved as a motion
 
