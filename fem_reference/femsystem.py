@@ -391,11 +391,9 @@ class FEMSystem:
         if b.L0.size:
             k = max(k, float(np.max(12.0 * b.EI / b.L0**3)))
         pts = np.asarray(self.points, dtype=float)
-        if centred and pts.size:
-            radius = np.hypot(*(pts - pts.mean(axis=0)).T)
-            xmax = float(np.max(radius, initial=0.0)) + self.Lref
-        else:
-            xmax = float(np.max(np.abs(pts), initial=0.0)) + self.Lref
+        if centred and pts.size:  # distances from the centroid
+            pts = np.hypot(*(pts - pts.mean(axis=0)).T)
+        xmax = float(np.max(np.abs(pts), initial=0.0)) + self.Lref
         return 10.0 * np.finfo(float).eps * k * xmax
 
     def force_scale(self) -> float:

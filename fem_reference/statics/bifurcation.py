@@ -83,6 +83,17 @@ def is_conservative(system: object) -> bool:
     return fol is None or fol.shape[0] == 0
 
 
+def _narrowest(points: list[tuple]) -> tuple[tuple, tuple] | None:
+    """Of evaluations ``(lam, eigenvalue, ...)``, the two nearest the eigenvalue's zero from
+    either side -- the least positive and the largest non-positive -- or None when one side
+    has none."""
+    stable = [t for t in points if t[1] > 0.0]
+    unstable = [t for t in points if t[1] <= 0.0]
+    if not (stable and unstable):
+        return None
+    return min(stable, key=lambda t: t[1]), max(unstable, key=lambda t: t[1])
+
+
 class Critical(NamedTuple):
     """A stability loss found by ``Watch.locate``: its factor, the critical state (last
     stable one where not located), the mode, whether the factor was located on the
@@ -247,16 +258,20 @@ class Watch(BranchSwitch):
         sgn = 1.0 if cur.lam >= prev.lam else -1.0
         lo, hi = sorted((prev.lam, cur.lam))
         slack = 1e-12 * max(abs(lo), abs(hi), 1.0)
+
+        def inside(lam: float) -> bool:
+            return lo - slack <= lam <= hi + slack
+
         a, b = None, prev
         for c in self._trace(prev, cur):
             if sgn * (c.lam - b.lam) < 0.0 and a is not None:
-                if not lo - slack <= b.lam <= hi + slack:
+                if not inside(b.lam):
                     return None
                 try:
                     lim = S.refine_extremum(self.sys, a, b, c, self.opts)
                 except S.SolveError:
                     return None
-                return lim if lo - slack <= lim.lam <= hi + slack else None
+                return lim if inside(lim.lam) else None
             if sgn * (c.lam - cur.lam) >= 0.0:
                 return None
             a, b = b, c
@@ -358,13 +373,9 @@ class Watch(BranchSwitch):
             inner = [t for t in seen if t[0] not in (prev.lam, cur.lam)]
             if len(inner) < 2:
                 return self._interpolated(prev, cur, scale, seen)
-            stable = [t for t in inner if t[1] > 0.0]
-            unstable = [t for t in inner if t[1] <= 0.0]
-            if stable and unstable:  # across the root: interpolated
-                pair = [min(stable, key=lambda t: t[1]), max(unstable, key=lambda t: t[1])]
-            else:
-                pair = sorted(inner, key=lambda t: abs(t[1]))[:2]
-            (la, ea, sa), (lb, eb, sb) = sorted(pair, key=lambda t: abs(t[1]))
+            # across the root: interpolated; else the two nearest it, extrapolated
+            pair = _narrowest(inner) or sorted(inner, key=lambda t: abs(t[1]))[:2]
+            (la, ea, sa), (lb, eb, _) = sorted(pair, key=lambda t: abs(t[1]))
             if ea == eb:
                 return self._interpolated(prev, cur, scale, seen)
             lam_c = la + (lb - la) * ea / (ea - eb)
@@ -389,9 +400,8 @@ class Watch(BranchSwitch):
         in m was 1e-6 off the same scene in mm); the switch starts from the last stable
         state with the mode of the unstable one."""
         ep, ec = self._eig(prev, scale), self._eig(cur, scale)
-        pts = [(prev.lam, ep), (cur.lam, ec)] + [(t[0], t[1]) for t in seen or ()]
-        (la, ea) = min((t for t in pts if t[1] > 0.0), key=lambda t: t[1], default=pts[0])
-        (lb, eb) = max((t for t in pts if t[1] <= 0.0), key=lambda t: t[1], default=pts[1])
+        pts = [(prev.lam, ep), (cur.lam, ec)] + [t[:2] for t in seen or ()]
+        (la, ea), (lb, eb) = _narrowest(pts) or pts[:2]
         lam_c = la + (lb - la) * ea / (ea - eb) if ea != eb else 0.5 * (la + lb)
         _, phi, _ = lowest_mode(self.sys, cur.u, cur.lam, scale)
         return Critical(float(lam_c), prev, phi, False, None)
